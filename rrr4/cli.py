@@ -1,0 +1,44 @@
+"""`rrr4` command line. Bad input prints one message and exits 2; never a traceback."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from .errors import Rrr4Error
+
+
+def _check(args) -> int:
+    from .scene import load_scene
+    from .summary import scene_summary
+    print(scene_summary(load_scene(args.scene)))
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="rrr4",
+        description="Planar redundantly actuated 4-RRR with revolute joint clearance: "
+                    "kinematics, preload, contact dynamics and C code generation.")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    c = sub.add_parser("check", help="validate a scene and print what it would simulate")
+    c.add_argument("scene", help="scene YAML file, e.g. problems/paper_circle.yaml")
+    c.set_defaults(func=_check)
+    return p
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except Rrr4Error as e:
+        print(f"rrr4: error: {type(e).__name__}: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("rrr4: interrupted; earlier results are left as they were", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

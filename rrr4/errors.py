@@ -1,0 +1,13 @@
+"""Errors a user can act on. The CLI prints their message and exits non-zero."""
+
+
+class Rrr4Error(Exception):
+    """Base of rrr4's user-facing errors."""
+
+
+class SceneError(Rrr4Error, ValueError):
+    """A scene or argument is invalid. The message names key path, value and what is allowed."""
+
+
+class KinematicsError(Rrr4Error, RuntimeError):
+    """A kinematic problem has no solution (unreachable pose, FK without convergence)."""

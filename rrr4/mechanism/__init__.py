@@ -1,0 +1,5 @@
+"""Planar n-RRR kinematics: closed-form IK, FK, Jacobians and null space in CasADi."""
+
+from .model import Mechanism
+
+__all__ = ["Mechanism"]

@@ -1,0 +1,97 @@
+"""Symbolic kinematics of a planar n-RRR mechanism (CasADi SX expressions).
+
+Coordinates follow Zhang & Zhang (2017), eq. (3)-(4): every body has reference-point
+coordinates [x, y, theta] at its centre of mass; q = [q_11, q_12, ..., q_n1, q_n2, q_o].
+Link i1 (driving) runs from A_i to B_i, link i2 (following) from B_i to C_i; the platform
+point C_i sits at o + r_i [cos, sin](theta_o + phi_i).
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+
+from ..scene import Mechanism_
+
+
+def unit(a):
+    return ca.vertcat(ca.cos(a), ca.sin(a))
+
+
+def perp(v):
+    """Rotate a planar vector by +90 degrees (E v)."""
+    return ca.vertcat(-v[1], v[0])
+
+
+def cross(a, b):
+    return a[0] * b[1] - a[1] * b[0]
+
+
+def platform_point(data: Mechanism_, i: int, pose):
+    c = data.chains[i]
+    return pose[0:2] + c.attachment_radius * unit(pose[2] + c.attachment_angle)
+
+
+def chain_ik(data: Mechanism_, i: int, pose, mode):
+    """Closed-form IK of chain i: B_i is the intersection of circle(A_i, l_i1) and
+    circle(C_i, l_i2); mode = +1 picks theta_i1 = atan2(C - A) + acos(...).
+
+    Returns (theta_i1, cos_arg, B_i, C_i); |cos_arg| <= 1 where the chain reaches.
+    """
+    c = data.chains[i]
+    l1, l2 = c.driving.length, c.following.length
+    a = ca.DM(c.base)
+    C = platform_point(data, i, pose)
+    d = C - a
+    dist2 = ca.dot(d, d)
+    dist = ca.sqrt(dist2)
+    cos_arg = (l1**2 + dist2 - l2**2) / (2 * l1 * dist)
+    theta1 = ca.atan2(d[1], d[0]) + mode * ca.acos(cos_arg)
+    B = a + l1 * unit(theta1)
+    return theta1, cos_arg, B, C
+
+
+def body_coordinates(data: Mechanism_, pose, modes):
+    """q (3(2n+1),) of all bodies for a platform pose, from the closed-form IK."""
+    blocks = []
+    for i, c in enumerate(data.chains):
+        th1, _, B, C = chain_ik(data, i, pose, modes[i])
+        u2 = C - B
+        th2 = ca.atan2(u2[1], u2[0])
+        blocks += [ca.DM(c.base) + 0.5 * c.driving.length * unit(th1), th1,
+                   B + 0.5 * c.following.length * unit(th2), th2]
+    blocks.append(pose)
+    return ca.vertcat(*blocks)
+
+
+def joint_points(data: Mechanism_, q):
+    """Joint positions implied by q: for each joint the point on the inboard body
+    (nearer the ground) and on the outboard body. Returns a list of
+    (name, inboard_point, outboard_point), ordered A1..An, B1..Bn, C1..Cn.
+    """
+    n = data.n_chains
+    qo = q[6 * n: 6 * n + 3]
+    rows_a, rows_b, rows_c = [], [], []
+    for i, c in enumerate(data.chains):
+        q1 = q[6 * i: 6 * i + 3]
+        q2 = q[6 * i + 3: 6 * i + 6]
+        h1, h2 = 0.5 * c.driving.length, 0.5 * c.following.length
+        rows_a.append((f"A{i + 1}", ca.DM(c.base), q1[0:2] - h1 * unit(q1[2])))
+        rows_b.append((f"B{i + 1}", q1[0:2] + h1 * unit(q1[2]), q2[0:2] - h2 * unit(q2[2])))
+        rows_c.append((f"C{i + 1}", q2[0:2] + h2 * unit(q2[2]), platform_point(data, i, qo)))
+    return rows_a + rows_b + rows_c
+
+
+def jacobian_parts(data: Mechanism_, pose, modes):
+    """Velocity relation of each chain: den_i * dtheta_i = a_i^T dpose, with
+    a_i = [(C-B); (C-B) x (C-o)] and den_i = (C-B) . (l_i1 E u_i1).
+
+    den_i -> 0 is a serial (type-1) singularity; rank loss of A = [a_i^T] a parallel
+    (type-2) one. Returns (A (n x 3), den (n,)).
+    """
+    rows, dens = [], []
+    for i, c in enumerate(data.chains):
+        th1, _, B, C = chain_ik(data, i, pose, modes[i])
+        w = C - B
+        rows.append(ca.horzcat(w[0], w[1], cross(C - pose[0:2], w)))
+        dens.append(ca.dot(w, c.driving.length * perp(unit(th1))))
+    return ca.vertcat(*rows), ca.vertcat(*dens)

@@ -1,0 +1,75 @@
+"""Readable summary of what a scene describes and what would be simulated."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .mechanism import Mechanism
+from .mechanism.workspace import path_kinematics
+from .scene import Scene
+from .trajectory import sample_path
+
+
+def scene_summary(scene: Scene) -> str:
+    mech = Mechanism.from_scene(scene)
+    m = scene.mechanism
+    lines = [f"scene {scene.name}: {scene.description}".rstrip(": "), ""]
+    lines.append(f"bodies ({2 * m.n_chains + 1}, {mech.nq} coordinates):")
+    for c in m.chains:
+        lines.append(f"  chain {c.name}: base ({c.base[0]:+.3f}, {c.base[1]:+.3f}) m, "
+                     f"driving {c.driving.length:.3f} m / {c.driving.mass:.3f} kg, "
+                     f"following {c.following.length:.3f} m / {c.following.mass:.3f} kg, "
+                     f"working mode {'+' if c.working_mode > 0 else '-'}acos")
+    lines.append(f"  platform: {m.platform.mass:.3f} kg, {m.platform.inertia:.4g} kg m^2")
+    redundancy = m.n_chains - 3
+    lines.append(f"actuators: {m.n_chains} for 3 DOF (degree of redundancy {redundancy})")
+    lines.append("")
+    ideal = [f"A{i + 1}" for i in range(m.n_chains)] + list(scene.ideal_joints)
+    lines.append(f"ideal joints ({len(ideal)}): {' '.join(ideal)}")
+    cl = [scene.joint(j) for j in scene.clearance_joints]
+    if cl:
+        lines.append(f"clearance joints ({len(cl)}):")
+        for j in cl:
+            lines.append(f"  {j.name}: journal radius {j.journal_radius * 1e3:.3g} mm, radial clearance "
+                         f"{j.radial_clearance * 1e6:.4g} um, {j.journal_material.name}/{j.bearing_material.name}")
+    else:
+        lines.append("clearance joints: none")
+    lines.append("")
+    lines.append("effects simulated:")
+    e = scene.effects
+    if cl:
+        k = "from materials" if e.contact.stiffness is None else f"{e.contact.stiffness:.4g}"
+        lines.append(f"  contact: {e.contact.law}, c_r = {e.contact.restitution:g}, "
+                     f"exponent {e.contact.exponent:g}, stiffness {k}")
+        if e.friction.law == "none":
+            lines.append("  friction: none (no friction terms)")
+        else:
+            lines.append(f"  friction: {e.friction.law}, mu = {e.friction.coefficient:g}")
+    else:
+        lines.append("  contact: none (all joints ideal, no contact or friction terms)")
+    g = e.gravity
+    lines.append(f"  gravity: {'none' if g == (0.0, 0.0) else f'({g[0]:g}, {g[1]:g}) m/s^2'}")
+    a = scene.actuation
+    if a.mode == "torque":
+        lines.append(f"  actuation: feed-forward + {a.preload.method} preload (f_min = {a.preload.min_force:g} N) "
+                     f"+ PD (kp = {a.kp:g} N m/rad, kd = {a.kd:g} N m s/rad), "
+                     f"|tau| <= {max(a.torque_limit):g} N m")
+    else:
+        lines.append("  actuation: prescribed actuator angles (driving constraints)")
+    lines.append("")
+    s = sample_path(scene.path)
+    pk = path_kinematics(scene, mech)
+    lo, hi = s.pose.min(axis=0), s.pose.max(axis=0)
+    speed = np.linalg.norm(s.pose_d[:, :2], axis=1).max()
+    lines.append(f"path: {scene.path.type}, {scene.path.duration:g} s, {scene.path.time_law} time law, "
+                 f"{len(s.t)} samples")
+    lines.append(f"  x in [{lo[0] * 1e3:.2f}, {hi[0] * 1e3:.2f}] mm, y in [{lo[1] * 1e3:.2f}, {hi[1] * 1e3:.2f}] mm, "
+                 f"theta_o in [{np.degrees(lo[2]):.2f}, {np.degrees(hi[2]):.2f}] deg; peak speed {speed:.4g} m/s")
+    cond, t = pk.worst_condition
+    lines.append(f"  worst Jacobian condition number {cond:.4g} at t = {t:.4g} s "
+                 f"(allowed <= {scene.path.max_condition_number:g})")
+    lines.append(f"  smallest transmission |sin| {np.abs(pk.sin_transmission).min():.3f} "
+                 f"(allowed >= {scene.path.min_transmission:g})")
+    integ = scene.integrator
+    lines.append(f"integrator: {integ.method}, step {integ.step:g} s")
+    return "\n".join(lines)

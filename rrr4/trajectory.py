@@ -1,0 +1,82 @@
+"""Platform trajectories: a path in pose space composed with a smooth time law.
+
+``trajectory_function(path)`` is a CasADi Function ``t -> pose, pose_d, pose_dd``
+(pose = [x, y, theta_o] in m, m, rad; derivatives per s and s^2). It is symbolic, so
+controllers, inverse dynamics and generated code all use the same expression.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from .scene import PathSpec
+
+__all__ = ["trajectory_function", "sample_path", "PathSamples"]
+
+
+def _time_law(law: str, tau):
+    """Normalised progress s(tau) on [0, 1]; quintic and cycloidal have zero rate and
+    acceleration at both ends."""
+    if law == "quintic":
+        return tau**3 * (10 - 15 * tau + 6 * tau**2)
+    if law == "cycloidal":
+        return tau - ca.sin(2 * ca.pi * tau) / (2 * ca.pi)
+    return tau
+
+
+def _pose_of_progress(spec: PathSpec, s):
+    if spec.type == "circle":
+        phi = spec.start_angle + 2 * ca.pi * spec.revolutions * s
+        cx, cy = spec.center
+        return ca.vertcat(cx + spec.radius * ca.cos(phi), cy + spec.radius * ca.sin(phi), spec.orientation)
+    if spec.type == "line":
+        a, b = np.array(spec.start), np.array(spec.end)
+        return ca.DM(a) + s * ca.DM(b - a)
+    # waypoints: clamped cubic spline through the poses at uniform parameter knots
+    pts = np.array(spec.points)
+    knots = np.linspace(0.0, 1.0, len(pts))
+    spline = CubicSpline(knots, pts, bc_type="clamped")
+    c = spline.c  # (4, segments, 3)
+    out = None
+    for k in range(len(knots) - 2, -1, -1):
+        u = s - knots[k]
+        seg = ca.vertcat(*[c[0, k, d] * u**3 + c[1, k, d] * u**2 + c[2, k, d] * u + c[3, k, d] for d in range(3)])
+        out = seg if out is None else ca.if_else(s < knots[k + 1], seg, out)
+    return out
+
+
+@functools.cache
+def trajectory_function(spec: PathSpec) -> ca.Function:
+    """CasADi Function 'trajectory': t [s] -> pose (3), pose_d (3), pose_dd (3).
+
+    Before t = 0 and after the duration the pose rests at the end points.
+    """
+    t = ca.SX.sym("t")
+    tau = ca.fmin(ca.fmax(t / spec.duration, 0.0), 1.0)
+    pose = _pose_of_progress(spec, _time_law(spec.time_law, tau))
+    pose_d = ca.jacobian(pose, t)
+    pose_dd = ca.jacobian(pose_d, t)
+    return ca.Function("trajectory", [t], [pose, pose_d, pose_dd], ["t"], ["pose", "pose_d", "pose_dd"])
+
+
+@dataclass(frozen=True)
+class PathSamples:
+    t: np.ndarray        # (N,) [s]
+    pose: np.ndarray     # (N, 3) [m, m, rad]
+    pose_d: np.ndarray   # (N, 3) [m/s, m/s, rad/s]
+    pose_dd: np.ndarray  # (N, 3) [m/s^2, m/s^2, rad/s^2]
+
+
+def sample_path(spec: PathSpec, sample_rate: float | None = None) -> PathSamples:
+    """Evaluate the trajectory on a uniform grid from 0 to the duration (both included)."""
+    rate = sample_rate or spec.sample_rate
+    n = max(int(round(spec.duration * rate)) + 1, 2)
+    t = np.linspace(0.0, spec.duration, n)
+    f = trajectory_function(spec).map(n)
+    p, pd, pdd = (np.array(v).T for v in f(t[None, :]))
+    return PathSamples(t, p, pd, pdd)
