@@ -15,7 +15,7 @@ run: $(BIN)/.installed
 	$(BIN)/rrr4 check problems/paper_circle.yaml
 
 lint: $(BIN)/.installed
-	$(BIN)/ruff check rrr4 tests benchmarks
+	$(BIN)/ruff check .
 
 test: lint
 	$(BIN)/python -m pytest -q
