@@ -3,9 +3,10 @@
 Data flows one way: scene -> model -> problem -> solution -> results.
 """
 
+from .codegen import codegen
 from .errors import KinematicsError, Rrr4Error, SceneError
 from .mechanism import Mechanism
 from .scene import Scene, load_scene
 
-__all__ = ["load_scene", "Scene", "SceneError", "KinematicsError", "Rrr4Error", "Mechanism"]
+__all__ = ["load_scene", "Scene", "SceneError", "KinematicsError", "Rrr4Error", "Mechanism", "codegen"]
 __version__ = "0.1.0"

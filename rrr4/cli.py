@@ -15,6 +15,15 @@ def _check(args) -> int:
     return 0
 
 
+def _codegen(args) -> int:
+    from .codegen import codegen
+    from .scene import load_scene
+    for f in codegen(load_scene(args.scene), args.out):
+        print(f)
+    print(f"build the example with: cd {args.out} && gcc -O2 -Wall *.c -lm -o example && ./example")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="rrr4",
@@ -24,6 +33,11 @@ def build_parser() -> argparse.ArgumentParser:
     c = sub.add_parser("check", help="validate a scene and print what it would simulate")
     c.add_argument("scene", help="scene YAML file, e.g. problems/paper_circle.yaml")
     c.set_defaults(func=_check)
+    g = sub.add_parser("codegen", help="write self-contained C of the controller (IK, Jacobian, preload, "
+                                        "controller step, QP), a header, an example main.c and a Makefile")
+    g.add_argument("scene", help="scene YAML file, e.g. problems/paper_circle.yaml")
+    g.add_argument("--out", required=True, help="directory to write the C files into (created if needed)")
+    g.set_defaults(func=_codegen)
     return p
 
 

@@ -1,0 +1,445 @@
+"""Self-contained C for controllers: generate, compile with gcc, load back into CasADi.
+
+``codegen(scene, out_dir)`` writes, for one scene:
+
+- ``rrr4_raw.c`` / ``rrr4_raw.h``: CasADi's generated code, one ``rrr4_raw_<kernel>``
+  per kernel in CasADi's calling convention (``arg, res, iw, w, mem``);
+- ``rrr4.h`` / ``rrr4.c``: plain wrappers ``rrr4_<kernel>(inputs..., outputs...)`` on
+  double arrays, documented with shapes and units, with their work arrays on the stack
+  (no allocation, re-entrant);
+- ``main.c``: an example controller loop along the scene's path; ``Makefile``.
+
+Nothing needs CasADi at build or run time: ``gcc -O2 -Wall *.c -lm`` builds the example.
+Kernels (:data:`KERNELS`) are built once per scene by calling the model's own Functions
+symbolically, so the C computes exactly what the Python does.
+
+The exact preload law is exposed twice: ``exact_preload`` takes the affine reaction family
+(tau_p, tau_n, r_p, r_n) and ``preload`` takes the desired motion (pose, pose_d, pose_dd).
+A platform wrench alone does not fix the passive-joint reactions: they also carry the
+inertia forces of every driving and following link, so the law needs the motion (or the
+family computed from it by ``inverse_dynamics``).
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import shutil
+import subprocess
+import tempfile
+import textwrap
+from dataclasses import dataclass
+from pathlib import Path
+
+import casadi as ca
+
+from .dynamics.inverse import inverse_dynamics_function
+from .errors import Rrr4Error, SceneError
+from .mechanism import Mechanism
+from .preload.exact import exact_preload_function
+from .preload.qp import qp_preload_function
+from .scene import Scene
+from .trajectory import trajectory_function
+
+__all__ = ["codegen", "kernels", "controller_step_function", "compile_library", "build_example", "load_library",
+           "KERNELS", "BuildError"]
+
+RAW = "rrr4_raw"  # stem of CasADi's generated .c/.h and prefix of its symbols
+WRAPPER = "rrr4"  # stem of the wrapper .c/.h and prefix of the wrapper functions
+KERNELS = ("ik", "jacobian", "null_space", "trajectory", "inverse_dynamics", "exact_preload", "preload",
+           "controller_step", "qp_preload")
+
+# What each input/output is, with units; shapes come from the Functions themselves.
+_IO_DOC = {
+    "t": "time since the start of the path [s]",
+    "pose": "platform pose [x, y, theta_o] [m, m, rad]",
+    "pose_d": "platform velocity [m/s, m/s, rad/s]",
+    "pose_dd": "platform acceleration [m/s^2, m/s^2, rad/s^2]",
+    "pose_des": "desired platform pose [x, y, theta_o] [m, m, rad]",
+    "pose_d_des": "desired platform velocity [m/s, m/s, rad/s]",
+    "pose_dd_des": "desired platform acceleration [m/s^2, m/s^2, rad/s^2]",
+    "theta": "actuator angles [rad]",
+    "theta_d": "actuator rates [rad/s]",
+    "cos_arg": "argument of acos per chain [-]; the pose is reachable iff all |cos_arg| <= 1",
+    "J": "Jacobian, d theta = J d pose [rad/m, rad/m, rad/rad per row]",
+    "sin_transmission": "sine of the angle between driving and following link [-] (0 = serial singularity)",
+    "n": "unit null-space vector of J^T [-]: torques along n move nothing",
+    "tau_p": "particular (minimum-norm) actuator torques [N m]",
+    "tau_n": "null-space torque direction [-] (unit; tau = tau_p + alpha tau_n)",
+    "r_p": "particular reactions at B1..B4, C1..C4, column j = [r_x, r_y] [N]",
+    "r_n": "reactions per unit alpha at B1..B4, C1..C4 [N/(N m)]",
+    "alpha": "preload along the null space [N m]",
+    "tau": "actuator torques [N m]",
+    "tau_ff": "feed-forward torques (inverse dynamics + exact preload), before PD and clipping [N m]",
+    "feasible": "1.0 if every passive joint carries >= min_force within the torque limits, else 0.0",
+    "margin": "min_j |r_j| - min_force [N]",
+}
+_KERNEL_DOC = {
+    "ik": "Inverse kinematics, closed form, in the scene's working modes.",
+    "jacobian": "Jacobian of the actuator angles with respect to the platform pose.",
+    "null_space": "Null space of J^T (the preload direction).",
+    "trajectory": "The scene's desired path: pose and its derivatives at time t.",
+    "inverse_dynamics": "Inverse dynamics of the ideal mechanism: the affine family tau = tau_p + alpha tau_n "
+                        "and the passive reactions r_j = r_p[:, j] + alpha r_n[:, j] (force of the inboard on "
+                        "the outboard body, global frame).",
+    "exact_preload": "Exact preload law on a given reaction family: the global minimum of sum_i w_i tau_i^2 "
+                     "subject to |r_j| >= min_force at all passive joints and |tau_i| <= limit_i (closed form).",
+    "preload": "Exact preload law for a desired motion: inverse_dynamics followed by exact_preload.",
+    "controller_step": "One controller step: tau = clip(tau_ff + kp (theta_ref - theta) + kd (theta_d_ref - "
+                       "theta_d), +-limit) with theta_ref = ik(pose_des), theta_d_ref = J pose_d_des and the "
+                       "angle error wrapped to (-pi, pi].",
+    "qp_preload": "Preload as a QP (qrqp active set, no allocation): fixed-sign axial force >= min_force in "
+                  "every following link, torque limits, least weighted effort.",
+}
+
+
+class BuildError(Rrr4Error, RuntimeError):
+    """gcc failed or is missing; the message holds the command and the compiler's output."""
+
+
+@dataclass(frozen=True)
+class Kernel:
+    """One generated function: ``name`` (C wrapper ``rrr4_<name>``), the CasADi Function
+    ``rrr4_raw_<name>`` with dense inputs and outputs, and a one-line description."""
+    name: str
+    function: ca.Function
+    doc: str
+
+
+def _renamed(f: ca.Function, name: str, fixed: dict | None = None) -> ca.Function:
+    """f under a new name, with dense outputs; inputs named in `fixed` are bound to constants."""
+    fixed = fixed or {}
+    sym = ca.SX if f.is_a("SXFunction") else ca.MX
+    ins = {f.name_in(i): sym.sym(f.name_in(i), f.sparsity_in(i)) for i in range(f.n_in())}
+    outs = f.call({k: fixed.get(k, v) for k, v in ins.items()})
+    free = [k for k in ins if k not in fixed]
+    return ca.Function(name, [ins[k] for k in free], [ca.densify(outs[k]) for k in f.name_out()],
+                       free, list(f.name_out()))
+
+
+@functools.cache
+def controller_step_function(scene: Scene) -> ca.Function:
+    """SX Function 'controller_step': pose_des (3), pose_d_des (3), pose_dd_des (3),
+    theta (4) [rad], theta_d (4) [rad/s] -> tau (4) [N m], tau_ff (4) [N m], alpha [N m],
+    feasible (1.0/0.0).
+
+    tau_ff = inverse-dynamics feed-forward + exact preload at the desired motion;
+    tau = clip(tau_ff + kp e + kd e_d, +-torque_limit) with e = wrap(ik(pose_des) - theta)
+    and e_d = J(pose_des) pose_d_des - theta_d (gains ``actuation.kp``, ``actuation.kd``).
+    """
+    mech = Mechanism.from_scene(scene)
+    n = mech.n
+    pose, pose_d, pose_dd = (ca.SX.sym(s, 3) for s in ("pose_des", "pose_d_des", "pose_dd_des"))
+    theta, theta_d = ca.SX.sym("theta", n), ca.SX.sym("theta_d", n)
+    alpha, tau_ff, feasible, _ = exact_preload_function(scene)(*inverse_dynamics_function(scene)(pose, pose_d, pose_dd))
+    theta_ref = mech.ik_function(pose, ca.DM(mech.modes))[0]
+    J = mech.jacobian_function(pose)[0]
+    d = theta_ref - theta
+    e = ca.atan2(ca.sin(d), ca.cos(d))
+    lim = ca.DM(scene.actuation.torque_limit)
+    tau = ca.fmin(ca.fmax(tau_ff + scene.actuation.kp * e + scene.actuation.kd * (J @ pose_d - theta_d), -lim), lim)
+    return ca.Function("controller_step", [pose, pose_d, pose_dd, theta, theta_d], [tau, tau_ff, alpha, feasible],
+                       ["pose_des", "pose_d_des", "pose_dd_des", "theta", "theta_d"],
+                       ["tau", "tau_ff", "alpha", "feasible"])
+
+
+@functools.cache
+def kernels(scene: Scene) -> tuple[Kernel, ...]:
+    """The generated kernels of a 4-RRR scene, in :data:`KERNELS` order (built once, cached)."""
+    if scene.mechanism.n_chains != 4:
+        raise SceneError(f"mechanism.chains: {scene.mechanism.n_chains} chains is not allowed for code generation "
+                         "(the controller needs the 4-RRR's one degree of redundancy: 4 chains)")
+    mech = Mechanism.from_scene(scene)
+    inv, exact = inverse_dynamics_function(scene), exact_preload_function(scene)
+    pose, pose_d, pose_dd = (ca.SX.sym(s, 3) for s in ("pose", "pose_d", "pose_dd"))
+    preload = ca.Function("preload", [pose, pose_d, pose_dd], exact(*inv(pose, pose_d, pose_dd)),
+                          ["pose", "pose_d", "pose_dd"], exact.name_out())
+    jac = ca.Function("jacobian", [pose], mech.jacobian_function(pose)[::3], ["pose"], ["J", "sin_transmission"])
+    sources = {
+        "ik": (mech.ik_function, {"modes": ca.SX(ca.DM(mech.modes))}),
+        "jacobian": (jac, None),
+        "null_space": (mech.null_space_function, None),
+        "trajectory": (trajectory_function(scene.path), None),
+        "inverse_dynamics": (inv, None),
+        "exact_preload": (exact, None),
+        "preload": (preload, None),
+        "controller_step": (controller_step_function(scene), None),
+        "qp_preload": (qp_preload_function(scene, "qrqp"), None),
+    }
+    return tuple(Kernel(k, _renamed(sources[k][0], f"{RAW}_{k}", sources[k][1]), _KERNEL_DOC[k]) for k in KERNELS)
+
+
+# ----------------------------------------------------------------------------- C text
+
+def _c_param(f: ca.Function, i: int, output: bool) -> tuple[str, str, str]:
+    """(declaration, name, comment line) of input/output i of f in the wrapper."""
+    name = f.name_out(i) if output else f.name_in(i)
+    sp = f.sparsity_out(i) if output else f.sparsity_in(i)
+    r, c = sp.shape
+    size = r * c
+    if size == 1:
+        decl = f"double *{name}" if output else f"double {name}"
+    else:
+        decl = f"{'' if output else 'const '}double {name}[{size}]"
+    shape = "scalar" if size == 1 else (f"({r},)" if c == 1 else f"({r}x{c}), column-major: {name}[i + {r}*j]")
+    line = f" *   {'out' if output else 'in '} {name} {shape}: {_IO_DOC[name]}"
+    return decl, name, line
+
+
+def _wrapper_doc_and_signature(k: Kernel) -> tuple[str, str]:
+    f = k.function
+    ins = [_c_param(f, i, False) for i in range(f.n_in())]
+    outs = [_c_param(f, i, True) for i in range(f.n_out())]
+    doc = "\n".join(["/* " + "\n * ".join(textwrap.wrap(k.doc, 100)), *[p[2] for p in ins + outs],
+                     " * Output pointers may be NULL (that output is skipped). Returns 0 on success. */"])
+    sig = f"int {WRAPPER}_{k.name}({', '.join(p[0] for p in ins + outs)})"
+    return doc, sig
+
+
+def _wrapper_body(k: Kernel) -> str:
+    f, raw = k.function, f"{RAW}_{k.name}"
+    lines = [f"  const casadi_real *arg[{raw}_SZ_ARG];", f"  casadi_real *res[{raw}_SZ_RES];",
+             f"  casadi_int iw[{raw}_SZ_IW + 1];", f"  casadi_real w[{raw}_SZ_W + 1];"]
+    for i in range(f.n_in()):
+        scalar = f.sparsity_in(i).numel() == 1
+        lines.append(f"  arg[{i}] = {'&' if scalar else ''}{f.name_in(i)};")
+    lines += [f"  res[{i}] = {f.name_out(i)};" for i in range(f.n_out())]
+    lines.append(f"  return {raw}(arg, res, iw, w, 0);")
+    return "\n".join(lines)
+
+
+def _header(scene: Scene, ks: tuple[Kernel, ...]) -> str:
+    a = scene.actuation
+    protos = "\n\n".join("{}\n{};".format(*_wrapper_doc_and_signature(k)) for k in ks)
+    modes = ", ".join("+" if c.working_mode > 0 else "-" for c in scene.mechanism.chains)
+    return f"""/* rrr4.h: controller functions of the planar 4-RRR for scene '{scene.name}'.
+ * Generated by rrr4 (rrr4.codegen); self-contained C99, no CasADi needed.
+ *
+ * Units are SI: m, rad, s, N, N m. Actuator i drives link i1 from base A_i; passive
+ * joints are ordered B1..B4, C1..C4. Working modes (acos branch per chain): {modes}.
+ * Matrices are stored column-major. Every function is re-entrant: its work arrays live
+ * on the stack (at most a few kB) and nothing is allocated.
+ * Low-level entry points in CasADi's calling convention are in {RAW}.h.
+ */
+#ifndef RRR4_H
+#define RRR4_H
+
+#ifdef __cplusplus
+extern "C" {{
+#endif
+
+#define RRR4_N_ACTUATORS 4
+#define RRR4_N_PASSIVE_JOINTS 8
+#define RRR4_KP {a.kp!r} /* proportional gain [N m/rad] */
+#define RRR4_KD {a.kd!r} /* derivative gain [N m s/rad] */
+#define RRR4_MIN_FORCE {a.preload.min_force!r} /* required reaction at every passive joint [N] */
+#define RRR4_PATH_DURATION {scene.path.duration!r} /* duration of rrr4_trajectory's path [s] */
+
+/* Torque limit of each actuator [N m]; torques are clipped to +-limit. */
+extern const double rrr4_torque_limit[RRR4_N_ACTUATORS];
+
+{protos}
+
+#ifdef __cplusplus
+}} /* extern "C" */
+#endif
+
+#endif /* RRR4_H */
+"""
+
+
+def _source(scene: Scene, ks: tuple[Kernel, ...]) -> str:
+    lim = ", ".join(repr(float(v)) for v in scene.actuation.torque_limit)
+    funcs = "\n\n".join(f"{_wrapper_doc_and_signature(k)[1]} {{\n{_wrapper_body(k)}\n}}" for k in ks)
+    return f"""/* rrr4.c: wrappers of the CasADi-generated kernels ({RAW}.c) for scene '{scene.name}'. */
+#include "{RAW}.h"
+#include "{WRAPPER}.h"
+
+const double rrr4_torque_limit[RRR4_N_ACTUATORS] = {{{lim}}};
+
+{funcs}
+"""
+
+
+EXAMPLE_STEPS = 1000  # controller steps of the example (1 kHz)
+EXAMPLE_PRINT_EVERY = 100
+EXAMPLE_ANGLE_OFFSET = 1e-3  # [rad] the example's measured angle i lags the reference by (i + 1) times this
+
+
+def _main_c(scene: Scene) -> str:
+    return f"""/* Example: the rrr4 controller of scene '{scene.name}' run along its path at 1 kHz.
+ *
+ * Build and run (in this directory):   gcc -O2 -Wall *.c -lm -o example && ./example
+ *
+ * In a real controller, replace the 'measured' angles below by the encoder readings and
+ * send tau to the drives. Lines: 'kinematics' and 'step' are machine-readable
+ * (name, then %.17g numbers); lines starting with '#' are comments.
+ */
+#include <stdio.h>
+
+#include "rrr4.h"
+
+#define STEPS {EXAMPLE_STEPS}
+#define PRINT_EVERY {EXAMPLE_PRINT_EVERY}
+#define ANGLE_OFFSET {EXAMPLE_ANGLE_OFFSET!r} /* [rad] simulated tracking error of actuator i: (i + 1) * ANGLE_OFFSET */
+
+static void print_row(const char *tag, double t, const double *v, int n, const double *extra, int n_extra) {{
+  int i;
+  printf("%s %.17g", tag, t);
+  for (i = 0; i < n; ++i) printf(" %.17g", v[i]);
+  for (i = 0; i < n_extra; ++i) printf(" %.17g", extra[i]);
+  printf("\\n");
+}}
+
+int main(void) {{
+  double pose[3], pose_d[3], pose_dd[3];
+  double theta_ref[4], cos_arg[4], J[12], n[4];
+  double theta[4], theta_d[4], tau[4], tau_ff[4], extra[2];
+  int k, i, j;
+
+  /* kinematics at the start of the path: theta (4), then J column-major (12), then n (4) */
+  if (rrr4_trajectory(0.0, pose, pose_d, pose_dd) || rrr4_ik(pose, theta_ref, cos_arg) ||
+      rrr4_jacobian(pose, J, NULL) || rrr4_null_space(pose, n)) return 1;
+  for (i = 0; i < RRR4_N_ACTUATORS; ++i) {{
+    if (cos_arg[i] < -1.0 || cos_arg[i] > 1.0) {{
+      printf("# chain %d cannot reach the start pose\\n", i + 1);
+      return 1;
+    }}
+  }}
+  print_row("kinematics", 0.0, theta_ref, 4, J, 12);
+  print_row("null_space", 0.0, n, 4, NULL, 0);
+
+  printf("# t [s], tau [N m] (4), alpha [N m], feasible\\n");
+  for (k = 0; k <= STEPS; ++k) {{
+    double t = RRR4_PATH_DURATION * k / STEPS;
+    rrr4_trajectory(t, pose, pose_d, pose_dd);
+    /* stand-in for the encoders: reference angles with a fixed lag, rates J pose_d */
+    rrr4_ik(pose, theta_ref, cos_arg);
+    rrr4_jacobian(pose, J, NULL);
+    for (i = 0; i < RRR4_N_ACTUATORS; ++i) {{
+      theta[i] = theta_ref[i] - (i + 1) * ANGLE_OFFSET;
+      theta_d[i] = 0.0;
+      for (j = 0; j < 3; ++j) theta_d[i] += J[i + 4 * j] * pose_d[j];
+    }}
+    if (rrr4_controller_step(pose, pose_d, pose_dd, theta, theta_d, tau, tau_ff, &extra[0], &extra[1])) return 1;
+    if (extra[1] == 0.0) printf("# t = %g s: preload infeasible, best effort\\n", t);
+    if (k % PRINT_EVERY == 0) print_row("step", t, tau, 4, extra, 2);
+  }}
+  return 0;
+}}
+"""
+
+
+_MAKEFILE = f"""# Builds the rrr4 example and a shared library of the controller functions.
+CC ?= gcc
+CFLAGS ?= -O2 -Wall
+SOURCES = {RAW}.c {WRAPPER}.c
+
+example: main.c $(SOURCES) {RAW}.h {WRAPPER}.h
+\t$(CC) $(CFLAGS) main.c $(SOURCES) -lm -o $@
+
+lib{WRAPPER}.so: $(SOURCES) {RAW}.h {WRAPPER}.h
+\t$(CC) $(CFLAGS) -fPIC -shared $(SOURCES) -lm -o $@
+
+run: example
+\t./example
+
+clean:
+\trm -f example lib{WRAPPER}.so
+
+.PHONY: run clean
+"""
+
+
+# ----------------------------------------------------------------------------- files
+
+def _write_atomic(path: Path, text: str) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as fh:
+            fh.write(text)
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _out_dir(out_dir) -> Path:
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise SceneError(f"--out: {str(out)!r} is a file (expected a directory to write C sources into)")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise SceneError(f"--out: cannot create {str(out)!r} ({e.strerror})") from None
+    return out
+
+
+def codegen(scene: Scene, out_dir) -> list[Path]:
+    """Write the scene's controller C into out_dir (created if needed); return the files.
+
+    Files: rrr4_raw.c, rrr4_raw.h (CasADi), rrr4.h, rrr4.c (wrappers), main.c, Makefile.
+    Each file is written to a temporary name and moved into place, so an interrupted run
+    leaves the earlier files intact.
+    """
+    ks = kernels(scene)
+    out = _out_dir(out_dir)
+    cg = ca.CodeGenerator(f"{RAW}.c", {"with_header": True})
+    for k in ks:
+        cg.add(k.function)
+    texts = {}
+    with tempfile.TemporaryDirectory(dir=out, prefix=".rrr4-codegen-") as tmp:
+        cg.generate(str(tmp) + os.sep)
+        for name in (f"{RAW}.c", f"{RAW}.h"):
+            texts[name] = (Path(tmp) / name).read_text()
+    texts[f"{WRAPPER}.h"] = _header(scene, ks)
+    texts[f"{WRAPPER}.c"] = _source(scene, ks)
+    texts["main.c"] = _main_c(scene)
+    texts["Makefile"] = _MAKEFILE
+    files = []
+    for name, text in texts.items():
+        _write_atomic(out / name, text)
+        files.append(out / name)
+    return files
+
+
+# ----------------------------------------------------------------------------- build and load
+
+def _gcc(args: list[str], cwd: Path) -> None:
+    cc = shutil.which("gcc")
+    if cc is None:
+        raise BuildError("gcc: not found on PATH (install gcc to build the generated C)")
+    p = subprocess.run([cc, *args], cwd=cwd, capture_output=True, text=True)
+    if p.returncode != 0 or p.stderr.strip():
+        raise BuildError(f"gcc {' '.join(args)} failed in {cwd}:\n{p.stderr.strip()}")
+
+
+def compile_library(src_dir, lib_path, flags=("-O2", "-Wall", "-Werror")) -> Path:
+    """Compile rrr4_raw.c and rrr4.c of src_dir into the shared library lib_path; return it.
+
+    Raises BuildError on any compiler error or warning.
+    """
+    src, lib = Path(src_dir).resolve(), Path(lib_path).resolve()
+    _gcc([*flags, "-fPIC", "-shared", f"{RAW}.c", f"{WRAPPER}.c", "-lm", "-o", str(lib)], src)
+    return lib
+
+
+def build_example(src_dir, exe_path, flags=("-O2", "-Wall", "-Werror")) -> Path:
+    """Compile every .c of src_dir (the example) into exe_path; return it."""
+    src, exe = Path(src_dir).resolve(), Path(exe_path).resolve()
+    _gcc([*flags, *sorted(p.name for p in src.glob("*.c")), "-lm", "-o", str(exe)], src)
+    return exe
+
+
+def load_library(lib_path, names=KERNELS) -> dict[str, ca.Function]:
+    """The compiled kernels as CasADi Functions (``casadi.external``), keyed by kernel name."""
+    lib = str(Path(lib_path).resolve())
+    return {k: ca.external(f"{RAW}_{k}", lib) for k in names}
+
