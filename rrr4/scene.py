@@ -36,7 +36,7 @@ PRELOAD_METHODS = ("exact", "qp", "nlp")
 QP_SOLVERS = ("qrqp", "osqp", "daqp", "qpoases")
 PATH_TYPES = ("circle", "line", "waypoints")
 TIME_LAWS = ("quintic", "cycloidal", "linear")
-ACTUATION_MODES = ("torque", "prescribed")
+ACTUATION_MODES = ("torque", "prescribed", "free")  # free: zero actuator torque
 MATERIALS = {  # name: (Young's modulus [Pa], Poisson ratio)
     "steel": (207e9, 0.3),
     "aluminium": (70e9, 0.33),

@@ -1,0 +1,268 @@
+"""The equation builder: the one place that decides which terms exist.
+
+From a scene it builds the constrained equations of motion (Nikravesh 1988, ch. 6;
+Flores & Ambrosio 2004 for the clearance joints)
+
+    M qdd + Phi_q^T lambda = Q_g + B tau + Q_contact(q, qd),
+    Phi_q qdd = gamma - 2 omega_b Phi_dot - omega_b^2 Phi          (Baumgarte 1972)
+
+with exactly the effects the scene asks for:
+
+- Phi holds A1..An (always ideal), the passive joints *without* clearance
+  (``Mechanism.constraints``), and in the prescribed mode the driving constraints
+  theta_i1 - theta_ref,i(t) = 0;
+- Q_contact has one journal-bearing contact per clearance joint, with the scene's normal
+  law; the friction term exists only if the friction law is not 'none'; with no clearance
+  joint there is no contact code at all;
+- tau: 'free' -> 0 (no torque inputs in the graph); 'torque' -> clip(tau_ref + kp
+  (theta_ref - theta) + kd (theta_d_ref - theta_d), +-torque_limit); 'prescribed' ->
+  tau = -lambda of the driving constraints.
+
+Every Function is SX, named, with named inputs and outputs. Common inputs ("refs"):
+q (nq,) [m, rad], qd (nq,), tau_ref (n,) [N m], theta_ref (n,) [rad], theta_d_ref (n,)
+[rad/s], theta_dd_ref (n,) [rad/s^2], delta_dot0 (nc,) [m/s], in_contact (nc,) {0, 1}
+(nc = number of clearance joints, in scene order B1..Bn, C1..Cn).
+
+``acceleration`` (index-1 form, for explicit integrators): refs -> qdd (nq,), lambda (m,),
+tau (n,) [N m], reaction (2, k) [N] of the k ideal passive joints, contact_force (2, nc)
+[N], normal_force (nc,), friction_force (nc,), penetration (nc,) [m], delta_dot (nc,)
+[m/s], eccentricity (2, nc) [m], power_in [W] (actuators), power_damping [W],
+power_friction [W] (both >= 0, dissipated).
+
+``residual`` (for implicit Newton methods such as Bathe or Newmark): q, qd, qdd, lambda and
+the other refs -> dynamics (nq,) = M qdd + Phi_q^T lambda - Q, constraint (m,) = Phi_q qdd -
+gamma_stab, phi (m,) [m, rad] position-level constraint values.
+
+``contact_update`` (the discrete state, once per step): q, qd, delta_dot0, in_contact ->
+delta_dot0_next, in_contact_next, loss (nc each). Rule for the approach velocity delta_dot0:
+at onset (delta > 0 after delta <= 0) capture delta_dot0 = max(delta_dot, v_min); hold
+it for the whole contact period (persistent contact, e.g. under preload, keeps its
+onset value); reset it to v_min in free flight. Between updates the force uses
+max(delta_dot, v_min) for a joint not yet flagged in contact, i.e. chi at onset.
+So delta_dot0 >= v_min > 0 always, and the force stays finite for grazing contact.
+A loss is a transition contact -> free flight.
+
+``energy``: q, qd -> kinetic [J], potential [J] = sum K delta^(n+1)/(n+1) + gravity.
+
+Reaction convention: contact_force[:, j] and reaction[:, j] are the force the inboard
+body exerts on the outboard body, global frame (= -lambda for an ideal joint).
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from ..contact import (
+    clearance_kinematics,
+    contact_generalized_forces,
+    elastic_force,
+    friction_force,
+    normal_force,
+    stiffness_internal_cylinder,
+)
+from ..contact.normal import V_MIN
+from ..errors import SceneError
+from ..mechanism import Mechanism
+from ..mechanism.kinematics import joint_points
+from ..scene import Scene
+from .mass import actuator_matrix, gravity_forces, mass_matrix
+
+__all__ = ["Equations", "build_equations", "joint_stiffness", "graph_size", "BAUMGARTE_OMEGA"]
+
+# Baumgarte stabilisation frequency omega_b [rad/s] (alpha = omega_b, beta = omega_b).
+BAUMGARTE_OMEGA = 100.0
+
+
+@dataclass(frozen=True)
+class Equations:
+    """The built equations of one scene (immutable). See the module docstring."""
+    scene: Scene
+    clearance_joints: tuple[str, ...]   # in scene order
+    ideal_joints: tuple[str, ...]       # A1..An and the ideal passive joints
+    mode: str                           # 'free' | 'torque' | 'prescribed'
+    terms: tuple[str, ...]              # effects present in the graph
+    stiffness: tuple[float, ...]        # K per clearance joint [N/m^n]
+    nq: int
+    n_actuators: int
+    n_constraints: int
+    acceleration: ca.Function
+    residual: ca.Function
+    contact_update: ca.Function
+    energy: ca.Function
+    v_min: float
+    baumgarte: float
+    mass: np.ndarray = field(repr=False)
+
+    @property
+    def passive_ideal_joints(self) -> tuple[str, ...]:
+        return tuple(j for j in self.ideal_joints if not j.startswith("A"))
+
+
+def joint_stiffness(scene: Scene, name: str) -> float:
+    """K [N/m^n] of joint `name`: the scene's value, else from materials and radii."""
+    if scene.effects.contact.stiffness is not None:
+        return scene.effects.contact.stiffness
+    j = scene.joint(name)
+    return stiffness_internal_cylinder(j.journal_radius, j.bearing_radius, j.journal_material.youngs_modulus,
+                                       j.journal_material.poisson_ratio, j.bearing_material.youngs_modulus,
+                                       j.bearing_material.poisson_ratio)
+
+
+def graph_size(f: ca.Function) -> dict:
+    """Size of a Function's graph: SX instructions, nodes and free-variable count."""
+    return {"instructions": f.n_instructions(), "nodes": f.n_nodes(), "inputs": f.nnz_in()}
+
+
+def _body_rotation_indices(n: int, name: str) -> tuple[int, int]:
+    """(bearing, journal) rotation-coordinate indices of passive joint B_i / C_i."""
+    i = int(name[1:]) - 1
+    return (6 * i + 2, 6 * i + 5) if name[0] == "B" else (6 * i + 5, 6 * n + 2)
+
+
+def build_equations(scene: Scene, v_min: float = V_MIN, baumgarte: float = BAUMGARTE_OMEGA) -> Equations:
+    """Build (once per scene and options, cached) the equations of `scene`.
+
+    v_min [m/s] floors the approach velocity delta_dot0; baumgarte = omega_b [rad/s].
+    Raises SceneError if the actuation mode over-constrains the mechanism.
+    """
+    if not v_min > 0:
+        raise SceneError(f"v_min: {v_min!r} is not allowed (must be > 0 m/s)")
+    if not baumgarte >= 0:
+        raise SceneError(f"baumgarte: {baumgarte!r} is not allowed (must be >= 0 rad/s)")
+    return _build(scene, float(v_min), float(baumgarte))
+
+
+@functools.cache
+def _build(scene: Scene, v_min: float, omega: float) -> Equations:
+    mech = Mechanism.from_scene(scene)
+    data, n, nq = scene.mechanism, mech.n, mech.nq
+    act = scene.actuation
+    clear = scene.clearance_joints
+    if act.mode == "prescribed" and not clear and n > 3:
+        raise SceneError("actuation.mode: 'prescribed' is not allowed with all passive joints ideal "
+                         f"({n} driving constraints over-constrain a mechanism with 3 DOF; use 'torque')")
+    ideal = tuple(f"A{i + 1}" for i in range(n)) + scene.ideal_joints
+    nc = len(clear)
+
+    q, qd, qdd_s = ca.SX.sym("q", nq), ca.SX.sym("qd", nq), ca.SX.sym("qdd", nq)
+    tau_ref, th_ref, thd_ref, thdd_ref = (ca.SX.sym(s, n) for s in ("tau_ref", "theta_ref", "theta_d_ref",
+                                                                     "theta_dd_ref"))
+    dd0, inc = ca.SX.sym("delta_dot0", nc), ca.SX.sym("in_contact", nc)
+    refs = [q, qd, tau_ref, th_ref, thd_ref, thdd_ref, dd0, inc]
+    ref_names = ["q", "qd", "tau_ref", "theta_ref", "theta_d_ref", "theta_dd_ref", "delta_dot0", "in_contact"]
+
+    M = mass_matrix(data)
+    m_diag = np.diag(M)
+    B = ca.DM(actuator_matrix(data))
+    theta, theta_d = B.T @ q, B.T @ qd
+    terms = []
+    Q = ca.SX(ca.DM(gravity_forces(data, scene.effects.gravity)))
+    if scene.effects.gravity != (0.0, 0.0):
+        terms.append("gravity")
+
+    # ---- actuation
+    if act.mode == "torque":
+        lim = ca.DM(act.torque_limit)
+        tau = ca.fmin(ca.fmax(tau_ref + act.kp * (th_ref - theta) + act.kd * (thd_ref - theta_d), -lim), lim)
+        Q = Q + B @ tau
+        terms.append("actuator torques (feed-forward + PD, clipped)")
+    elif act.mode == "free":
+        tau = ca.SX.zeros(n)
+        terms.append("free actuators")
+
+    # ---- contacts
+    pts = {name: (inb, outb) for name, inb, outb in joint_points(data, q)}
+    ce = scene.effects.contact
+    fe = scene.effects.friction
+    stiff = tuple(joint_stiffness(scene, j) for j in clear)
+    cols = {k: [] for k in ("f", "fn", "ft", "delta", "delta_dot", "e")}
+    V_contact, p_damp, p_fric = ca.SX(0), ca.SX(0), ca.SX(0)
+    delta_list = []
+    if nc:
+        terms.append(f"contact ({ce.law}) at {' '.join(clear)}")
+        if fe.law != "none":
+            terms.append(f"friction ({fe.law})")
+    for j, name in enumerate(clear):
+        spec = scene.joint(name)
+        p_in, p_out = pts[name]
+        g_in, g_out = ca.jacobian(p_in, q), ca.jacobian(p_out, q)
+        i_b, i_j = _body_rotation_indices(n, name)
+        kin = clearance_kinematics(p_out - p_in, (g_out - g_in) @ qd, qd[i_b], qd[i_j],
+                                   spec.journal_radius, spec.bearing_radius)
+        K = stiff[j]
+        dd0_eff = ca.if_else(inc[j] > 0.5, dd0[j], ca.fmax(kin.delta_dot, v_min))
+        fn = normal_force(ce.law, kin.penetration, kin.delta_dot, dd0_eff, K, ce.exponent, ce.restitution,
+                          ce.damping)
+        f_el = elastic_force(kin.penetration, K, ce.exponent)
+        ft = friction_force(fe, kin.v_t, fn) if fe.law != "none" else ca.SX(0)
+        Qc, f = contact_generalized_forces(kin, fn, ft, g_in, g_out, i_b, i_j, spec.journal_radius,
+                                           spec.bearing_radius, nq)
+        Q = Q + Qc
+        V_contact += K * ca.fmax(kin.penetration, 0.0) ** (ce.exponent + 1) / (ce.exponent + 1)
+        if ce.law != "hertz":
+            p_damp += (fn - f_el) * kin.delta_dot
+        if fe.law != "none":
+            p_fric += -ft * kin.v_t
+        for k, v in zip(cols, (f, fn, ft, kin.penetration, kin.delta_dot, kin.eccentricity), strict=True):
+            cols[k].append(v)
+        delta_list.append(kin.penetration)
+
+    def stack(key, rows):
+        return ca.horzcat(*cols[key]) if nc else ca.SX(rows, 0)
+
+    contact_force, ecc = stack("f", 2), stack("e", 2)
+    fn_v, ft_v, delta_v, dd_v = (ca.vertcat(*cols[k]) if nc else ca.SX(0, 1)
+                                 for k in ("fn", "ft", "delta", "delta_dot"))
+
+    # ---- constraints: ideal joints (+ driving constraints), Baumgarte-stabilised
+    phi, phi_q, gamma = mech.constraints(ideal)(q, qd)
+    phi_dot = phi_q @ qd
+    if act.mode == "prescribed":
+        phi = ca.vertcat(phi, theta - th_ref)
+        phi_q = ca.vertcat(phi_q, B.T)
+        gamma = ca.vertcat(gamma, thdd_ref)
+        phi_dot = ca.vertcat(phi_dot, theta_d - thd_ref)
+        terms.append("prescribed actuator angles (driving constraints)")
+    gamma_s = gamma - 2 * omega * phi_dot - omega**2 * phi
+    n_con = phi.shape[0]
+    m_inv = ca.DM(1.0 / m_diag)
+    lam = ca.solve(phi_q @ ca.diag(m_inv) @ phi_q.T, phi_q @ (m_inv * Q) - gamma_s)
+    qdd = m_inv * (Q - phi_q.T @ lam)
+    if act.mode == "prescribed":
+        tau = -lam[n_con - n:]
+    reaction = ca.reshape(-lam[2 * n: 2 * len(ideal)], 2, len(ideal) - n)
+    power_in = ca.dot(tau, theta_d)
+    if act.mode == "free":
+        power_in = ca.SX(0)
+
+    acc = ca.Function(
+        "acceleration", refs,
+        [qdd, lam, tau, reaction, contact_force, fn_v, ft_v, delta_v, dd_v, ecc, power_in, p_damp, p_fric],
+        ref_names,
+        ["qdd", "lambda", "tau", "reaction", "contact_force", "normal_force", "friction_force", "penetration",
+         "delta_dot", "eccentricity", "power_in", "power_damping", "power_friction"])
+
+    lam_s = ca.SX.sym("lambda", n_con)
+    res = ca.Function(
+        "residual", [q, qd, qdd_s, lam_s] + refs[2:],
+        [ca.DM(M) @ qdd_s + phi_q.T @ lam_s - Q, phi_q @ qdd_s - gamma_s, phi],
+        ["q", "qd", "qdd", "lambda"] + ref_names[2:], ["dynamics", "constraint", "phi"])
+
+    now = ca.vertcat(*[d > 0 for d in delta_list]) if nc else ca.SX(0, 1)
+    prev = inc > 0.5
+    onset = ca.logic_and(now, ca.logic_not(prev))
+    dd0_next = ca.if_else(onset, ca.fmax(dd_v, v_min), ca.if_else(now, dd0, v_min)) if nc else ca.SX(0, 1)
+    loss = ca.logic_and(prev, ca.logic_not(now)) if nc else ca.SX(0, 1)
+    upd = ca.Function("contact_update", [q, qd, dd0, inc], [dd0_next, now, loss],
+                      ["q", "qd", "delta_dot0", "in_contact"], ["delta_dot0_next", "in_contact_next", "loss"])
+
+    kinetic = 0.5 * ca.dot(qd, ca.DM(m_diag) * qd)
+    potential = V_contact - ca.dot(ca.DM(gravity_forces(data, scene.effects.gravity)), q)
+    energy = ca.Function("energy", [q, qd], [kinetic, potential], ["q", "qd"], ["kinetic", "potential"])
+
+    return Equations(scene, clear, ideal, act.mode, tuple(terms), stiff, nq, n, n_con, acc, res, upd, energy,
+                     v_min, omega, M)
