@@ -1,0 +1,202 @@
+"""`solve_preload`: the front door of the preload layer.
+
+Samples the scene's path, evaluates the inverse dynamics (:mod:`rrr4.dynamics.inverse`)
+at every sample with ``Function.map``, picks the null-space torques with the chosen
+method and checks every sample again in numpy: ||r_j|| >= f_min at all passive joints,
+|tau_i| <= L_i, a regular pose. Whatever fails is listed with time, joint and reason, a
+:class:`PreloadWarning` is issued (or :class:`PreloadInfeasibleError` raised with
+``strict=True``): never a silent wrong answer.
+
+Which method for simulation: ``nlp`` (smooth, the contact force turns slowly in every
+bearing) or ``qp`` (fixed force direction sign per joint, pointwise). ``exact`` is the
+cheapest global optimum at each instant, but where two branches of the feasible set
+cost the same (e.g. at rest, alpha = +-a) it may jump between them, which reverses the
+contact forces; use it as the pointwise bound on effort, and for generated controllers
+only where its alpha stays on one branch.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+
+import numpy as np
+
+from ..dynamics.inverse import inverse_dynamics_function
+from ..errors import Rrr4Error, SceneError
+from ..mechanism import Mechanism
+from ..scene import PRELOAD_METHODS, QP_SOLVERS, Scene
+from ..trajectory import sample_path
+from .exact import exact_preload_function
+from .nlp import solve_trajectory_nlp
+from .qp import qp_preload_function
+from .solution import Infeasibility, PreloadSolution
+
+__all__ = ["solve_preload", "PreloadWarning", "PreloadInfeasibleError", "FEASIBILITY_TOL"]
+
+# relative tolerance of the final check (f_min and torque limits)
+FEASIBILITY_TOL = 1e-6
+# relative f_min increase for the NLP on a grid coarser than the samples
+COARSE_GRID_MARGIN = 0.02
+
+
+class PreloadWarning(UserWarning):
+    """Some path samples could not be preloaded; see PreloadSolution.report()."""
+
+
+class PreloadInfeasibleError(Rrr4Error, RuntimeError):
+    """solve_preload(..., strict=True) found samples that cannot be preloaded."""
+
+
+def _family(scene: Scene, samples):
+    """Inverse dynamics at every sample: tau_p (N, n), tau_n (N, n, m), r_p (N, 2n, 2),
+    r_n (N, 2n, 2, m) and the raw mapped outputs for the CasADi preload Functions."""
+    N = len(samples.t)
+    F = inverse_dynamics_function(scene).map(N)
+    raw = F(samples.pose.T, samples.pose_d.T, samples.pose_dd.T)
+    tp, tn, rp, rn = (np.array(v) for v in raw)
+    n = tp.shape[0]
+    m, nj = n - 3, 2 * n
+    tau_p = tp.T
+    tau_n = tn.reshape(n, N, m, order="F").transpose(1, 0, 2)
+    r_p = rp.reshape(2, nj, N, order="F").transpose(2, 1, 0)
+    r_n = rn.reshape(2, nj, m, N, order="F").transpose(3, 1, 0, 2)
+    return raw, tau_p, tau_n, r_p, r_n
+
+
+def _singular(scene: Scene, samples) -> np.ndarray:
+    """(N,) reason string or '' per sample: near a serial or parallel singularity."""
+    mech = Mechanism.from_scene(scene)
+    N = len(samples.t)
+    J, _, _, sin_tr = mech.jacobian_function.map(N)(samples.pose.T)
+    J = np.array(J).reshape(mech.n, N, 3, order="F").transpose(1, 0, 2)
+    sin_tr = np.abs(np.array(sin_tr)).T
+    out = np.full(N, "", dtype=object)
+    with np.errstate(all="ignore"):
+        cond = np.linalg.cond(J) if np.all(np.isfinite(J)) else np.full(N, np.inf)
+    cmax, smin = scene.path.max_condition_number, scene.path.min_transmission
+    for k in np.flatnonzero(~(cond <= cmax) | np.any(~(sin_tr >= smin), axis=1)):
+        chain = int(np.argmin(sin_tr[k])) + 1
+        out[k] = (f"near-singular pose: cond(J) = {cond[k]:.3g} (allowed <= {cmax:g}), "
+                  f"smallest transmission |sin| = {sin_tr[k].min():.3g} at chain {chain} (allowed >= {smin:g})")
+    return out
+
+
+def _choose_signs(scene, raw, solver):
+    """Uniform fixed sign (+1 or -1) feasible at more samples; ties -> less effort."""
+    best = None
+    for s in (1.0, -1.0):
+        alpha, tau, feas, _ = (np.array(v) for v in qp_preload_function(scene, solver, s).map(raw[0].shape[1])(*raw))
+        effort = np.nansum(tau**2)
+        key = (-np.nansum(feas), effort)
+        if best is None or key < best[0]:
+            best = (key, s, alpha, feas)
+    return best[1], best[2], best[3]
+
+
+def solve_preload(scene: Scene, method: str | None = None, *, qp_solver: str | None = None, signs=None,
+                  sample_rate: float | None = None, nlp_rate: float | None = None,
+                  strict: bool = False) -> PreloadSolution:
+    """Preload torques along the scene's path.
+
+    method: 'exact', 'qp' or 'nlp' (default ``actuation.preload.method``). qp_solver:
+    conic plugin for 'qp' (default the scene's; qrqp, osqp, daqp, qpoases). signs: fixed
+    axial-force sign for 'qp' (+1, -1 or one per passive joint; default: the uniform sign
+    feasible at more samples). sample_rate [Hz]: path samples (default the scene's).
+    nlp_rate [Hz]: grid of the horizon NLP (default: every sample); alpha is interpolated
+    linearly between its points and every sample is checked.
+    strict: raise PreloadInfeasibleError instead of warning when a sample is infeasible.
+    """
+    pre = scene.actuation.preload
+    method = pre.method if method is None else method
+    if method not in PRELOAD_METHODS:
+        raise SceneError(f"method: unknown value {method!r} (choose one of: {', '.join(PRELOAD_METHODS)})")
+    solver = pre.qp_solver if qp_solver is None else qp_solver
+    if solver not in QP_SOLVERS:
+        raise SceneError(f"qp_solver: unknown value {solver!r} (choose one of: {', '.join(QP_SOLVERS)})")
+    if scene.mechanism.n_chains < 4:
+        raise SceneError(f"mechanism.chains: {scene.mechanism.n_chains} chains is not allowed for a preload "
+                         "(needs actuation redundancy: 4 chains)")
+    samples = sample_path(scene.path, sample_rate)
+    N = len(samples.t)
+    f_min, limits = pre.min_force, np.asarray(scene.actuation.torque_limit, float)
+    t_start = time.perf_counter()
+    raw, tau_p, tau_n, r_p, r_n = _family(scene, samples)
+    m = tau_n.shape[2]
+    stats: dict = {"method": method, "points": N}
+    method_ok = np.ones(N, bool)
+    used_signs = None
+
+    if method == "exact":
+        alpha, _, feas, _ = (np.array(v) for v in exact_preload_function(scene).map(N)(*raw))
+        alpha, method_ok = alpha.T, feas.ravel() > 0.5
+        stats["solver"] = "closed form"
+    elif method == "qp":
+        if signs is None:
+            used_signs, alpha, feas = _choose_signs(scene, raw, solver)
+        else:
+            used_signs = signs
+            alpha, _, feas, _ = (np.array(v) for v in qp_preload_function(scene, solver, signs).map(N)(*raw))
+        alpha, method_ok = alpha.T, feas.ravel() > 0.5
+        stats.update(solver=solver, signs=used_signs)
+    else:
+        used_signs, alpha0, _ = _choose_signs(scene, raw, solver)
+        grid = np.arange(N)
+        if nlp_rate is not None:
+            step = max(1, int(round((N - 1) / max(scene.path.duration * nlp_rate, 1))))
+            grid = np.unique(np.r_[np.arange(0, N, step), N - 1])
+        a0 = np.nan_to_num(alpha0.T[grid])
+        # on a coarser grid, aim a little above f_min so the interpolated samples keep it
+        f_grid = f_min * (1.0 + COARSE_GRID_MARGIN) if len(grid) < N else f_min
+        a_grid, nstats = solve_trajectory_nlp(
+            samples.t[grid], tau_p[grid], tau_n[grid], r_p[grid], r_n[grid], f_min=f_grid, weights=pre.weights,
+            limits=limits, smoothness_weight=pre.smoothness_weight, max_turn_rate=pre.max_turn_rate, alpha0=a0)
+        alpha = np.column_stack([np.interp(samples.t, samples.t[grid], a_grid[:, k]) for k in range(m)])
+        method_ok[:] = nstats["success"]
+        stats.update(nstats, initial_guess=f"qp ({solver}, sign {used_signs:+g})")
+    stats["wall_time"] = time.perf_counter() - t_start
+    stats["time_per_point"] = stats["wall_time"] / N
+
+    alpha = np.asarray(alpha, float).reshape(N, m)
+    solver_failed = ~np.all(np.isfinite(alpha), axis=1)
+    alpha[solver_failed] = 0.0
+    tau = tau_p + np.einsum("knm,km->kn", tau_n, alpha)
+    reactions = r_p + np.einsum("kjcm,km->kjc", r_n, alpha)
+    norms = np.linalg.norm(reactions, axis=2)
+    margin = norms.min(axis=1) - f_min
+    singular = _singular(scene, samples)
+    finite = np.all(np.isfinite(tau), axis=1) & np.all(np.isfinite(norms), axis=1)
+    force_ok = norms >= f_min * (1 - FEASIBILITY_TOL)
+    torque_ok = np.abs(tau) <= limits * (1 + FEASIBILITY_TOL)
+    feasible = (method_ok & ~solver_failed & finite & (singular == "") & force_ok.all(axis=1) & torque_ok.all(axis=1))
+
+    names = tuple(f"B{i + 1}" for i in range(scene.mechanism.n_chains)) + \
+        tuple(f"C{i + 1}" for i in range(scene.mechanism.n_chains))
+    issues: list[Infeasibility] = []
+    for k in np.flatnonzero(~feasible):
+        tk = float(samples.t[k])
+        if singular[k]:
+            issues.append(Infeasibility(tk, "pose", singular[k]))
+        if not finite[k] or solver_failed[k]:
+            issues.append(Infeasibility(tk, "pose", "inverse dynamics or solver returned non-finite values"))
+        for j in np.flatnonzero(~force_ok[k]):
+            issues.append(Infeasibility(tk, names[j], f"|r| = {norms[k, j]:.4g} N < f_min = {f_min:g} N "
+                                                      f"(no preload within the torque limits reaches it)"))
+        for i in np.flatnonzero(~torque_ok[k]):
+            issues.append(Infeasibility(tk, f"actuator {i + 1}",
+                                        f"|tau| = {abs(tau[k, i]):.4g} N m > limit {limits[i]:g} N m"))
+        if not issues or issues[-1].t != tk:
+            reason = ("the fixed-sign axial force constraints cannot all hold within the torque limits"
+                      if method == "qp" else f"solver did not converge ({stats.get('return_status')})")
+            issues.append(Infeasibility(tk, "all", reason))
+
+    sol = PreloadSolution(
+        method=method, t=samples.t, pose=samples.pose, pose_d=samples.pose_d, pose_dd=samples.pose_dd,
+        tau=tau, alpha=alpha[:, 0] if m == 1 else alpha, reactions=reactions, feasible=feasible, margin=margin,
+        tau_particular=tau_p, null_space=tau_n[:, :, 0] if m == 1 else tau_n, f_min=f_min,
+        torque_limit=tuple(limits.tolist()), joint_names=names, infeasible=tuple(issues), statistics=stats)
+    if issues:
+        if strict:
+            raise PreloadInfeasibleError(sol.report())
+        warnings.warn(sol.report(), PreloadWarning, stacklevel=2)
+    return sol
