@@ -71,7 +71,7 @@ _IO_DOC = {
     "alpha": "preload along the null space [N m]",
     "tau": "actuator torques [N m]",
     "tau_ff": "feed-forward torques (inverse dynamics + exact preload), before PD and clipping [N m]",
-    "feasible": "1.0 if every passive joint carries >= min_force within the torque limits, else 0.0",
+    "feasible": "[-] 1.0 if every passive joint carries >= min_force within the torque limits, else 0.0",
     "margin": "min_j |r_j| - min_force [N]",
 }
 _KERNEL_DOC = {
@@ -89,7 +89,8 @@ _KERNEL_DOC = {
                        "theta_d), +-limit) with theta_ref = ik(pose_des), theta_d_ref = J pose_d_des and the "
                        "angle error wrapped to (-pi, pi].",
     "qp_preload": "Preload as a QP (qrqp active set, no allocation): fixed-sign axial force >= min_force in "
-                  "every following link, torque limits, least weighted effort.",
+                  "every following link, torque limits, least weighted effort. Returns non-zero, with the "
+                  "outputs undefined, when qrqp stops without a solution (an infeasible QP).",
 }
 
 

@@ -1,0 +1,224 @@
+"""Generated C: builds warning-free with plain gcc, and computes what the Python model computes."""
+
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rrr4 import Mechanism, SceneError
+from rrr4.cli import main as cli_main
+from rrr4.codegen import (
+    EXAMPLE_ANGLE_OFFSET,
+    KERNELS,
+    build_example,
+    codegen,
+    compile_library,
+    controller_step_function,
+    load_library,
+)
+from rrr4.dynamics.inverse import inverse_dynamics_function
+from rrr4.preload.exact import exact_preload_function
+from rrr4.preload.qp import qp_preload_function
+from rrr4.scene import parse_scene
+from rrr4.trajectory import trajectory_function
+
+pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
+
+N_RANDOM = 200
+TOL = 1e-10
+STANDARD_HEADERS = {"math.h", "stdio.h", "stdarg.h", "string.h", "stdlib.h", "stddef.h", "stdint.h"}
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory, paper_scene):
+    """Sources in src/; the shared library (-Werror) and the plain `gcc -O2 -Wall *.c -lm`
+    build run side by side, since each compiles the whole generated file."""
+    root = tmp_path_factory.mktemp("codegen")
+    src = root / "src"
+    files = codegen(paper_scene, src)
+    plain = subprocess.Popen(["gcc", "-O2", "-Wall", *sorted(p.name for p in src.glob("*.c")), "-lm"],
+                             cwd=src, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    lib = compile_library(src, root / "librrr4.so", flags=("-O2", "-Wall", "-Werror"))
+    _, plain_err = plain.communicate()
+    return {"src": src, "files": files, "lib": lib, "plain_rc": plain.returncode, "plain_err": plain_err,
+            "a_out": src / "a.out"}
+
+
+def _motions(rng, k):
+    """Random reachable desired motions around the workspace centre: (3, k) arrays."""
+    pose = np.vstack([rng.uniform(-0.05, 0.05, (2, k)), rng.uniform(-0.25, 0.25, (1, k))])
+    pose_d = rng.normal(size=(3, k)) * np.array([[0.3], [0.3], [1.0]])
+    pose_dd = rng.normal(size=(3, k)) * np.array([[3.0], [3.0], [10.0]])
+    return pose, pose_d, pose_dd
+
+
+def _outputs(f, *args):
+    out = f(*args)
+    return [np.array(o) for o in (out if isinstance(out, (tuple, list)) else [out])]
+
+
+def test_codegen_writes_sources_header_example_and_makefile(built):
+    names = {p.name for p in built["files"]}
+    assert names == {"rrr4_raw.c", "rrr4_raw.h", "rrr4.h", "rrr4.c", "main.c", "Makefile"}
+    header = (built["src"] / "rrr4.h").read_text()
+    for k in KERNELS:
+        assert re.search(rf"\bint rrr4_{k}\(", header), k
+    # units are stated for every argument of every wrapper
+    for line in header.splitlines():
+        if line.startswith(" *   in ") or line.startswith(" *   out "):
+            assert "[" in line, line
+    assert not list(built["src"].glob(".*")), "temporary files left behind"
+
+
+def test_sources_need_only_the_c_standard_library(built):
+    local = {p.name for p in built["src"].glob("*.h")}
+    for path in built["src"].glob("*.c"):
+        for inc in re.findall(r'#include\s*[<"]([^>"]+)[>"]', path.read_text()):
+            assert inc in STANDARD_HEADERS | local, f"{path.name} includes {inc}"
+    assert "casadi/" not in (built["src"] / "rrr4_raw.c").read_text()
+
+
+def test_directory_builds_with_plain_gcc_without_warnings(built):
+    assert built["plain_rc"] == 0, built["plain_err"]
+    assert built["plain_err"].strip() == ""
+    assert built["a_out"].exists()
+
+
+def test_every_compiled_kernel_matches_python_on_random_inputs(built, paper_scene):
+    rng = np.random.default_rng(7)
+    mech = Mechanism.from_scene(paper_scene)
+    inv, exact = inverse_dynamics_function(paper_scene), exact_preload_function(paper_scene)
+    J_and_s = mech.jacobian_function
+    cases = {
+        "ik": lambda p: mech.ik_function(p, mech.modes),
+        "jacobian": lambda p: J_and_s(p)[::3],
+        "null_space": mech.null_space_function,
+        "trajectory": trajectory_function(paper_scene.path),
+        "inverse_dynamics": inv,
+        "exact_preload": exact,
+        "preload": lambda p, pd, pdd: exact(*inv(p, pd, pdd)),
+        "controller_step": controller_step_function(paper_scene),
+        "qp_preload": qp_preload_function(paper_scene, "qrqp"),
+    }
+    assert set(cases) == set(KERNELS)
+    compiled = load_library(built["lib"])
+    pose, pose_d, pose_dd = _motions(rng, N_RANDOM)
+    times = np.linspace(-0.1, paper_scene.path.duration + 0.1, N_RANDOM)
+    qp_failures = 0
+    for k in range(N_RANDOM):
+        motion = (pose[:, k], pose_d[:, k], pose_dd[:, k])
+        family = [np.array(v) for v in inv(*motion)]
+        # measured angles off the reference, some by a full turn (wrapped encoder readings)
+        theta = mech.ik(motion[0]) + rng.normal(scale=0.05, size=4) + 2 * np.pi * rng.integers(-1, 2, size=4)
+        args = {
+            "ik": motion[:1], "jacobian": motion[:1], "null_space": motion[:1], "trajectory": (times[k],),
+            "inverse_dynamics": motion, "exact_preload": family, "preload": motion,
+            "controller_step": (*motion, theta, rng.normal(scale=0.5, size=4)), "qp_preload": family,
+        }
+        for name, reference in cases.items():
+            want = _outputs(reference, *args[name])
+            try:
+                got = _outputs(compiled[name], *args[name])
+            except RuntimeError:  # the C returned non-zero: only allowed for an infeasible QP
+                assert name == "qp_preload" and want[2].item() == 0.0, f"{name}, sample {k}"
+                qp_failures += 1
+                continue
+            assert len(got) == len(want)
+            for g, w in zip(got, want, strict=True):
+                np.testing.assert_allclose(g.ravel(order="F"), w.ravel(order="F"), rtol=TOL, atol=TOL,
+                                           err_msg=f"{name}, sample {k}")
+    assert qp_failures < N_RANDOM // 2, "too few feasible QPs to compare"
+
+
+def test_example_prints_what_the_python_controller_computes(built, paper_scene, tmp_path):
+    exe = build_example(built["src"], tmp_path / "example")
+    out = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout
+    rows = {}
+    for line in out.splitlines():
+        if not line.startswith("#"):
+            tag, *vals = line.split()
+            rows.setdefault(tag, []).append(np.array(vals, dtype=float))
+    mech = Mechanism.from_scene(paper_scene)
+    traj, step = trajectory_function(paper_scene.path), controller_step_function(paper_scene)
+
+    kin = rows["kinematics"][0]
+    pose0 = np.array(traj(0.0)[0]).ravel()
+    np.testing.assert_allclose(kin[1:5], mech.ik(pose0), rtol=TOL, atol=TOL)
+    np.testing.assert_allclose(kin[5:17], mech.jacobian(pose0).ravel(order="F"), rtol=TOL, atol=TOL)
+    np.testing.assert_allclose(rows["null_space"][0][1:], mech.null_space(pose0), rtol=TOL, atol=TOL)
+
+    steps = rows["step"]
+    assert len(steps) == 11 and steps[-1][0] == pytest.approx(paper_scene.path.duration)
+    for row in steps:
+        pose, pose_d, pose_dd = (np.array(v).ravel() for v in traj(row[0]))
+        theta = mech.ik(pose) - EXAMPLE_ANGLE_OFFSET * np.arange(1, 5)
+        theta_d = mech.jacobian(pose) @ pose_d
+        tau, _, alpha, feasible = _outputs(step, pose, pose_d, pose_dd, theta, theta_d)
+        np.testing.assert_allclose(row[1:5], tau.ravel(), rtol=TOL, atol=TOL)
+        np.testing.assert_allclose(row[5:7], [alpha.item(), feasible.item()], rtol=TOL, atol=TOL)
+
+
+def test_controller_step_is_feedforward_plus_clipped_pd(paper_scene):
+    """tau = clip(tau_ff + kp wrap(ik(pose) - theta) + kd (J pose_d - theta_d), +-limit),
+    with tau_ff the exact preload of the desired motion."""
+    rng = np.random.default_rng(3)
+    mech = Mechanism.from_scene(paper_scene)
+    step = controller_step_function(paper_scene)
+    inv, exact = inverse_dynamics_function(paper_scene), exact_preload_function(paper_scene)
+    a, lim = paper_scene.actuation, np.array(paper_scene.actuation.torque_limit)
+    saturated = 0
+    for _ in range(40):
+        pose, pose_d, pose_dd = (v[:, 0] for v in _motions(rng, 1))
+        error = rng.normal(scale=0.02, size=4)
+        theta = mech.ik(pose) - error + 2 * np.pi * rng.integers(-1, 2, size=4)
+        theta_d = rng.normal(scale=0.5, size=4)
+        tau, tau_ff, alpha, _ = _outputs(step, pose, pose_d, pose_dd, theta, theta_d)
+        alpha_ref, tau_ref, _, _ = _outputs(exact, *inv(pose, pose_d, pose_dd))
+        np.testing.assert_allclose(tau_ff.ravel(), tau_ref.ravel(), rtol=1e-12, atol=1e-12)
+        assert alpha.item() == pytest.approx(alpha_ref.item(), abs=1e-12)
+        pd = tau_ref.ravel() + a.kp * error + a.kd * (mech.jacobian(pose) @ pose_d - theta_d)
+        np.testing.assert_allclose(tau.ravel(), np.clip(pd, -lim, lim), rtol=1e-9, atol=1e-9)
+        saturated += np.any(np.abs(pd) > lim)
+    assert saturated > 0, "no sample exercised the torque limits"
+
+
+def test_codegen_rejects_a_file_as_output_directory(paper_scene, tmp_path):
+    f = tmp_path / "taken"
+    f.write_text("keep me")
+    with pytest.raises(SceneError, match="--out"):
+        codegen(paper_scene, f)
+    assert f.read_text() == "keep me"
+
+
+def test_codegen_rejects_a_mechanism_without_redundancy(paper_data, tmp_path):
+    paper_data["mechanism"]["chains"] = paper_data["mechanism"]["chains"][:3]
+    paper_data["joints"]["clearance"] = "all"
+    paper_data["actuation"]["preload"]["weights"] = 1.0
+    scene = parse_scene(paper_data, check_path=False)
+    with pytest.raises(SceneError, match="mechanism.chains"):
+        codegen(scene, tmp_path / "unused")
+    assert not (tmp_path / "unused").exists()
+
+
+def test_cli_codegen_writes_files_and_reports_bad_output_in_one_line(tmp_path, capsys):
+    scene = Path(__file__).resolve().parents[1] / "problems" / "paper_circle.yaml"
+    out = tmp_path / "c"
+    assert cli_main(["codegen", str(scene), "--out", str(out)]) == 0
+    assert (out / "rrr4.h").exists() and (out / "main.c").exists()
+    capsys.readouterr()
+    assert cli_main(["codegen", str(scene), "--out", str(out / "rrr4.h")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "SceneError" in err and "--out" in err
+
+
+def test_external_library_reports_the_generated_signatures(built, paper_scene):
+    """casadi.external sees the names and shapes the header documents."""
+    lib = load_library(built["lib"], ["controller_step", "inverse_dynamics"])
+    f = lib["controller_step"]
+    assert [f.name_in(i) for i in range(f.n_in())] == ["pose_des", "pose_d_des", "pose_dd_des", "theta", "theta_d"]
+    assert f.size_out(0) == (4, 1)
+    g = lib["inverse_dynamics"]
+    assert g.size_out(2) == (2, 8) and g.size_out(3) == (2, 8)
