@@ -75,7 +75,7 @@ class PreloadSolution:
     def torque_interpolant(self) -> ca.Function:
         """CasADi Function 'preload_torque': t [s] -> tau (n,) [N m], linear between samples
         (held at the end values outside the path's time span)."""
-        return ca.interpolant("preload_torque", "linear", [self.t], self.tau.ravel(order="F").tolist())
+        return ca.interpolant("preload_torque", "linear", [self.t], self.tau.ravel().tolist())
 
     def report(self, max_lines: int = 20) -> str:
         """Readable summary: method, effort, smallest margin and every infeasible stretch

@@ -58,7 +58,7 @@ def _family(scene: Scene, samples):
     n = tp.shape[0]
     m, nj = n - 3, 2 * n
     tau_p = tp.T
-    tau_n = tn.reshape(n, N, m, order="F").transpose(1, 0, 2)
+    tau_n = tn.reshape(n, m, N, order="F").transpose(2, 0, 1)
     r_p = rp.reshape(2, nj, N, order="F").transpose(2, 1, 0)
     r_n = rn.reshape(2, nj, m, N, order="F").transpose(3, 1, 0, 2)
     return raw, tau_p, tau_n, r_p, r_n
@@ -69,7 +69,7 @@ def _singular(scene: Scene, samples) -> np.ndarray:
     mech = Mechanism.from_scene(scene)
     N = len(samples.t)
     J, _, _, sin_tr = mech.jacobian_function.map(N)(samples.pose.T)
-    J = np.array(J).reshape(mech.n, N, 3, order="F").transpose(1, 0, 2)
+    J = np.array(J).reshape(mech.n, 3, N, order="F").transpose(2, 0, 1)
     sin_tr = np.abs(np.array(sin_tr)).T
     out = np.full(N, "", dtype=object)
     with np.errstate(all="ignore"):
@@ -166,6 +166,10 @@ def solve_preload(scene: Scene, method: str | None = None, *, qp_solver: str | N
     margin = norms.min(axis=1) - f_min
     singular = _singular(scene, samples)
     finite = np.all(np.isfinite(tau), axis=1) & np.all(np.isfinite(norms), axis=1)
+    # non-finite samples (unreachable or singular pose) are flagged below and zeroed
+    tau[~finite], reactions[~finite] = 0.0, 0.0
+    norms = np.linalg.norm(reactions, axis=2)
+    margin = np.where(finite, margin, -f_min)
     force_ok = norms >= f_min * (1 - FEASIBILITY_TOL)
     torque_ok = np.abs(tau) <= limits * (1 + FEASIBILITY_TOL)
     feasible = (method_ok & ~solver_failed & finite & (singular == "") & force_ok.all(axis=1) & torque_ok.all(axis=1))

@@ -1,0 +1,204 @@
+"""Preload layer: exact, QP and NLP methods on the reference scene and on hard cases."""
+
+import warnings
+from dataclasses import replace
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from rrr4 import PreloadSolution, solve_preload
+from rrr4.preload import PreloadInfeasibleError, PreloadWarning, exact_preload_function, qp_preload_function
+from rrr4.preload import qp as qp_module
+from rrr4.scene import parse_scene
+
+RATE = 250.0  # Hz: fewer samples than the scene's 1 kHz keep the NLP quick
+
+
+def _with(scene, **preload):
+    limit = preload.pop("torque_limit", None)
+    act = replace(scene.actuation, preload=replace(scene.actuation.preload, **preload))
+    if limit is not None:
+        act = replace(act, torque_limit=(limit,) * 4)
+    return replace(scene, actuation=act)
+
+
+@pytest.fixture(scope="module")
+def solutions(paper_scene):
+    return {m: solve_preload(paper_scene, m, sample_rate=RATE) for m in ("exact", "qp", "nlp")}
+
+
+def _scan_optimum(tau_p, tau_n, r_p, r_n, f_min, limits, weights, span=30.0, k=600001):
+    """Brute force: the least weighted effort over a dense alpha grid, or None if no grid point is feasible."""
+    a = np.linspace(-span, span, k)
+    tau = tau_p[:, None] + a * tau_n[:, None]
+    r = r_p[:, :, None] + a * r_n[:, :, None]
+    ok = (np.linalg.norm(r, axis=0).min(axis=0) >= f_min) & np.all(np.abs(tau) <= np.asarray(limits)[:, None], axis=0)
+    if not ok.any():
+        return None
+    cost = np.where(ok, np.asarray(weights) @ tau**2, np.inf)
+    return a[np.argmin(cost)], cost.min(), a[1] - a[0]
+
+
+@pytest.mark.filterwarnings("ignore::rrr4.preload.PreloadWarning")
+@pytest.mark.parametrize("limit", [5.0, 3.3])
+def test_exact_is_the_global_optimum_of_a_dense_alpha_scan(paper_scene, limit):
+    """At sampled instants the closed form's effort equals the dense-scan minimum (to the
+    grid's resolution) and never exceeds it; tight limits make the feasible set a union of
+    disjoint intervals."""
+    scene = _with(paper_scene, weights=(1.0, 2.0, 0.5, 1.5), torque_limit=limit)
+    sol = solve_preload(scene, "exact", sample_rate=50.0)
+    f = exact_preload_function(scene)
+    w, f_min = scene.actuation.preload.weights, scene.actuation.preload.min_force
+    checked = 0
+    for k in range(0, len(sol.t), 5):
+        tau_p, tau_n = sol.tau_particular[k], sol.null_space[k]
+        r_p = (sol.reactions[k] - sol.alpha[k] * _null_reactions(sol, k)).T
+        r_n = _null_reactions(sol, k).T
+        alpha, tau, feas, _ = (np.array(v).ravel() for v in f(tau_p, tau_n, r_p, r_n))
+        scan = _scan_optimum(tau_p, tau_n, r_p, r_n, f_min, scene.actuation.torque_limit, w)
+        if scan is None:
+            assert feas[0] == 0.0
+            continue
+        a_scan, c_scan, da = scan
+        cost = float(np.dot(w, tau**2))
+        assert feas[0] == 1.0
+        assert cost <= c_scan + 1e-9
+        slope = 2 * abs(np.dot(w, tau * tau_n)) + 2 * np.dot(w, tau_n**2) * da
+        assert c_scan - cost <= slope * da + 1e-9
+        checked += 1
+    assert checked >= 5
+
+
+def _null_reactions(sol: PreloadSolution, k: int) -> np.ndarray:
+    """r_n (8, 2) at sample k from the inverse dynamics (the solution stores the sum)."""
+    from rrr4.dynamics.inverse import inverse_dynamics_function
+    f = inverse_dynamics_function(_null_reactions.scene)
+    return np.array(f(sol.pose[k], sol.pose_d[k], sol.pose_dd[k])[3]).T
+
+
+@pytest.fixture(autouse=True)
+def _scene_for_helper(paper_scene):
+    _null_reactions.scene = paper_scene
+
+
+def test_methods_differ_only_along_the_null_space(solutions):
+    """tau_a - tau_b is parallel to the null-space direction for every pair of methods."""
+    ref = solutions["exact"]
+    for other in ("qp", "nlp"):
+        d = solutions[other].tau - ref.tau
+        along = np.einsum("ki,ki->k", d, ref.null_space)[:, None] * ref.null_space
+        assert np.max(np.abs(d - along)) < 1e-10
+        assert np.max(np.abs(d)) > 1e-3  # they do differ
+
+
+def test_every_passive_reaction_is_at_least_f_min_where_feasible(solutions, paper_scene):
+    f_min = paper_scene.actuation.preload.min_force
+    for sol in solutions.values():
+        assert sol.all_feasible
+        mags = sol.reaction_magnitudes[sol.feasible]
+        assert mags.min() >= f_min * (1 - 1e-6)
+        assert np.all(np.abs(sol.tau) <= np.asarray(sol.torque_limit) * (1 + 1e-6))
+
+
+def test_nlp_torques_are_smoother_than_pointwise_ones(solutions):
+    """Roughness = RMS d^2 tau/dt^2; the exact method jumps between the +-alpha branches."""
+    r = {m: s.roughness for m, s in solutions.items()}
+    assert r["nlp"] < 0.5 * r["qp"]
+    assert r["qp"] < r["exact"]
+
+
+def test_nlp_bounds_the_turn_rate_of_every_contact_force(solutions, paper_scene):
+    sol = solutions["nlp"]
+    omega = paper_scene.actuation.preload.max_turn_rate
+    ang = np.angle(sol.reactions[..., 0] + 1j * sol.reactions[..., 1])
+    turn = np.abs(np.angle(np.exp(1j * np.diff(ang, axis=0))))
+    assert np.max(turn) <= omega * np.diff(sol.t)[0] * (1 + 1e-5)
+
+
+def test_qp_keeps_the_sign_of_each_axial_link_force(solutions, paper_scene):
+    """The component of r_j along the following link has one sign over the whole path, >= f_min."""
+    sol = solutions["qp"]
+    sign = sol.statistics["signs"]
+    axial = []
+    for k in range(len(sol.t)):
+        r_n = _null_reactions(sol, k)
+        d = r_n / np.linalg.norm(r_n, axis=1, keepdims=True)
+        axial.append(sign * np.einsum("jc,jc->j", d, sol.reactions[k]))
+    assert np.min(axial) >= paper_scene.actuation.preload.min_force * (1 - 1e-6)
+
+
+@pytest.mark.parametrize("solver", ["osqp", "daqp", "qpoases"])
+def test_qp_plugins_agree_with_qrqp(paper_scene, solver):
+    ref = solve_preload(paper_scene, "qp", sample_rate=100.0, signs=1.0)
+    other = solve_preload(paper_scene, "qp", sample_rate=100.0, signs=1.0, qp_solver=solver)
+    assert np.max(np.abs(other.alpha - ref.alpha)) < 1e-6
+
+
+def test_qp_extends_to_two_degrees_of_redundancy():
+    """With m = 2 null-space parameters the QP optimum matches a dense 2-D scan
+    (synthetic 5-actuator data: the formulation only needs tau_n (n, m) and r_n)."""
+    rng = np.random.default_rng(7)
+    n, m, f_min = 5, 2, 2.0
+    tau_n = np.linalg.qr(rng.normal(size=(n, m)))[0]
+    tau_p = rng.normal(size=n)
+    e = rng.normal(size=(2, 2 * n))
+    e /= np.linalg.norm(e, axis=0)
+    s = rng.uniform(0.5, 2.0, size=(2 * n, m))  # axial null-space forces along each link
+    r_n = np.hstack([e * s[:, k] for k in range(m)])
+    r_p = rng.normal(size=(2, 2 * n))
+    f = qp_module._build("daqp", f_min, (1.0,) * n, (10.0,) * n, (1.0,) * (2 * n))
+    alpha, tau, feas, _ = (np.array(v).ravel() for v in f(tau_p, tau_n, r_p, r_n))
+    assert feas[0] == 1.0
+    g = np.linspace(-8, 8, 801)
+    A1, A2 = np.meshgrid(g, g, indexing="ij")
+    al = np.stack([A1.ravel(), A2.ravel()])
+    axial = np.einsum("cj,cjp->jp", e, r_p[:, :, None] + r_n[:, :2 * n, None] * al[0] + r_n[:, 2 * n:, None] * al[1])
+    taus = tau_p[:, None] + tau_n @ al
+    ok = (axial.min(axis=0) >= f_min) & (np.abs(taus).max(axis=0) <= 10.0)
+    best = np.min(np.sum(taus**2, axis=0)[ok])
+    assert np.sum(tau**2) <= best + 1e-9
+    assert best - np.sum(tau**2) < 0.05 * best
+
+
+def test_too_tight_torque_limits_are_reported_with_time_and_joint(paper_scene):
+    scene = _with(paper_scene, torque_limit=0.5)
+    for method in ("exact", "qp"):
+        with pytest.warns(PreloadWarning, match="INFEASIBLE"):
+            sol = solve_preload(scene, method, sample_rate=50.0)
+        assert not sol.feasible.any()
+        assert {i.joint for i in sol.infeasible} & set(sol.joint_names)
+        assert set(np.round([i.t for i in sol.infeasible], 9)) == set(np.round(sol.t, 9))
+        assert np.all(np.isfinite(sol.tau)) and np.all(np.isfinite(sol.reactions))
+    with pytest.raises(PreloadInfeasibleError, match="f_min"):
+        solve_preload(scene, "exact", sample_rate=50.0, strict=True)
+
+
+def test_unreachable_pose_is_reported_not_returned_as_numbers(paper_data):
+    """A path leaving the workspace (scene check skipped) gives 'pose' entries, finite output."""
+    paper_data["path"]["radius"] = 0.4
+    scene = parse_scene(paper_data, check_path=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PreloadWarning)
+        sol = solve_preload(scene, "exact", sample_rate=20.0)
+    bad = [i for i in sol.infeasible if i.joint == "pose"]
+    assert bad and not sol.all_feasible
+    assert np.all(np.isfinite(sol.tau))
+    assert "pose" in sol.report()
+
+
+def test_exact_preload_is_a_pure_sx_function(paper_scene):
+    """Code-generable: an SX Function without free symbols or embedded solver calls."""
+    f = exact_preload_function(paper_scene)
+    assert f.is_a("SXFunction") and not f.has_free()
+    assert f.name_in() == ["tau_p", "tau_n", "r_p", "r_n"] and f.name_out() == ["alpha", "tau", "feasible", "margin"]
+    q = qp_preload_function(paper_scene)
+    assert q.name_out()[:2] == ["alpha", "tau"]
+    assert isinstance(q, ca.Function)
+
+
+def test_torque_interpolant_reproduces_the_samples(solutions):
+    sol = solutions["qp"]
+    f = sol.torque_interpolant()
+    k = len(sol.t) // 3
+    assert np.allclose(np.array(f(sol.t[k])).ravel(), sol.tau[k])
