@@ -1,0 +1,135 @@
+"""The equation builder: exactly the effects a scene asks for, consistent forms, and the
+clearance model converging to the ideal one."""
+
+import dataclasses
+import types
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from rrr4 import SceneError, load_scene, simulate
+from rrr4.dynamics.builder import build_equations
+from rrr4.dynamics.inverse import inverse_dynamics_function
+from rrr4.mechanism import Mechanism
+from rrr4.trajectory import sample_path
+
+from .conftest import ROOT
+
+CONSERVATIVE = ROOT / "problems" / "conservative_free.yaml"
+
+
+def _ops(f: ca.Function) -> set:
+    return {f.instruction_id(k) for k in range(f.n_instructions())}
+
+
+def _with(scene, clearance=None, friction=None, mode=None, restitution=None, radial_clearance=None):
+    joints = scene.joints
+    if clearance is not None:
+        joints = tuple(dataclasses.replace(j, clearance=j.name in clearance) for j in joints)
+    if radial_clearance is not None:
+        joints = tuple(dataclasses.replace(j, radial_clearance=radial_clearance) for j in joints)
+    eff = scene.effects
+    if friction is not None:
+        eff = dataclasses.replace(eff, friction=dataclasses.replace(eff.friction, law=friction))
+    if restitution is not None:
+        eff = dataclasses.replace(eff, contact=dataclasses.replace(eff.contact, restitution=restitution))
+    act = scene.actuation if mode is None else dataclasses.replace(scene.actuation, mode=mode)
+    return dataclasses.replace(scene, joints=joints, effects=eff, actuation=act)
+
+
+def test_frictionless_scene_has_no_friction_term_in_its_graph(paper_scene):
+    with_f = build_equations(paper_scene).acceleration
+    without = build_equations(_with(paper_scene, friction="none")).acceleration
+    assert ca.OP_SIGN in _ops(with_f)
+    assert not _ops(without) & {ca.OP_SIGN, ca.OP_TANH, ca.OP_EXP}
+    assert without.n_instructions() < with_f.n_instructions()
+    assert not any(any(without.which_depends(name, ["power_friction", "friction_force"], 1, False))
+                   for name in ("q", "qd"))
+
+
+def test_all_ideal_scene_has_no_contact_code(paper_scene):
+    eqs = build_equations(_with(paper_scene, clearance=(), mode="free"))
+    f = eqs.acceleration
+    assert not _ops(f) & {ca.OP_FMAX, ca.OP_IF_ELSE_ZERO}   # no clamped law, no onset switch
+    assert f.size_in("delta_dot0") == (0, 1) and f.size_out("contact_force") == (2, 0)
+    assert eqs.n_constraints == 24 and "contact" not in " ".join(eqs.terms)
+    partial = build_equations(_with(paper_scene, clearance=("B2", "C4"), mode="free"))
+    assert partial.n_constraints == 8 + 2 * 6 and partial.clearance_joints == ("B2", "C4")
+    assert {ca.OP_FMAX, ca.OP_IF_ELSE_ZERO} <= _ops(partial.acceleration)
+
+
+def test_free_actuators_ignore_torque_inputs_and_torque_mode_uses_them(paper_scene):
+    free = build_equations(load_scene(CONSERVATIVE)).acceleration
+    torque = build_equations(paper_scene).acceleration
+    for name in ("tau_ref", "theta_ref", "theta_d_ref"):
+        assert not any(free.which_depends(name, ["qdd"], 1, False))
+        assert all(torque.which_depends(name, ["qdd"], 1, False))
+
+
+def test_torque_is_clipped_at_the_actuator_limit(paper_scene):
+    eqs = build_equations(paper_scene)
+    mech = Mechanism.from_scene(paper_scene)
+    q, qd, _ = mech.body_motion([0.0, 0.0, 0.0])
+    tau = np.array(eqs.acceleration(q=q, qd=qd, tau_ref=[100.0, -100.0, 1.0, 0.0], theta_ref=mech.ik([0, 0, 0]),
+                                    theta_d_ref=np.zeros(4), theta_dd_ref=np.zeros(4), delta_dot0=np.ones(8),
+                                    in_contact=np.zeros(8))["tau"]).ravel()
+    np.testing.assert_allclose(tau, [5.0, -5.0, 1.0, 0.0], atol=1e-9)
+
+
+@pytest.mark.parametrize("mode, clearance", [("torque", ("B1", "C3")), ("prescribed", ("B1", "B2", "C3")),
+                                             ("torque", ())])
+def test_index1_form_satisfies_the_residual_form(paper_scene, mode, clearance):
+    scene = _with(paper_scene, clearance=clearance, mode=mode)
+    eqs = build_equations(scene)
+    mech = Mechanism.from_scene(scene)
+    rng = np.random.default_rng(3)
+    q, qd, _ = mech.body_motion([0.01, 0.005, 0.05], [0.1, -0.2, 0.5])
+    q = q + rng.normal(0, 3e-5, q.shape)
+    args = dict(tau_ref=rng.normal(0, 1, 4), theta_ref=mech.ik([0.01, 0.005, 0.05]) + 1e-3,
+                theta_d_ref=rng.normal(0, 1, 4), theta_dd_ref=rng.normal(0, 1, 4),
+                delta_dot0=np.full(len(clearance), 0.1), in_contact=np.ones(len(clearance)))
+    out = eqs.acceleration(q=q, qd=qd, **args)
+    res = eqs.residual(q=q, qd=qd, qdd=out["qdd"], **{"lambda": out["lambda"]}, **args)
+    scale = np.max(np.abs(np.array(out["qdd"])))
+    assert np.max(np.abs(np.array(res["dynamics"]))) < 1e-9 * max(scale, 1.0)
+    assert np.max(np.abs(np.array(res["constraint"]))) < 1e-9 * max(scale, 1.0)
+    if mode == "prescribed":   # the actuator torque is the driving constraints' reaction
+        np.testing.assert_allclose(np.array(out["tau"]).ravel(), -np.array(out["lambda"]).ravel()[-4:])
+
+
+def test_prescribed_mode_on_an_all_ideal_redundant_mechanism_is_refused(paper_scene):
+    with pytest.raises(SceneError, match="actuation.mode"):
+        build_equations(_with(paper_scene, clearance=(), mode="prescribed"))
+
+
+def test_prescribed_actuator_angles_are_followed(paper_scene):
+    scene = _with(paper_scene, mode="prescribed", friction="none")
+    r = simulate(scene, integrator="rk4", step=1e-5, t_end=0.02)
+    mech = Mechanism.from_scene(scene)
+    theta = r.q[:, [6 * i + 2 for i in range(4)]]
+    theta_ref = np.array([mech.ik(p) for p in r.pose_ref])
+    assert np.max(np.abs(theta - theta_ref)) < 1e-8
+    assert r.platform_error.max() < 2e-4     # within the clearances of the chains
+
+
+def test_clearance_model_converges_to_the_ideal_model(paper_scene):
+    """Clearance 100 -> 10 -> 1 um (stiffness grows as sqrt(1/c)) under a constant preload
+    alpha = 3 N m: platform motion and the contact forces (averaged over 20-40 ms, after the
+    start-up impacts) approach the ideal model's platform motion and joint reactions."""
+    base = _with(paper_scene, friction="none", restitution=0.3)
+    ps = sample_path(base.path)
+    tau_p, tau_n, _, _ = inverse_dynamics_function(base).map(len(ps.t))(ps.pose.T, ps.pose_d.T, ps.pose_dd.T)
+    preload = types.SimpleNamespace(t=ps.t, tau=(np.array(tau_p) + 3.0 * np.array(tau_n)).T)
+    ideal = simulate(_with(base, clearance=()), integrator="rk4", step=1e-5, t_end=0.04, preload=preload)
+    late = ideal.t >= 0.02
+    r_ideal = ideal.reaction[late].mean(axis=0)
+    assert np.linalg.norm(r_ideal, axis=1).min() > 4.0      # every joint loaded
+    pos_err, force_err = [], []
+    for c in (1e-4, 1e-5, 1e-6):
+        r = simulate(_with(base, radial_clearance=c), integrator="rk4", step=2e-6, t_end=0.04, preload=preload)
+        pos_err.append(np.max(np.linalg.norm(r.pose[late, :2] - ideal.pose[late, :2], axis=1)))
+        force_err.append(np.max(np.linalg.norm(r.contact_force[late].mean(axis=0) - r_ideal, axis=1)))
+    assert pos_err[0] > pos_err[1] > pos_err[2] and pos_err[2] < 1e-7
+    assert force_err[0] > force_err[1] > force_err[2]
+    assert force_err[2] < 0.05 * np.linalg.norm(r_ideal, axis=1).min()
