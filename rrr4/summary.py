@@ -54,8 +54,12 @@ def scene_summary(scene: Scene) -> str:
         lines.append(f"  actuation: feed-forward + {a.preload.method} preload (f_min = {a.preload.min_force:g} N) "
                      f"+ PD (kp = {a.kp:g} N m/rad, kd = {a.kd:g} N m s/rad), "
                      f"|tau| <= {max(a.torque_limit):g} N m")
+    elif a.mode == "free":
+        lines.append("  actuation: free (zero actuator torque)")
     else:
         lines.append("  actuation: prescribed actuator angles (driving constraints)")
+    lines.append("")
+    lines += _graph_lines(scene)
     lines.append("")
     s = sample_path(scene.path)
     pk = path_kinematics(scene, mech)
@@ -73,3 +77,15 @@ def scene_summary(scene: Scene) -> str:
     integ = scene.integrator
     lines.append(f"integrator: {integ.method}, step {integ.step:g} s")
     return "\n".join(lines)
+
+
+def _graph_lines(scene: Scene) -> list[str]:
+    """Terms in the generated equations and the size of each CasADi graph."""
+    from .dynamics.builder import build_equations, graph_size
+    eqs = build_equations(scene)
+    lines = [f"equations: {eqs.nq} coordinates, {eqs.n_constraints} constraint rows; terms: "
+             + "; ".join(eqs.terms)]
+    for f in (eqs.acceleration, eqs.residual, eqs.contact_update, eqs.energy):
+        g = graph_size(f)
+        lines.append(f"  graph {f.name()}: {g['instructions']} SX instructions, {g['nodes']} nodes")
+    return lines
