@@ -202,3 +202,14 @@ def test_torque_interpolant_reproduces_the_samples(solutions):
     f = sol.torque_interpolant()
     k = len(sol.t) // 3
     assert np.allclose(np.array(f(sol.t[k])).ravel(), sol.tau[k])
+
+
+def test_exact_on_one_branch_stays_on_it_and_never_beats_the_global_optimum(paper_scene):
+    """branch='auto' keeps one sign of alpha (no force reversal); per sample its effort is
+    >= the unrestricted global optimum's, and it is far smoother."""
+    glob = solve_preload(paper_scene, "exact", sample_rate=RATE)
+    one = solve_preload(paper_scene, "exact", sample_rate=RATE, branch="auto")
+    assert one.all_feasible and one.statistics["branch"] in (1, -1)
+    assert np.all(one.statistics["branch"] * one.alpha >= 0)
+    assert np.all(np.sum(one.tau**2, axis=1) >= np.sum(glob.tau**2, axis=1) - 1e-9)
+    assert one.roughness < 0.01 * glob.roughness

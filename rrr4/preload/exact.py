@@ -47,7 +47,7 @@ def constraint_violation(tau, r, f_min: float, limits):
 
 
 @functools.cache
-def _build(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...]) -> ca.Function:
+def _build(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...], branch: int = 0) -> ca.Function:
     n = len(weights)
     nj = 2 * n
     tau_p, tau_n = ca.SX.sym("tau_p", n), ca.SX.sym("tau_n", n, 1)
@@ -64,6 +64,10 @@ def _build(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...]) 
         active = ca.fabs(tn) > 1e-14
         lo = ca.if_else(active, ca.fmax(lo, ca.fmin(a1, a2)), lo)
         hi = ca.if_else(active, ca.fmin(hi, ca.fmax(a1, a2)), hi)
+    if branch > 0:
+        lo = ca.fmax(lo, 0.0)
+    elif branch < 0:
+        hi = ca.fmin(hi, 0.0)
 
     # unconstrained minimiser of sum w_i (tau_p,i + alpha tau_n,i)^2, clipped to the box
     den = ca.dot(w, tau_n**2)
@@ -90,7 +94,8 @@ def _build(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...]) 
         r = r_p + alpha * r_n
         margin, viol = constraint_violation(tau, r, f_min, limits)
         cost = ca.dot(w, tau**2)
-        feas = ca.logic_and(ok, viol <= 1e-9)
+        in_box = ca.logic_and(alpha >= lo - 1e-12 * (1 + ca.fabs(alpha)), alpha <= hi + 1e-12 * (1 + ca.fabs(alpha)))
+        feas = ca.logic_and(ca.logic_and(ok, in_box), viol <= 1e-9)
         viol = ca.if_else(ok, viol, big)
         if best is None:
             best = [alpha, tau, feas, margin, cost, viol]
@@ -104,14 +109,16 @@ def _build(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...]) 
                        ["tau_p", "tau_n", "r_p", "r_n"], ["alpha", "tau", "feasible", "margin"])
 
 
-def exact_preload_function(scene: Scene, f_min: float | None = None) -> ca.Function:
+def exact_preload_function(scene: Scene, f_min: float | None = None, branch: int = 0) -> ca.Function:
     """SX Function 'exact_preload' for a 4-RRR scene:
     tau_p (4,) [N m], tau_n (4, 1), r_p (2, 8) [N], r_n (2, 8) [N] ->
     alpha [N m], tau (4,) [N m], feasible (1.0 / 0.0), margin [N] = min_j ||r_j|| - f_min.
 
     f_min (default ``actuation.preload.min_force``), weights and torque limits come from
     the scene. Global optimum of sum_i w_i tau_i^2 subject to ||r_j|| >= f_min at all
-    eight passive joints and |tau_i| <= L_i. Cached per (f_min, weights, limits).
+    eight passive joints and |tau_i| <= L_i. branch = +1 (-1) restricts the preload to
+    alpha >= 0 (<= 0): still closed form, and continuous along a path where the global
+    optimum would jump between the two branches of equal cost. Cached per arguments.
     """
     if scene.mechanism.n_chains != 4:
         from ..errors import SceneError
@@ -119,4 +126,7 @@ def exact_preload_function(scene: Scene, f_min: float | None = None) -> ca.Funct
                          "(it needs one degree of redundancy: 4 chains)")
     p = scene.actuation.preload
     fm = p.min_force if f_min is None else float(f_min)
-    return _build(float(fm), tuple(p.weights), tuple(scene.actuation.torque_limit))
+    if branch not in (0, 1, -1):
+        from ..errors import SceneError
+        raise SceneError(f"branch: {branch!r} is not allowed (0 for both, +1 or -1)")
+    return _build(float(fm), tuple(p.weights), tuple(scene.actuation.torque_limit), int(branch))

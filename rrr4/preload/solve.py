@@ -82,11 +82,13 @@ def _singular(scene: Scene, samples) -> np.ndarray:
     return out
 
 
-def _choose_signs(scene, raw, solver):
-    """Uniform fixed sign (+1 or -1) feasible at more samples; ties -> less effort."""
+def _choose_signs(scene, raw, solver, exact=False):
+    """Uniform fixed sign (+1 or -1) feasible at more samples; ties -> less effort.
+    With exact=True the sign is the branch of the exact method (alpha >= 0 or <= 0)."""
     best = None
     for s in (1.0, -1.0):
-        alpha, tau, feas, _ = (np.array(v) for v in qp_preload_function(scene, solver, s).map(raw[0].shape[1])(*raw))
+        f = exact_preload_function(scene, branch=int(s)) if exact else qp_preload_function(scene, solver, s)
+        alpha, tau, feas, _ = (np.array(v) for v in f.map(raw[0].shape[1])(*raw))
         effort = np.nansum(tau**2)
         key = (-np.nansum(feas), effort)
         if best is None or key < best[0]:
@@ -95,14 +97,16 @@ def _choose_signs(scene, raw, solver):
 
 
 def solve_preload(scene: Scene, method: str | None = None, *, qp_solver: str | None = None, signs=None,
-                  sample_rate: float | None = None, nlp_rate: float | None = None,
+                  branch: int | str = 0, sample_rate: float | None = None, nlp_rate: float | None = None,
                   strict: bool = False) -> PreloadSolution:
     """Preload torques along the scene's path.
 
     method: 'exact', 'qp' or 'nlp' (default ``actuation.preload.method``). qp_solver:
     conic plugin for 'qp' (default the scene's; qrqp, osqp, daqp, qpoases). signs: fixed
     axial-force sign for 'qp' (+1, -1 or one per passive joint; default: the uniform sign
-    feasible at more samples). sample_rate [Hz]: path samples (default the scene's).
+    feasible at more samples). branch for 'exact': 0 = global optimum at every sample
+    (may jump between the +-alpha branches), +1 / -1 = alpha >= 0 / <= 0, 'auto' = the
+    branch feasible at more samples, ties -> less effort. sample_rate [Hz]: path samples (default the scene's).
     nlp_rate [Hz]: grid of the horizon NLP (default: every sample); alpha is interpolated
     linearly between its points and every sample is checked.
     strict: raise PreloadInfeasibleError instead of warning when a sample is infeasible.
@@ -128,9 +132,13 @@ def solve_preload(scene: Scene, method: str | None = None, *, qp_solver: str | N
     used_signs = None
 
     if method == "exact":
-        alpha, _, feas, _ = (np.array(v) for v in exact_preload_function(scene).map(N)(*raw))
+        if branch == "auto":
+            branch, alpha, feas = _choose_signs(scene, raw, solver, exact=True)
+            branch = int(branch)
+        else:
+            alpha, _, feas, _ = (np.array(v) for v in exact_preload_function(scene, branch=branch).map(N)(*raw))
         alpha, method_ok = alpha.T, feas.ravel() > 0.5
-        stats["solver"] = "closed form"
+        stats.update(solver="closed form", branch=branch)
     elif method == "qp":
         if signs is None:
             used_signs, alpha, feas = _choose_signs(scene, raw, solver)
