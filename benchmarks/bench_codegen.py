@@ -1,7 +1,7 @@
 """ns per call of each generated C kernel (gcc -O3) against the same CasADi Function called
 from Python, in one run on one machine.
 
-    .venv/bin/python benchmarks/bench_codegen.py [SCENE] [--calls N]
+    .venv/bin/python benchmarks/bench_codegen.py [SCENE] [--calls N] [--flags "-O3 -march=native"]
 
 The C side is a small timing harness written next to the generated sources in a temporary
 directory: inputs are 64 points along the scene's path (trajectory, IK with a 1 mrad
@@ -146,12 +146,14 @@ def _machine() -> str:
     except OSError:
         pass
     gcc = subprocess.run(["gcc", "--version"], capture_output=True, text=True).stdout.splitlines()[0]
-    return f"{platform.system()} {platform.machine()}, {os.cpu_count()} cores, {cpu}; {gcc}"
+    load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
+    return f"{platform.system()} {platform.machine()}, {os.cpu_count()} cores, {cpu}; {gcc}; load average {load}"
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scene", nargs="?", default=str(ROOT / "problems" / "paper_circle.yaml"))
+    ap.add_argument("--flags", default="-O3", help="gcc optimisation flags (default -O3; try '-O3 -march=native')")
     ap.add_argument("--calls", type=int, default=50000, help="C calls per kernel and repeat (default 50000)")
     args = ap.parse_args(argv)
     scene = load_scene(args.scene)
@@ -164,7 +166,7 @@ def main(argv=None) -> int:
         (src / "main.c").unlink()  # the harness has the only main
         cases = "".join(_CASE.replace("__NAME__", k).replace("__ARGS__", _HARNESS_ARGS[k]) for k in KERNELS)
         (src / "bench.c").write_text(_HARNESS.replace("__SAMPLES__", str(SAMPLES)).replace("__CASES__", cases))
-        flags = ("-O3", "-Wall")
+        flags = (*args.flags.split(), "-Wall")
         exe = build_example(src, src / "bench", flags=flags)
         lib = compile_library(src, src / "librrr4.so", flags=flags)
         out = subprocess.run([str(exe), str(args.calls)], capture_output=True, text=True, check=True).stdout
@@ -176,7 +178,7 @@ def main(argv=None) -> int:
     print(f"machine: {_machine()}")
     print(f"scene: {scene.name}; {SAMPLES} points along the path; "
           f"best of 5 x {args.calls} C calls per kernel (gcc {' '.join(flags)})")
-    print(f"{'kernel':<18}{'C -O3 [ns]':>12}{'CasADi from Python [ns]':>25}{'ratio':>9}"
+    print(f"{'kernel':<18}{'C [ns]':>12}{'CasADi from Python [ns]':>25}{'ratio':>9}"
           f"{'external from Python [ns]':>27}")
     for k in KERNELS:
         ns, fail = c_ns[k]
