@@ -24,6 +24,24 @@ def _codegen(args) -> int:
     return 0
 
 
+def _run(args) -> int:
+    from pathlib import Path
+
+    from tqdm import tqdm
+
+    from .results import check_target, write_results
+    from .scene import load_scene
+    from .study import run_study
+    scene = load_scene(args.scene)
+    out = Path(args.out) if args.out else Path("results") / scene.name
+    check_target(out)
+    study = run_study(scene, t_end=args.t_end, progress=True, log=lambda m: tqdm.write(f"rrr4 run: {m}"))
+    _, files = write_results(study, out)
+    print(f"wrote {len(files)} files to {out}/: {', '.join(files)}")
+    print((out / "report.md").read_text())
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="rrr4",
@@ -38,6 +56,12 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("scene", help="scene YAML file, e.g. problems/paper_circle.yaml")
     g.add_argument("--out", required=True, help="directory to write the C files into (created if needed)")
     g.set_defaults(func=_codegen)
+    r = sub.add_parser("run", help="run the study of a scene: inverse dynamics, preload, clearance simulation "
+                                    "with and without preload; writes figures, CSV, summary.json, report.md")
+    r.add_argument("scene", help="scene YAML file, e.g. problems/paper_circle.yaml")
+    r.add_argument("--out", help="result directory (default results/<scene name>/); replaced atomically")
+    r.add_argument("--t-end", type=float, default=None, help="simulated time [s] (default: the path duration)")
+    r.set_defaults(func=_run)
     return p
 
 

@@ -1,0 +1,171 @@
+"""Figures of a study (matplotlib, Agg). Each function writes one PNG and returns its path.
+
+Arms are drawn in fixed colours: with preload blue, without preload orange.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ..study import Study  # noqa: E402
+
+__all__ = ["orbits", "contact_forces", "platform_error", "torques", "preload_alpha", "all_figures"]
+
+STYLE = {"with_preload": {"color": "tab:blue", "label": "with preload"},
+         "without_preload": {"color": "tab:orange", "label": "without preload"}}
+DPI = 110
+
+
+def _grid(count: int, width: float = 3.2, height: float = 2.6):
+    cols = min(count, 4)
+    rows = math.ceil(count / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(width * cols, height * rows + 0.6), squeeze=False)
+    return fig, axes.ravel()
+
+
+def _save(fig, path: Path) -> Path:
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+    return path
+
+
+def _title(study: Study, what: str) -> str:
+    return f"{study.scene.name}: {what}"
+
+
+def orbits(study: Study, path: Path) -> Path | None:
+    """Journal-centre orbit (eccentricity [um]) inside the clearance circle, every clearance joint."""
+    joints = study.arms["without_preload"].simulation.clearance_joints
+    if not joints:
+        return None
+    fig, axes = _grid(len(joints), 3.0, 3.0)
+    for k, name in enumerate(joints):
+        ax = axes[k]
+        c = study.scene.joint(name).radial_clearance * 1e6
+        phi = np.linspace(0, 2 * np.pi, 361)
+        ax.plot(c * np.cos(phi), c * np.sin(phi), color="0.3", lw=1.0, label="clearance circle")
+        for arm_name, arm in study.arms.items():
+            e = arm.simulation.eccentricity[:, k, :] * 1e6
+            ax.plot(e[:, 0], e[:, 1], lw=0.6, **STYLE[arm_name])
+        ax.set_aspect("equal")
+        lim = 1.15 * c
+        ax.set_xlim(-lim, lim)
+        ax.set_ylim(-lim, lim)
+        ax.set_title(name)
+        ax.set_xlabel("e_x [um]")
+        ax.set_ylabel("e_y [um]")
+    for ax in axes[len(joints):]:
+        ax.set_visible(False)
+    axes[0].legend(loc="center", fontsize=7)
+    fig.suptitle(_title(study, "journal-centre orbits inside the clearance circle (global frame)"))
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def contact_forces(study: Study, path: Path) -> Path | None:
+    """Normal contact force [N] against time, every clearance joint."""
+    joints = study.arms["without_preload"].simulation.clearance_joints
+    if not joints:
+        return None
+    fig, axes = _grid(len(joints), 3.6, 2.4)
+    f_min = study.preload.f_min if study.preload is not None else None
+    for k, name in enumerate(joints):
+        ax = axes[k]
+        for arm_name, arm in study.arms.items():
+            sim = arm.simulation
+            ax.plot(sim.t, sim.normal_force[:, k], lw=0.5, **STYLE[arm_name])
+        if f_min:
+            ax.axhline(f_min, color="k", ls="--", lw=0.8, label=f"f_min = {f_min:g} N")
+        ax.set_yscale("symlog", linthresh=1.0)
+        ax.set_title(name)
+        ax.set_xlabel("t [s]")
+        ax.set_ylabel("normal force [N]")
+    for ax in axes[len(joints):]:
+        ax.set_visible(False)
+    axes[0].legend(fontsize=7)
+    fig.suptitle(_title(study, "normal contact force at each clearance joint (0 = free flight)"))
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def platform_error(study: Study, path: Path) -> Path:
+    """Platform position error |p - p_ref| [um] against time."""
+    fig, ax = plt.subplots(figsize=(8, 3.6))
+    for arm_name, arm in study.arms.items():
+        sim = arm.simulation
+        rms = np.sqrt(np.mean(sim.platform_error**2)) * 1e6
+        ax.plot(sim.t, sim.platform_error * 1e6, lw=0.7, color=STYLE[arm_name]["color"],
+                label=f"{STYLE[arm_name]['label']} (RMS {rms:.3g} um)")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("position error [um]")
+    ax.set_title(_title(study, "platform position error against the commanded path"))
+    ax.legend()
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def torques(study: Study, path: Path) -> Path:
+    """Actuator torques [N m] against time, both arms, with their feed-forward references."""
+    n = study.scene.mechanism.n_chains
+    fig, axes = _grid(n, 4.0, 2.6)
+    for i in range(n):
+        ax = axes[i]
+        for arm_name, arm in study.arms.items():
+            sim = arm.simulation
+            ax.plot(sim.t, sim.tau[:, i], lw=0.6, **STYLE[arm_name])
+        ax.plot(study.t_path, study.tau_min_norm[:, i], "k:", lw=1.0, label="minimum-norm feed-forward")
+        if study.preload is not None:
+            ax.plot(study.preload.t, study.preload.tau[:, i], "k--", lw=0.8, label="preload feed-forward")
+        ax.set_title(f"actuator A{i + 1}")
+        ax.set_xlabel("t [s]")
+        ax.set_ylabel("torque [N m]")
+        ax.set_xlim(0, study.t_end)
+    for ax in axes[n:]:
+        ax.set_visible(False)
+    axes[0].legend(fontsize=7)
+    fig.suptitle(_title(study, "actuator torques (feed-forward + PD)"))
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def preload_alpha(study: Study, path: Path) -> Path | None:
+    """Null-space coordinate alpha(t) [N m] and the smallest reaction margin [N]."""
+    sol = study.preload
+    if sol is None:
+        return None
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 5), sharex=True)
+    alpha = np.asarray(sol.alpha).reshape(len(sol.t), -1)
+    for k in range(alpha.shape[1]):
+        a1.plot(sol.t, alpha[:, k], lw=1.0, label=f"alpha{'' if alpha.shape[1] == 1 else k + 1} ({sol.method})")
+    a1.set_ylabel("alpha [N m]")
+    a1.set_title(_title(study, f"preload along the null space, tau = tau_p + alpha n ({sol.method})"))
+    a1.legend()
+    a1.grid(alpha=0.3)
+    norms = sol.reaction_magnitudes
+    a2.plot(sol.t, norms.min(axis=1), lw=1.0, label="smallest |r_j| over B1..C4")
+    a2.axhline(sol.f_min, color="k", ls="--", lw=0.8, label=f"f_min = {sol.f_min:g} N")
+    bad = ~sol.feasible
+    if bad.any():
+        a2.plot(sol.t[bad], norms.min(axis=1)[bad], "rx", ms=3, label="infeasible sample")
+    a2.set_xlabel("t [s]")
+    a2.set_ylabel("reaction [N]")
+    a2.legend()
+    a2.grid(alpha=0.3)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def all_figures(study: Study, out: Path) -> list[Path]:
+    """Write every figure that applies to the study into `out`; returns the files written."""
+    made = [orbits(study, out / "orbits.png"), contact_forces(study, out / "contact_force.png"),
+            platform_error(study, out / "platform_error.png"), torques(study, out / "torques.png"),
+            preload_alpha(study, out / "preload_alpha.png")]
+    return [p for p in made if p is not None]

@@ -1,0 +1,57 @@
+"""`summary.json` of a study: per-arm metrics, the preload and the target checks."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..study import Study
+from .metrics import arm_metrics
+
+__all__ = ["study_summary", "target_checks"]
+
+
+def _preload(study: Study) -> dict:
+    pre = study.scene.actuation.preload
+    if study.preload is None:
+        why = ("no actuation redundancy (3 chains): the inverse dynamics has a single solution"
+               if study.scene.mechanism.n_chains < 4 else "min_force = 0 N: the minimum-norm torques are optimal")
+        return {"method": None, "reason": why}
+    sol = study.preload
+    alpha = np.asarray(sol.alpha)
+    return {"method": sol.method, "f_min_N": sol.f_min, "feasible": sol.all_feasible,
+            "infeasible_samples": int(np.sum(~sol.feasible)), "samples": len(sol.t),
+            "alpha_min_Nm": float(alpha.min()), "alpha_max_Nm": float(alpha.max()),
+            "smallest_margin_N": float(np.min(sol.margin)), "torque_peak_Nm": float(np.max(np.abs(sol.tau))),
+            "torque_limit_Nm": list(sol.torque_limit), "weights": list(pre.weights),
+            "wall_time_s": float(sol.statistics.get("wall_time", 0.0)), "report": study.preload_warning or None}
+
+
+def target_checks(summary: dict) -> dict:
+    """The issue's targets, evaluated: zero losses with preload (whole run and after the
+    seating transient) and RMS platform error with preload <= half of that without."""
+    w, wo = summary.get("with_preload"), summary["without_preload"]
+    if w is None:
+        return {}
+    ratio = w["platform_error_rms_m"] / wo["platform_error_rms_m"] if wo["platform_error_rms_m"] > 0 else None
+    return {"zero_losses_with_preload": sum(w["contact_loss_events"].values()) == 0,
+            "zero_losses_with_preload_after_seating": sum(w["contact_loss_events_after_seating"].values()) == 0,
+            "rms_error_ratio_with_to_without": ratio,
+            "rms_error_at_most_half": ratio is not None and ratio <= 0.5}
+
+
+def study_summary(study: Study) -> dict:
+    """JSON-ready summary of a study (see the README's "What the main job prints")."""
+    sc = study.scene
+    out = {"scene": sc.name, "description": sc.description, "scene_file": Path(sc.source).name if sc.source else None,
+           "chains": sc.mechanism.n_chains, "clearance_joints": list(sc.clearance_joints),
+           "contact_law": sc.effects.contact.law if sc.clearance_joints else None,
+           "friction_law": sc.effects.friction.law if sc.clearance_joints else None,
+           "gains": {"kp_Nm_per_rad": sc.actuation.kp, "kd_Nms_per_rad": sc.actuation.kd},
+           "preload": _preload(study),
+           "with_preload": None, "without_preload": None}
+    for name, arm in study.arms.items():
+        out[name] = arm_metrics(arm.simulation, arm.wall_time)
+    out["targets"] = target_checks(out)
+    return out
