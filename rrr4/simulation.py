@@ -110,13 +110,13 @@ def _system(eqs: Equations, refs: ca.Function) -> System:
 
 
 def _integrator(scene: Scene, integrator, jit: bool) -> FixedStepIntegrator:
-    if isinstance(integrator, FixedStepIntegrator):
+    if hasattr(integrator, "run"):  # an integrator instance (fixed-step or adaptive)
         return integrator
     name = scene.integrator.method if integrator is None else integrator
     if name not in METHODS:
         key = "integrator.method" if integrator is None else "integrator"
         raise SceneError(f"{key}: {name!r} is not available (available now: {', '.join(METHODS)})")
-    return METHODS[name](jit=jit)
+    return METHODS[name].from_settings(scene.integrator, jit=jit)
 
 
 def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overrides) -> Simulation:
@@ -194,6 +194,7 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     stats = {"method": method.name, "step": h, "steps": spf * n_frames, "frames": n_frames, "wall_time": wall,
              "jit": method.jit, "graph": {f.name(): graph_size(f) for f in (eqs.acceleration, system.ode)},
              "preload": "given" if preload is not None else ("feed-forward only" if feed_forward else "none")}
+    stats.update(getattr(method, "run_stats", {}))
     return Simulation(
         scene=scene, clearance_joints=eqs.clearance_joints, ideal_passive_joints=eqs.passive_ideal_joints,
         terms=eqs.terms, t=t_frames, q=q, qd=qd, pose=pose, pose_ref=pose_ref.T,

@@ -4,8 +4,11 @@
 """
 
 from .base import FixedStepIntegrator, System
+from .bathe import Bathe
+from .generalized_alpha import GeneralizedAlpha
+from .newmark import NewmarkTrapezoidal
 from .rk4 import RK4
 
-METHODS = {RK4.name: RK4}
+METHODS = {m.name: m for m in (Bathe, NewmarkTrapezoidal, GeneralizedAlpha, RK4)}
 
-__all__ = ["FixedStepIntegrator", "System", "RK4", "METHODS"]
+__all__ = ["FixedStepIntegrator", "System", "RK4", "Bathe", "NewmarkTrapezoidal", "GeneralizedAlpha", "METHODS"]

@@ -48,6 +48,11 @@ class FixedStepIntegrator(ABC):
     def __init__(self, jit: bool = False):
         self.jit = jit
 
+    @classmethod
+    def from_settings(cls, settings, jit: bool = False):
+        """The method configured by a scene's IntegratorSettings (methods with parameters override this)."""
+        return cls(jit=jit)
+
     @abstractmethod
     def advance(self, ode: ca.Function, t, y, z, u, h: float):
         """y at t + h from y at t (symbolic); z and u are held over the step."""
@@ -73,9 +78,11 @@ class FixedStepIntegrator(ABC):
             progress: bool = False) -> np.ndarray:
         """States at the end of each frame, (n_frames, nx); u_frames (n_frames, nu)."""
         frame = self.frame_function(system, h, steps_per_frame)
+        if self.jit:  # generated C of the whole frame loop, cached on disk (see .compiled)
+            from .compiled import compiled
+            frame = compiled(frame)
         u_frames = np.atleast_2d(np.asarray(u_frames, float))
         n_frames = u_frames.shape[0]
-        opts = {"jit": True, "compiler": "shell", "jit_options": {"flags": ["-O2"]}} if self.jit else {}
         rolls: dict[int, ca.Function] = {}
         out, x = [], np.asarray(x0, float)
         bar = None
@@ -85,7 +92,7 @@ class FixedStepIntegrator(ABC):
         for k0 in range(0, n_frames, chunk):
             k = min(chunk, n_frames - k0)
             if k not in rolls:
-                rolls[k] = frame.mapaccum("frames", k, opts)
+                rolls[k] = frame.mapaccum("frames", k)
             xs = np.array(rolls[k](x, u_frames[k0:k0 + k].T))
             out.append(xs.T)
             x = xs[:, -1]
