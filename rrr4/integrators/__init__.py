@@ -3,12 +3,17 @@
 ``METHODS`` maps a scene's ``integrator.method`` to its class.
 """
 
+from .adaptive import AdaptiveIntegrator
 from .base import FixedStepIntegrator, System
 from .bathe import Bathe
+from .casadi_plugins import Cvodes, Erk, Idas, Rosenbrock
 from .generalized_alpha import GeneralizedAlpha
 from .newmark import NewmarkTrapezoidal
 from .rk4 import RK4
+from .scipy_ivp import RK45, Radau
 
-METHODS = {m.name: m for m in (Bathe, NewmarkTrapezoidal, GeneralizedAlpha, RK4)}
+METHODS = {m.name: m for m in (Bathe, NewmarkTrapezoidal, GeneralizedAlpha, RK4, Erk, Rosenbrock, Cvodes, Idas,
+                                RK45, Radau)}
 
-__all__ = ["FixedStepIntegrator", "System", "RK4", "Bathe", "NewmarkTrapezoidal", "GeneralizedAlpha", "METHODS"]
+__all__ = ["FixedStepIntegrator", "System", "RK4", "Bathe", "NewmarkTrapezoidal", "GeneralizedAlpha",
+           "AdaptiveIntegrator", "Cvodes", "Idas", "Erk", "Rosenbrock", "RK45", "Radau", "METHODS"]

@@ -1,0 +1,72 @@
+"""Shared loop of the adaptive methods (CasADi plugins, scipy solve_ivp).
+
+An adaptive method integrates one output interval ("frame") at a time with its own step
+control, inside its compiled core (SUNDIALS, CasADi, or scipy for the baseline); the
+discrete contact state z is updated at each frame end, as the fixed-step methods do after
+each step (between updates the force uses the onset rule, see
+:mod:`rrr4.dynamics.builder`). Python runs once per frame, never once per step.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+
+from ..errors import Rrr4Error
+from .base import System
+
+
+class AdaptiveIntegrator(ABC):
+    """Base of the error-controlled methods: rtol, atol (relative and absolute local error)."""
+    name = ""
+    order = 0
+
+    def __init__(self, jit: bool = False, rtol: float = 1e-8, atol: float = 1e-10):
+        for key, v in (("integrator.rtol", rtol), ("integrator.atol", atol)):
+            if not (np.isfinite(v) and v > 0):
+                raise Rrr4Error(f"{key}: {v!r} is not allowed (must be a finite number > 0)")
+        self.jit, self.rtol, self.atol = False, float(rtol), float(atol)
+        self.run_stats: dict = {}
+
+    @classmethod
+    def from_settings(cls, settings, jit: bool = False):
+        return cls(jit=jit, rtol=settings.rtol, atol=settings.atol)
+
+    @abstractmethod
+    def prepare(self, system: System, h0: float) -> None:
+        """Build what `integrate_frame` needs (once per run); h0 [s] is a first-step hint."""
+
+    @abstractmethod
+    def integrate_frame(self, t_a: float, t_b: float, y, z, u) -> tuple[np.ndarray, dict]:
+        """(y at t_b, counters of this frame: steps, rejected, rhs, jacobians)."""
+
+    def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,
+            progress: bool = False) -> np.ndarray:
+        """States at the end of each frame, (n_frames, nx); frame k spans [u[k, 0], u[k, 1]]."""
+        self.prepare(system, h)
+        u_frames = np.atleast_2d(np.asarray(u_frames, float))
+        ny = system.ny
+        x = np.asarray(x0, float)
+        out, totals = [], {"steps": 0, "rejected_steps": 0, "rhs_evaluations": 0, "jacobians": 0}
+        frames = range(u_frames.shape[0])
+        if progress:
+            from tqdm import tqdm
+            frames = tqdm(frames, desc=f"simulate ({self.name})", unit="frame")
+        for k in frames:
+            u = u_frames[k]
+            t_a, t_b = u[0], u[1]
+            y, z = x[1:1 + ny], x[1 + ny:]
+            y1, counts = self.integrate_frame(t_a, t_b, y, z, u)
+            for key in totals:
+                totals[key] += int(counts.get(key, 0))
+            if not np.all(np.isfinite(y1)):
+                out.append(np.full_like(x, np.nan))
+                break
+            z1 = np.array(system.discrete(t_b, y1, z)).ravel()
+            x = np.r_[t_b, y1, z1]
+            out.append(x)
+        while len(out) < u_frames.shape[0]:
+            out.append(np.full_like(x, np.nan))
+        self.run_stats = {**totals, "rtol": self.rtol, "atol": self.atol}
+        return np.vstack(out)
