@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from rrr4 import load_scene
-from rrr4.codegen import KERNELS, build_example, codegen, compile_library, kernels, load_library
+from rrr4.codegen import KERNELS, build_example, codegen, compile_library, kernels, load_library, preload_branch
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLES = 64
@@ -157,12 +157,13 @@ def main(argv=None) -> int:
     ap.add_argument("--calls", type=int, default=50000, help="C calls per kernel and repeat (default 50000)")
     args = ap.parse_args(argv)
     scene = load_scene(args.scene)
-    ks = {k.name: k for k in kernels(scene)}
+    branch = preload_branch(scene)
+    ks = {k.name: k for k in kernels(scene, branch)}
     py_args = _python_inputs(scene)
 
     with tempfile.TemporaryDirectory(prefix="rrr4-bench-") as tmp:
         src = Path(tmp)
-        codegen(scene, src)
+        codegen(scene, src, branch=branch)
         (src / "main.c").unlink()  # the harness has the only main
         cases = "".join(_CASE.replace("__NAME__", k).replace("__ARGS__", _HARNESS_ARGS[k]) for k in KERNELS)
         (src / "bench.c").write_text(_HARNESS.replace("__SAMPLES__", str(SAMPLES)).replace("__CASES__", cases))
@@ -176,7 +177,7 @@ def main(argv=None) -> int:
     py_ns = {k: _ns_per_call(ks[k].function, py_args[k]) for k in KERNELS}
 
     print(f"machine: {_machine()}")
-    print(f"scene: {scene.name}; {SAMPLES} points along the path; "
+    print(f"scene: {scene.name}, preload branch {branch:+d}; {SAMPLES} points along the path; "
           f"best of 5 x {args.calls} C calls per kernel (gcc {' '.join(flags)})")
     print(f"{'kernel':<18}{'C [ns]':>12}{'CasADi from Python [ns]':>25}{'ratio':>9}"
           f"{'external from Python [ns]':>27}")

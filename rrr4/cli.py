@@ -18,7 +18,8 @@ def _check(args) -> int:
 def _codegen(args) -> int:
     from .codegen import codegen
     from .scene import load_scene
-    for f in codegen(load_scene(args.scene), args.out):
+    branch = args.branch if args.branch == "auto" else int(args.branch)
+    for f in codegen(load_scene(args.scene), args.out, branch=branch):
         print(f)
     print(f"build the example with: cd {args.out} && gcc -O2 -Wall *.c -lm -o example && ./example")
     return 0
@@ -55,6 +56,9 @@ def build_parser() -> argparse.ArgumentParser:
                                         "controller step, QP), a header, an example main.c and a Makefile")
     g.add_argument("scene", help="scene YAML file, e.g. problems/paper_circle.yaml")
     g.add_argument("--out", required=True, help="directory to write the C files into (created if needed)")
+    g.add_argument("--branch", choices=["auto", "1", "-1", "0"], default="auto",
+                   help="exact-preload branch: alpha >= 0 (1), <= 0 (-1), global optimum per step (0), "
+                        "or the one rrr4 solve_preload picks on the scene's path (auto, default)")
     g.set_defaults(func=_codegen)
     r = sub.add_parser("run", help="run the study of a scene: inverse dynamics, preload, clearance simulation "
                                     "with and without preload; writes figures, CSV, summary.json, report.md")

@@ -41,8 +41,8 @@ from .preload.qp import qp_preload_function
 from .scene import Scene
 from .trajectory import trajectory_function
 
-__all__ = ["codegen", "kernels", "controller_step_function", "compile_library", "build_example", "load_library",
-           "KERNELS", "BuildError"]
+__all__ = ["codegen", "kernels", "controller_step_function", "preload_branch", "compile_library", "build_example",
+           "load_library", "KERNELS", "BuildError"]
 
 RAW = "rrr4_raw"  # stem of CasADi's generated .c/.h and prefix of its symbols
 WRAPPER = "rrr4"  # stem of the wrapper .c/.h and prefix of the wrapper functions
@@ -82,8 +82,9 @@ _KERNEL_DOC = {
     "inverse_dynamics": "Inverse dynamics of the ideal mechanism: the affine family tau = tau_p + alpha tau_n "
                         "and the passive reactions r_j = r_p[:, j] + alpha r_n[:, j] (force of the inboard on "
                         "the outboard body, global frame).",
-    "exact_preload": "Exact preload law on a given reaction family: the global minimum of sum_i w_i tau_i^2 "
-                     "subject to |r_j| >= min_force at all passive joints and |tau_i| <= limit_i (closed form).",
+    "exact_preload": "Exact preload law on a given reaction family: the least sum_i w_i tau_i^2 subject to "
+                     "|r_j| >= min_force at all passive joints and |tau_i| <= limit_i, with alpha on the branch "
+                     "RRR4_PRELOAD_BRANCH (closed form, no iterations).",
     "preload": "Exact preload law for a desired motion: inverse_dynamics followed by exact_preload.",
     "controller_step": "One controller step: tau = clip(tau_ff + kp (theta_ref - theta) + kd (theta_d_ref - "
                        "theta_d), +-limit) with theta_ref = ik(pose_des), theta_d_ref = J pose_d_des and the "
@@ -120,12 +121,14 @@ def _renamed(f: ca.Function, name: str, fixed: dict | None = None) -> ca.Functio
 
 
 @functools.cache
-def controller_step_function(scene: Scene) -> ca.Function:
+def controller_step_function(scene: Scene, branch: int = 1) -> ca.Function:
     """SX Function 'controller_step': pose_des (3), pose_d_des (3), pose_dd_des (3),
     theta (4) [rad], theta_d (4) [rad/s] -> tau (4) [N m], tau_ff (4) [N m], alpha [N m],
     feasible (1.0/0.0).
 
-    tau_ff = inverse-dynamics feed-forward + exact preload at the desired motion;
+    tau_ff = inverse-dynamics feed-forward + exact preload at the desired motion, on the
+    preload branch `branch` (+1: alpha >= 0, -1: alpha <= 0, 0: global optimum, which may
+    jump between the two and so reverse every bearing force);
     tau = clip(tau_ff + kp e + kd e_d, +-torque_limit) with e = wrap(ik(pose_des) - theta)
     and e_d = J(pose_des) pose_d_des - theta_d (gains ``actuation.kp``, ``actuation.kd``).
     """
@@ -133,7 +136,8 @@ def controller_step_function(scene: Scene) -> ca.Function:
     n = mech.n
     pose, pose_d, pose_dd = (ca.SX.sym(s, 3) for s in ("pose_des", "pose_d_des", "pose_dd_des"))
     theta, theta_d = ca.SX.sym("theta", n), ca.SX.sym("theta_d", n)
-    alpha, tau_ff, feasible, _ = exact_preload_function(scene)(*inverse_dynamics_function(scene)(pose, pose_d, pose_dd))
+    alpha, tau_ff, feasible, _ = exact_preload_function(scene, branch=branch)(
+        *inverse_dynamics_function(scene)(pose, pose_d, pose_dd))
     theta_ref = mech.ik_function(pose, ca.DM(mech.modes))[0]
     J = mech.jacobian_function(pose)[0]
     d = theta_ref - theta
@@ -146,13 +150,14 @@ def controller_step_function(scene: Scene) -> ca.Function:
 
 
 @functools.cache
-def kernels(scene: Scene) -> tuple[Kernel, ...]:
-    """The generated kernels of a 4-RRR scene, in :data:`KERNELS` order (built once, cached)."""
+def kernels(scene: Scene, branch: int = 1) -> tuple[Kernel, ...]:
+    """The generated kernels of a 4-RRR scene, in :data:`KERNELS` order (built once, cached);
+    the exact preload (in exact_preload, preload and controller_step) on `branch` (+1, -1, 0)."""
     if scene.mechanism.n_chains != 4:
         raise SceneError(f"mechanism.chains: {scene.mechanism.n_chains} chains is not allowed for code generation "
                          "(the controller needs the 4-RRR's one degree of redundancy: 4 chains)")
     mech = Mechanism.from_scene(scene)
-    inv, exact = inverse_dynamics_function(scene), exact_preload_function(scene)
+    inv, exact = inverse_dynamics_function(scene), exact_preload_function(scene, branch=branch)
     pose, pose_d, pose_dd = (ca.SX.sym(s, 3) for s in ("pose", "pose_d", "pose_dd"))
     preload = ca.Function("preload", [pose, pose_d, pose_dd], exact(*inv(pose, pose_d, pose_dd)),
                           ["pose", "pose_d", "pose_dd"], exact.name_out())
@@ -165,7 +170,7 @@ def kernels(scene: Scene) -> tuple[Kernel, ...]:
         "inverse_dynamics": (inv, None),
         "exact_preload": (exact, None),
         "preload": (preload, None),
-        "controller_step": (controller_step_function(scene), None),
+        "controller_step": (controller_step_function(scene, branch), None),
         "qp_preload": (qp_preload_function(scene, "qrqp"), None),
     }
     return tuple(Kernel(k, _renamed(sources[k][0], f"{RAW}_{k}", sources[k][1]), _KERNEL_DOC[k]) for k in KERNELS)
@@ -210,7 +215,7 @@ def _wrapper_body(k: Kernel) -> str:
     return "\n".join(lines)
 
 
-def _header(scene: Scene, ks: tuple[Kernel, ...]) -> str:
+def _header(scene: Scene, ks: tuple[Kernel, ...], branch: int) -> str:
     a = scene.actuation
     protos = "\n\n".join("{}\n{};".format(*_wrapper_doc_and_signature(k)) for k in ks)
     modes = ", ".join("+" if c.working_mode > 0 else "-" for c in scene.mechanism.chains)
@@ -235,6 +240,9 @@ extern "C" {{
 #define RRR4_KP {a.kp!r} /* proportional gain [N m/rad] */
 #define RRR4_KD {a.kd!r} /* derivative gain [N m s/rad] */
 #define RRR4_MIN_FORCE {a.preload.min_force!r} /* required reaction at every passive joint [N] */
+/* Branch of the exact preload: +1 alpha >= 0, -1 alpha <= 0, 0 global optimum per call
+ * (which may jump between +-alpha and reverse every bearing force). */
+#define RRR4_PRELOAD_BRANCH {branch}
 #define RRR4_PATH_DURATION {scene.path.duration!r} /* duration of rrr4_trajectory's path [s] */
 
 /* Torque limit of each actuator [N m]; torques are clipped to +-limit. */
@@ -384,14 +392,28 @@ def _out_dir(out_dir) -> Path:
     return out
 
 
-def codegen(scene: Scene, out_dir) -> list[Path]:
+def preload_branch(scene: Scene, branch="auto") -> int:
+    """The exact-preload branch as +1 (alpha >= 0), -1 (alpha <= 0) or 0 (global optimum per
+    instant). 'auto' is the branch that :func:`rrr4.solve_preload` picks on the scene's path
+    (feasible at more samples, ties -> less effort)."""
+    if branch == "auto":
+        from .preload.solve import solve_preload
+        return int(solve_preload(scene, "exact", branch="auto").statistics["branch"])
+    if branch in (0, 1, -1) and not isinstance(branch, bool):
+        return int(branch)
+    raise SceneError(f"branch: {branch!r} is not allowed (choose one of: auto, 1, -1, 0)")
+
+
+def codegen(scene: Scene, out_dir, branch="auto") -> list[Path]:
     """Write the scene's controller C into out_dir (created if needed); return the files.
 
     Files: rrr4_raw.c, rrr4_raw.h (CasADi), rrr4.h, rrr4.c (wrappers), main.c, Makefile.
     Each file is written to a temporary name and moved into place, so an interrupted run
-    leaves the earlier files intact.
+    leaves the earlier files intact. branch: the exact-preload branch
+    (:func:`preload_branch`); a fixed one keeps the torques continuous along a path.
     """
-    ks = kernels(scene)
+    branch = preload_branch(scene, branch)
+    ks = kernels(scene, branch)
     out = _out_dir(out_dir)
     cg = ca.CodeGenerator(f"{RAW}.c", {"with_header": True})
     for k in ks:
@@ -401,7 +423,7 @@ def codegen(scene: Scene, out_dir) -> list[Path]:
         cg.generate(str(tmp) + os.sep)
         for name in (f"{RAW}.c", f"{RAW}.h"):
             texts[name] = (Path(tmp) / name).read_text()
-    texts[f"{WRAPPER}.h"] = _header(scene, ks)
+    texts[f"{WRAPPER}.h"] = _header(scene, ks, branch)
     texts[f"{WRAPPER}.c"] = _source(scene, ks)
     texts["main.c"] = _main_c(scene)
     texts["Makefile"] = _MAKEFILE

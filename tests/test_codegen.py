@@ -18,6 +18,7 @@ from rrr4.codegen import (
     compile_library,
     controller_step_function,
     load_library,
+    preload_branch,
 )
 from rrr4.dynamics.inverse import inverse_dynamics_function
 from rrr4.preload.exact import exact_preload_function
@@ -38,13 +39,21 @@ def built(tmp_path_factory, paper_scene):
     build run side by side, since each compiles the whole generated file."""
     root = tmp_path_factory.mktemp("codegen")
     src = root / "src"
-    files = codegen(paper_scene, src)
+    branch = preload_branch(paper_scene)
+    files = codegen(paper_scene, src, branch=branch)
     plain = subprocess.Popen(["gcc", "-O2", "-Wall", *sorted(p.name for p in src.glob("*.c")), "-lm"],
                              cwd=src, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     lib = compile_library(src, root / "librrr4.so", flags=("-O2", "-Wall", "-Werror"))
     _, plain_err = plain.communicate()
-    return {"src": src, "files": files, "lib": lib, "plain_rc": plain.returncode, "plain_err": plain_err,
-            "a_out": src / "a.out"}
+    return {"branch": branch, "src": src, "files": files, "lib": lib, "plain_rc": plain.returncode,
+            "plain_err": plain_err, "a_out": src / "a.out"}
+
+
+@pytest.fixture(scope="module")
+def example_output(built, tmp_path_factory):
+    """stdout of the example main.c, built with -O2 -Wall -Werror."""
+    exe = build_example(built["src"], tmp_path_factory.mktemp("example") / "example")
+    return subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout
 
 
 def _motions(rng, k):
@@ -90,7 +99,8 @@ def test_directory_builds_with_plain_gcc_without_warnings(built):
 def test_every_compiled_kernel_matches_python_on_random_inputs(built, paper_scene):
     rng = np.random.default_rng(7)
     mech = Mechanism.from_scene(paper_scene)
-    inv, exact = inverse_dynamics_function(paper_scene), exact_preload_function(paper_scene)
+    branch = built["branch"]
+    inv, exact = inverse_dynamics_function(paper_scene), exact_preload_function(paper_scene, branch=branch)
     J_and_s = mech.jacobian_function
     cases = {
         "ik": lambda p: mech.ik_function(p, mech.modes),
@@ -100,7 +110,7 @@ def test_every_compiled_kernel_matches_python_on_random_inputs(built, paper_scen
         "inverse_dynamics": inv,
         "exact_preload": exact,
         "preload": lambda p, pd, pdd: exact(*inv(p, pd, pdd)),
-        "controller_step": controller_step_function(paper_scene),
+        "controller_step": controller_step_function(paper_scene, branch),
         "qp_preload": qp_preload_function(paper_scene, "qrqp"),
     }
     assert set(cases) == set(KERNELS)
@@ -133,16 +143,14 @@ def test_every_compiled_kernel_matches_python_on_random_inputs(built, paper_scen
     assert qp_failures < N_RANDOM // 2, "too few feasible QPs to compare"
 
 
-def test_example_prints_what_the_python_controller_computes(built, paper_scene, tmp_path):
-    exe = build_example(built["src"], tmp_path / "example")
-    out = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout
+def test_example_prints_what_the_python_controller_computes(built, example_output, paper_scene):
     rows = {}
-    for line in out.splitlines():
+    for line in example_output.splitlines():
         if not line.startswith("#"):
             tag, *vals = line.split()
             rows.setdefault(tag, []).append(np.array(vals, dtype=float))
     mech = Mechanism.from_scene(paper_scene)
-    traj, step = trajectory_function(paper_scene.path), controller_step_function(paper_scene)
+    traj, step = trajectory_function(paper_scene.path), controller_step_function(paper_scene, built["branch"])
 
     kin = rows["kinematics"][0]
     pose0 = np.array(traj(0.0)[0]).ravel()
@@ -161,13 +169,24 @@ def test_example_prints_what_the_python_controller_computes(built, paper_scene, 
         np.testing.assert_allclose(row[5:7], [alpha.item(), feasible.item()], rtol=TOL, atol=TOL)
 
 
+def test_example_preload_is_feasible_and_stays_on_one_branch(built, example_output):
+    """Along the reference path the generated controller never flips the preload sign, so no
+    bearing force reverses; the global optimum per instant (branch 0) would."""
+    assert f"#define RRR4_PRELOAD_BRANCH {built['branch']}" in (built["src"] / "rrr4.h").read_text()
+    assert built["branch"] in (1, -1)
+    steps = np.array([line.split()[1:] for line in example_output.splitlines() if line.startswith("step")], dtype=float)
+    alpha, feasible = steps[:, 5], steps[:, 6]
+    assert np.all(feasible == 1.0)
+    assert np.all(built["branch"] * alpha > 0)
+
+
 def test_controller_step_is_feedforward_plus_clipped_pd(paper_scene):
     """tau = clip(tau_ff + kp wrap(ik(pose) - theta) + kd (J pose_d - theta_d), +-limit),
     with tau_ff the exact preload of the desired motion."""
     rng = np.random.default_rng(3)
     mech = Mechanism.from_scene(paper_scene)
-    step = controller_step_function(paper_scene)
-    inv, exact = inverse_dynamics_function(paper_scene), exact_preload_function(paper_scene)
+    step = controller_step_function(paper_scene, branch=1)
+    inv, exact = inverse_dynamics_function(paper_scene), exact_preload_function(paper_scene, branch=1)
     a, lim = paper_scene.actuation, np.array(paper_scene.actuation.torque_limit)
     saturated = 0
     for _ in range(40):
