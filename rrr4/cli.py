@@ -43,6 +43,20 @@ def _run(args) -> int:
     return 0
 
 
+def _bench(args) -> int:
+    from .bench import work_precision, write_work_precision
+    from .errors import SceneError
+    from .scene import load_scene
+    if not (args.t_end > 0):
+        raise SceneError(f"--t-end: {args.t_end!r} is not allowed (must be > 0 s)")
+    scene = load_scene(args.scene)
+    out = args.out or "results/work_precision"
+    rows = work_precision(scene, t_end=args.t_end, progress=True)
+    for f in write_work_precision(rows, scene, out, args.t_end):
+        print(f)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="rrr4",
@@ -66,6 +80,13 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", help="result directory (default results/<scene name>/); replaced atomically")
     r.add_argument("--t-end", type=float, default=None, help="simulated time [s] (default: the path duration)")
     r.set_defaults(func=_run)
+    b = sub.add_parser("bench", help="what accuracy costs in time")
+    bsub = b.add_subparsers(dest="bench", metavar="BENCH", required=True)
+    a = bsub.add_parser("accuracy", help="work-precision diagram (error vs CPU time per integrator) and CSV")
+    a.add_argument("scene", help="scene YAML file, e.g. problems/paper_circle.yaml")
+    a.add_argument("--out", help="output directory (default: results/work_precision/)")
+    a.add_argument("--t-end", type=float, default=0.02, help="simulated time [s] (default 0.02)")
+    a.set_defaults(func=_bench)
     return p
 
 
