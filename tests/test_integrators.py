@@ -1,0 +1,118 @@
+"""Integrators: order, spectral radius at infinite stiffness, compiled cache, adaptive agreement."""
+
+import casadi as ca
+import numpy as np
+import pytest
+
+import rrr4
+from rrr4.integrators import METHODS, RK4, Bathe, Cvodes, GeneralizedAlpha, NewmarkTrapezoidal, System
+from rrr4.integrators.bathe import bathe_weights
+
+
+def oscillator(omega: float) -> System:
+    """y = [q, v, e]: q'' = -omega^2 q, e' = v^2 (a quadrature); no discrete state, u = [t_a, t_b]."""
+    t, y, z, u = ca.SX.sym("t"), ca.SX.sym("y", 3), ca.SX.sym("z", 0), ca.SX.sym("u", 2)
+    ode = ca.Function("ode", [t, y, z, u], [ca.vertcat(y[1], -omega**2 * y[0], y[1] ** 2)])
+    return System(ode, ca.Function("discrete", [t, y, z], [z]))
+
+
+def run(method, system, h, t_end, y0=(1.0, 0.0, 0.0)):
+    n = max(int(round(t_end / h)), 1)
+    u = np.array([[0.0, t_end]])
+    return method.run(system, np.r_[0.0, y0], u, t_end / n, n)[-1]
+
+
+def test_bathe_weights_reduce_to_bathe_baig_and_trapezoidal():
+    assert np.allclose(bathe_weights(0.5, 0.0), (1 / 3, 1 / 3, 1 / 3))
+    assert np.allclose(bathe_weights(0.5, 1.0), (0.25, 0.5, 0.25))
+
+
+@pytest.mark.parametrize("method,rho", [(Bathe(), 0.0), (Bathe(rho_inf=0.5), 0.5), (Bathe(gamma=0.3, rho_inf=0.2), 0.2),
+                                        (NewmarkTrapezoidal(), 1.0), (GeneralizedAlpha(rho_inf=0.3), 0.3)])
+def test_spectral_radius_at_infinite_stiffness_is_rho_inf(method, rho):
+    omega, h = 1e6, 1e-2        # omega h = 1e4
+
+    def amplitude(n):
+        y = run(method, oscillator(omega), h, n * h)
+        return np.hypot(y[1], y[2] / omega)
+
+    if rho == 0:                # annihilated in one step up to O(1/(omega h))
+        assert amplitude(2) < 1e-3
+    else:                       # per-step decay of the asymptotic amplitude (Jordan blocks give (n+1)/n factors)
+        assert amplitude(61) / amplitude(60) == pytest.approx(rho, rel=0.05)
+
+
+@pytest.mark.parametrize("method", [Bathe(), Bathe(gamma=0.4, rho_inf=0.6), NewmarkTrapezoidal(),
+                                    GeneralizedAlpha(rho_inf=0.5), RK4()])
+def test_error_falls_at_the_method_order_on_a_smooth_oscillator(method):
+    sys_ = oscillator(2 * np.pi)
+    w, t = 2 * np.pi, 0.7
+    exact = np.array([np.cos(w * t), -w * np.sin(w * t)])
+    errs = [np.linalg.norm(run(method, sys_, h, t)[1:3] - exact) for h in (0.007, 0.0035, 0.00175)]
+    orders = np.log2(np.array(errs[:-1]) / np.array(errs[1:]))
+    assert np.all(np.abs(orders - method.order) < 0.25), orders
+
+
+def test_implicit_methods_report_newton_iterations_and_converge():
+    m = Bathe()
+    run(m, oscillator(50.0), 1e-3, 0.1)
+    assert m.run_stats["newton_failures"] == 0
+    assert 2 <= m.run_stats["newton_iterations_per_step"] <= 2 * m.max_newton
+
+
+def test_compiled_stepping_matches_the_vm_and_is_cached_on_disk(tmp_path, monkeypatch):
+    monkeypatch.setenv("RRR4_CACHE", str(tmp_path))
+    sys_ = oscillator(3.0)
+    y_vm = run(Bathe(), sys_, 1e-3, 0.5)
+    y_c = run(Bathe(jit=True), sys_, 1e-3, 0.5)
+    libs = sorted(p.name for p in tmp_path.glob("*.so"))
+    assert len(libs) == 1
+    stamp = (tmp_path / libs[0]).stat().st_mtime_ns
+    y_c2 = run(Bathe(jit=True), sys_, 1e-3, 0.5)
+    assert sorted(p.name for p in tmp_path.glob("*.so")) == libs
+    assert (tmp_path / libs[0]).stat().st_mtime_ns == stamp
+    assert np.allclose(y_c, y_vm, rtol=1e-12, atol=1e-14) and np.array_equal(y_c, y_c2)
+
+
+@pytest.mark.parametrize("name", ["erk", "rosenbrock", "cvodes", "idas", "rk45", "radau"])
+def test_adaptive_methods_meet_their_tolerance_on_a_smooth_oscillator(name):
+    m = METHODS[name](rtol=1e-8, atol=1e-10)
+    y = run(m, oscillator(2 * np.pi), 1e-3, 1.0)
+    assert abs(y[1] - 1.0) < 1e-5 and abs(y[2]) < 1e-4
+    assert m.run_stats["steps"] > 0
+
+
+def test_unknown_integrator_raises_scene_error(paper_scene):
+    with pytest.raises(rrr4.SceneError, match="integrator"):
+        rrr4.simulate(paper_scene, "euler", t_end=1e-3)
+
+
+def test_bad_bathe_parameters_raise_user_errors():
+    with pytest.raises(rrr4.Rrr4Error, match="gamma"):
+        Bathe(gamma=1.5)
+    with pytest.raises(rrr4.Rrr4Error, match="rho_inf"):
+        GeneralizedAlpha(rho_inf=-0.1)
+    with pytest.raises(rrr4.Rrr4Error, match="rtol"):
+        Cvodes(rtol=0.0)
+
+
+@pytest.fixture(scope="module")
+def ideal_scene(paper_data_module):
+    paper_data_module["joints"]["clearance"] = []
+    return rrr4.scene.parse_scene(paper_data_module)
+
+
+@pytest.fixture(scope="module")
+def paper_data_module():
+    import yaml
+
+    from tests.conftest import PAPER
+    return yaml.safe_load(PAPER.read_text())
+
+
+def test_bathe_is_second_order_on_the_ideal_mechanism(ideal_scene):
+    """Richardson: successive differences of the platform pose at t_end fall by 4x per halving."""
+    poses = [rrr4.simulate(ideal_scene, "bathe", t_end=0.2, step=h, output_rate=5).q[-1]
+             for h in (4e-3, 2e-3, 1e-3)]
+    d1, d2 = np.max(np.abs(poses[0] - poses[1])), np.max(np.abs(poses[1] - poses[2]))
+    assert 1.6 < np.log2(d1 / d2) < 2.5
