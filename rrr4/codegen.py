@@ -61,7 +61,7 @@ _IO_DOC = {
     "theta": "actuator angles [rad]",
     "theta_d": "actuator rates [rad/s]",
     "cos_arg": "argument of acos per chain [-]; the pose is reachable iff all |cos_arg| <= 1",
-    "J": "Jacobian, d theta = J d pose [rad/m, rad/m, rad/rad per row]",
+    "J": "Jacobian, d theta = J d pose [rad/m, rad/m, rad/rad by column]",
     "sin_transmission": "sine of the angle between driving and following link [-] (0 = serial singularity)",
     "n": "unit null-space vector of J^T [-]: torques along n move nothing",
     "tau_p": "particular (minimum-norm) actuator torques [N m]",
