@@ -13,6 +13,7 @@ $(BIN)/.installed: pyproject.toml
 
 run: $(BIN)/.installed
 	$(BIN)/rrr4 check problems/paper_circle.yaml
+	$(BIN)/rrr4 run problems/paper_circle.yaml
 
 lint: $(BIN)/.installed
 	$(BIN)/ruff check .

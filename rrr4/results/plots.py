@@ -84,6 +84,7 @@ def contact_forces(study: Study, path: Path) -> Path | None:
         if f_min:
             ax.axhline(f_min, color="k", ls="--", lw=0.8, label=f"f_min = {f_min:g} N")
         ax.set_yscale("symlog", linthresh=1.0)
+        ax.set_ylim(bottom=0.0)
         ax.set_title(name)
         ax.set_xlabel("t [s]")
         ax.set_ylabel("normal force [N]")
@@ -155,8 +156,9 @@ def preload_alpha(study: Study, path: Path) -> Path | None:
     bad = ~sol.feasible
     if bad.any():
         a2.plot(sol.t[bad], norms.min(axis=1)[bad], "rx", ms=3, label="infeasible sample")
+    a2.set_ylim(0.0, 1.5 * max(float(norms.min(axis=1).max()), sol.f_min))
     a2.set_xlabel("t [s]")
-    a2.set_ylabel("reaction [N]")
+    a2.set_ylabel("smallest reaction [N]")
     a2.legend()
     a2.grid(alpha=0.3)
     fig.tight_layout()

@@ -1,0 +1,170 @@
+"""The study end to end (`rrr4 run`): short runs of the real pipeline, the summary's
+structure and physical sense, and result directories that survive bad input and failures."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rrr4 import SceneError, load_scene
+from rrr4.cli import main
+from rrr4.results import atomic_directory, loss_times, write_results
+from rrr4.study import ARMS, run_study
+
+ROOT = Path(__file__).resolve().parents[1]
+T_END = 0.03  # s: the seating impacts and the first part of the path
+ARM_KEYS = {"contact_loss_events", "free_flight_fraction", "max_penetration_m", "peak_contact_force_N",
+            "platform_error_rms_m", "platform_error_max_m", "torque_rms_Nm", "energy_audit_residual",
+            "wall_time_s", "simulated_time_s"}
+JOINTS = ["B1", "B2", "B3", "B4", "C1", "C2", "C3", "C4"]
+
+
+@pytest.fixture(scope="module")
+def paper_study():
+    return run_study(load_scene(ROOT / "problems" / "paper_circle.yaml"), t_end=T_END)
+
+
+@pytest.fixture(scope="module")
+def paper_summary(paper_study, tmp_path_factory):
+    out = tmp_path_factory.mktemp("study") / "paper_circle"
+    _, files = write_results(paper_study, out)
+    assert sorted(files) == sorted(p.name for p in out.iterdir())
+    return json.loads((out / "summary.json").read_text()), out
+
+
+def test_summary_has_every_required_key_for_both_arms(paper_summary):
+    summary, _ = paper_summary
+    for arm in ARMS:
+        m = summary[arm]
+        assert ARM_KEYS <= set(m)
+        for key in ("contact_loss_events", "free_flight_fraction", "peak_contact_force_N"):
+            assert list(m[key]) == JOINTS
+        assert all(isinstance(v, int) and v >= 0 for v in m["contact_loss_events"].values())
+        assert m["simulated_time_s"] == pytest.approx(T_END)
+    assert summary["preload"]["method"] == "qp"
+    assert summary["preload"]["feasible"] is True
+
+
+def test_summary_is_physically_sensible(paper_summary):
+    summary, _ = paper_summary
+    clearance = 1e-4
+    for arm in ARMS:
+        m = summary[arm]
+        assert all(0.0 <= v <= 1.0 for v in m["free_flight_fraction"].values())
+        # steel journals penetrate by micrometres, far less than the 0.1 mm clearance
+        assert 0.0 <= m["max_penetration_m"] < 0.1 * clearance
+        assert 0.0 <= m["platform_error_rms_m"] <= m["platform_error_max_m"] < clearance * 10
+        assert m["energy_audit_residual"] < 1e-2
+        assert m["torque_peak_Nm"] <= 5.0 + 1e-9  # the actuators' limit
+    w, wo = summary["with_preload"], summary["without_preload"]
+    # the preload pushes every journal into its bearing with at least f_min
+    assert min(w["peak_contact_force_N"].values()) >= summary["preload"]["f_min_N"]
+    # the internal torques show in the effort, not in the motion error
+    assert w["torque_rms_Nm"] > 10 * wo["torque_rms_Nm"]
+    assert w["platform_error_rms_m"] < wo["platform_error_rms_m"]
+
+
+def test_loss_times_match_the_simulations_own_counter(paper_study):
+    total = 0
+    for arm in paper_study.arms.values():
+        sim = arm.simulation
+        times = loss_times(sim)
+        assert {j: len(v) for j, v in times.items()} == sim.contact_loss_events
+        assert all(np.all((v > 0) & (v <= T_END)) for v in times.values())
+        total += sum(sim.contact_loss_events.values())
+    assert total > 0  # the centred start has seating impacts, so the comparison is not vacuous
+
+
+def test_results_hold_figures_csv_and_report(paper_summary, paper_study):
+    summary, out = paper_summary
+    for name in ("orbits.png", "contact_force.png", "platform_error.png", "torques.png", "preload_alpha.png"):
+        assert (out / name).stat().st_size > 10_000
+    data = np.genfromtxt(out / "timeseries.csv", delimiter=",", names=True)
+    assert len(data) == round(T_END * paper_study.scene.path.sample_rate) + 1
+    sim = paper_study.arms["with_preload"].simulation
+    assert np.allclose(data["with_preload_error_m"], np.interp(data["t_s"], sim.t, sim.platform_error))
+    report = (out / "report.md").read_text()
+    assert f"{summary['with_preload']['platform_error_rms_m'] * 1e6:.4g}" in report
+
+
+def test_rewriting_a_result_directory_replaces_it_and_leaves_no_temporaries(paper_study, tmp_path):
+    out = tmp_path / "r"
+    write_results(paper_study, out)
+    (out / "summary.json").write_text('{"earlier": true}')
+    write_results(paper_study, out)
+    assert "with_preload" in json.loads((out / "summary.json").read_text())
+    assert [p.name for p in tmp_path.iterdir()] == ["r"]
+
+
+def test_failed_write_leaves_the_earlier_result_intact(tmp_path):
+    out = tmp_path / "r"
+    out.mkdir()
+    (out / "summary.json").write_text("earlier")
+
+    def fill(d):
+        (d / "summary.json").write_text("half")
+        raise RuntimeError("disk full")
+
+    with pytest.raises(RuntimeError):
+        atomic_directory(out, fill)
+    assert (out / "summary.json").read_text() == "earlier"
+    assert [p.name for p in tmp_path.iterdir()] == ["r"]
+
+
+def test_non_result_directory_is_refused_as_output(tmp_path):
+    (tmp_path / "notes.txt").write_text("mine")
+    with pytest.raises(SceneError, match="holds no summary.json"):
+        atomic_directory(tmp_path, lambda d: None)
+    assert (tmp_path / "notes.txt").read_text() == "mine"
+
+
+def test_run_with_a_bad_scene_prints_one_line_and_keeps_earlier_results(tmp_path, paper_data, capsys):
+    import yaml
+    paper_data["effects"]["contact"]["law"] = "lankarani"
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(yaml.safe_dump(paper_data))
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "summary.json").write_text("earlier")
+    assert main(["run", str(bad), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "effects.contact.law" in err[0] and "lankarani-nikravesh" in err[0]
+    assert (out / "summary.json").read_text() == "earlier"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.yaml", "out"]
+
+
+def test_run_with_a_bad_end_time_prints_one_line_and_keeps_earlier_results(tmp_path, capsys):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "summary.json").write_text("earlier")
+    scene = ROOT / "problems" / "rrr3_circle.yaml"
+    assert main(["run", str(scene), "--out", str(out), "--t-end", "-1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "t_end" in err[0]
+    assert (out / "summary.json").read_text() == "earlier"
+
+
+def test_three_chain_study_has_only_the_without_preload_arm(tmp_path, capsys):
+    out = tmp_path / "rrr3"
+    assert main(["run", str(ROOT / "problems" / "rrr3_circle.yaml"), "--out", str(out), "--t-end", "0.01"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["with_preload"] is None and summary["targets"] == {}
+    assert "no actuation redundancy" in summary["preload"]["reason"]
+    assert list(summary["without_preload"]["contact_loss_events"]) == ["B1", "B2", "B3", "C1", "C2", "C3"]
+    assert not (out / "preload_alpha.png").exists()
+    assert "without preload" in capsys.readouterr().out
+
+
+def test_ideal_scene_has_no_contact_and_reports_pin_reactions(tmp_path):
+    study = run_study(load_scene(ROOT / "problems" / "ideal_circle.yaml"), t_end=0.01)
+    summary, files = write_results(study, tmp_path / "ideal")
+    assert "orbits.png" not in files and "contact_force.png" not in files
+    for arm in ARMS:
+        m = summary[arm]
+        assert sum(m["contact_loss_events"].values()) == 0 and m["max_penetration_m"] == 0.0
+        assert all(v == 0.0 for v in m["free_flight_fraction"].values())
+    # with preload, every ideal pin carries about f_min or more all the time (PD corrections aside)
+    reactions = np.linalg.norm(study.arms["with_preload"].simulation.reaction, axis=2)
+    assert reactions.shape[1] == 8
+    assert reactions.min() >= 0.95 * summary["preload"]["f_min_N"]
