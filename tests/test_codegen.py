@@ -212,14 +212,31 @@ def test_codegen_rejects_a_file_as_output_directory(paper_scene, tmp_path):
     assert f.read_text() == "keep me"
 
 
-def test_codegen_rejects_a_mechanism_without_redundancy(paper_data, tmp_path):
+def test_codegen_rejects_a_mechanism_without_redundancy_and_keeps_earlier_files(paper_data, tmp_path):
     paper_data["mechanism"]["chains"] = paper_data["mechanism"]["chains"][:3]
     paper_data["joints"]["clearance"] = "all"
     paper_data["actuation"]["preload"]["weights"] = 1.0
     scene = parse_scene(paper_data, check_path=False)
+    (tmp_path / "rrr4.h").write_text("/* earlier */")
     with pytest.raises(SceneError, match="mechanism.chains"):
-        codegen(scene, tmp_path / "unused")
-    assert not (tmp_path / "unused").exists()
+        codegen(scene, tmp_path, branch=1)
+    assert [p.name for p in tmp_path.iterdir()] == ["rrr4.h"]
+    assert (tmp_path / "rrr4.h").read_text() == "/* earlier */"
+
+
+def test_codegen_rejects_an_unknown_preload_branch(paper_scene, tmp_path):
+    with pytest.raises(SceneError, match="branch"):
+        codegen(paper_scene, tmp_path, branch=2)
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.skipif(shutil.which("make") is None, reason="needs make")
+def test_makefile_builds_the_example_and_library_from_the_generated_files(built):
+    plan = subprocess.run(["make", "-n", "-B", "example", "librrr4.so"], cwd=built["src"], capture_output=True,
+                          text=True, check=True).stdout
+    compiled = set(re.findall(r"(\S+\.c)\b", plan))
+    assert compiled == {p.name for p in built["src"].glob("*.c")}
+    assert "-shared" in plan and "-lm" in plan
 
 
 def test_cli_codegen_writes_files_and_reports_bad_output_in_one_line(tmp_path, capsys):
