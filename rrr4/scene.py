@@ -183,8 +183,12 @@ class PathSpec:
 
 @dataclass(frozen=True)
 class Initial:
-    """Initial platform velocity [m/s, m/s, rad/s] added to the path's own (zero) start velocity."""
+    """Initial state. platform_velocity [m/s, m/s, rad/s] is added to the path's own start
+    velocity. journals: 'centred' starts every journal at its bearing centre; 'seated'
+    starts each clearance journal pressed against its bearing wall under the joint's
+    initial load (direction and Hertzian penetration from the ideal reaction at t = 0)."""
     platform_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    journals: str = "centred"
 
 
 @dataclass(frozen=True)
@@ -553,7 +557,8 @@ def _integrator(sec: _Section) -> IntegratorSettings:
 
 
 def _initial(sec: _Section) -> Initial:
-    v = Initial(sec.vector("platform_velocity", 3, [0.0, 0.0, 0.0]))
+    v = Initial(sec.vector("platform_velocity", 3, [0.0, 0.0, 0.0]),
+                sec.choice("journals", ("centred", "seated"), "centred"))
     sec.done()
     return v
 

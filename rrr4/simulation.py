@@ -119,8 +119,31 @@ def _integrator(scene: Scene, integrator, jit: bool) -> FixedStepIntegrator:
     return METHODS[name].from_settings(scene.integrator, jit=jit)
 
 
+def _seated_eccentricity(scene: Scene, eqs: Equations, motion, tau0) -> np.ndarray:
+    """Eccentricities (2n, 2) [m] of B1..Bn, C1..Cn with each clearance journal resting on
+    its bearing wall under the ideal reaction r_j at t = 0 of the torque tau0 (n,) [N m]:
+    e_j = -(c_j + delta_j) r_j / |r_j| with K_j delta_j^n = |r_j| (the elastic part of the
+    contact law; the contact force on the journal points back to the bearing centre).
+    Joints carrying less than 1e-9 N stay centred."""
+    from .dynamics.inverse import inverse_dynamics_function
+    tau_p, tau_n, r_p, r_n = (np.array(v) for v in inverse_dynamics_function(scene)(*motion))
+    alpha = np.linalg.pinv(tau_n) @ (tau0 - tau_p.ravel()) if tau_n.size else np.zeros(0)
+    n2 = r_p.shape[1]
+    r = r_p.T + sum((a * r_n[:, k * n2:(k + 1) * n2].T for k, a in enumerate(alpha)), np.zeros((n2, 2)))
+    names = [j.name for j in scene.joints]
+    ecc = np.zeros((n2, 2))
+    for j, K in zip(eqs.clearance_joints, eqs.stiffness, strict=True):
+        k = names.index(j)
+        f = float(np.linalg.norm(r[k]))
+        if f > 1e-9:
+            delta = (f / K) ** (1.0 / scene.effects.contact.exponent)
+            ecc[k] = -(scene.joint(j).radial_clearance + delta) * r[k] / f
+    return ecc
+
+
 def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overrides) -> Simulation:
-    """Simulate `scene` from the path's start pose with centred journals.
+    """Simulate `scene` from the path's start pose; journals centred, or seated under
+    their initial load when the scene says ``initial.journals: seated``.
 
     integrator: None (the scene's integrator.method), a name from
     :data:`rrr4.integrators.METHODS`, or an integrator instance. t_end [s] defaults to the
@@ -158,9 +181,15 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
         tab = np.column_stack([np.interp(t_frames, pt, ptau[:, i]) for i in range(n)])
     u = np.column_stack([t_frames[:-1], t_frames[1:], tab[:-1], tab[1:]])
 
-    pose0, pose_d0, _ = (np.array(v).ravel() for v in trajectory_function(scene.path)(0.0))
+    pose0, pose_d0, pose_dd0 = (np.array(v).ravel() for v in trajectory_function(scene.path)(0.0))
     q0, qd0, _ = mech.body_motion(pose0, pose_d0 + np.asarray(scene.initial.platform_velocity))
-    x0 = np.r_[0.0, q0, qd0, 0.0, 0.0, 0.0, np.full(nc, eqs.v_min), np.zeros(2 * nc)]
+    seated = np.zeros(nc)
+    if scene.initial.journals == "seated" and nc and eqs.mode != "free":
+        ecc = _seated_eccentricity(scene, eqs, (pose0, pose_d0, pose_dd0), tab[0] + np.array(refs(0.0)[4]).ravel())
+        q0 = mech.seated_coordinates(pose0, ecc)
+        names = [j.name for j in scene.joints]
+        seated = np.array([np.any(ecc[names.index(j)] != 0) for j in eqs.clearance_joints], dtype=float)
+    x0 = np.r_[0.0, q0, qd0, 0.0, 0.0, 0.0, np.full(nc, eqs.v_min), seated, np.zeros(nc)]
 
     system = _system(eqs, refs)
     wall = time.perf_counter()

@@ -31,9 +31,10 @@ def platform_point(data: Mechanism_, i: int, pose):
     return pose[0:2] + c.attachment_radius * unit(pose[2] + c.attachment_angle)
 
 
-def chain_ik(data: Mechanism_, i: int, pose, mode):
+def chain_ik(data: Mechanism_, i: int, pose, mode, shift=None):
     """Closed-form IK of chain i: B_i is the intersection of circle(A_i, l_i1) and
-    circle(C_i, l_i2); mode = +1 picks theta_i1 = atan2(C - A) + acos(...).
+    circle(C_i - shift, l_i2); mode = +1 picks theta_i1 = atan2(C - A) + acos(...).
+    shift (2,) [m] moves the target (used for journals off-centre in clearance joints).
 
     Returns (theta_i1, cos_arg, B_i, C_i); |cos_arg| <= 1 where the chain reaches.
     """
@@ -41,7 +42,7 @@ def chain_ik(data: Mechanism_, i: int, pose, mode):
     l1, l2 = c.driving.length, c.following.length
     a = ca.DM(c.base)
     C = platform_point(data, i, pose)
-    d = C - a
+    d = C - a - (0 if shift is None else shift)
     dist2 = ca.dot(d, d)
     dist = ca.sqrt(dist2)
     cos_arg = (l1**2 + dist2 - l2**2) / (2 * l1 * dist)
@@ -50,15 +51,23 @@ def chain_ik(data: Mechanism_, i: int, pose, mode):
     return theta1, cos_arg, B, C
 
 
-def body_coordinates(data: Mechanism_, pose, modes):
-    """q (3(2n+1),) of all bodies for a platform pose, from the closed-form IK."""
+def body_coordinates(data: Mechanism_, pose, modes, eccentricity=None):
+    """q (3(2n+1),) of all bodies for a platform pose, from the closed-form IK.
+
+    eccentricity (2, 2n) [m], optional: joint gaps of B1..Bn, C1..Cn (outboard point -
+    inboard point); the platform stays at `pose` and each chain closes around the gaps.
+    """
+    n = data.n_chains
     blocks = []
     for i, c in enumerate(data.chains):
-        th1, _, B, C = chain_ik(data, i, pose, modes[i])
-        u2 = C - B
+        e_b = 0 if eccentricity is None else eccentricity[:, i]
+        e_c = 0 if eccentricity is None else eccentricity[:, n + i]
+        th1, _, B, C = chain_ik(data, i, pose, modes[i], None if eccentricity is None else e_b + e_c)
+        start = B + e_b
+        u2 = C - e_c - start
         th2 = ca.atan2(u2[1], u2[0])
         blocks += [ca.DM(c.base) + 0.5 * c.driving.length * unit(th1), th1,
-                   B + 0.5 * c.following.length * unit(th2), th2]
+                   start + 0.5 * c.following.length * unit(th2), th2]
     blocks.append(pose)
     return ca.vertcat(*blocks)
 

@@ -50,6 +50,10 @@ class Mechanism:
         qp = kin.body_coordinates(data, pose, m)
         qp_d = ca.jtimes(qp, pose, pose_d)
         qp_dd = ca.jtimes(qp_d, pose, pose_d) + ca.jtimes(qp_d, pose_d, pose_dd)
+        ecc = ca.SX.sym("eccentricity", 2, 2 * n)
+        self.seated_coordinates_function = ca.Function(
+            "seated_coordinates", [pose, ecc], [kin.body_coordinates(data, pose, m, ecc)],
+            ["pose", "eccentricity"], ["q"])
         self.body_motion_function = ca.Function(
             "body_motion", [pose, pose_d, pose_dd], [qp, qp_d, qp_dd],
             ["pose", "pose_d", "pose_dd"], ["q", "qd", "qdd"])
@@ -170,6 +174,12 @@ class Mechanism:
                                         z if pose_d is None else np.asarray(pose_d, float),
                                         z if pose_dd is None else np.asarray(pose_dd, float))
         return tuple(np.array(v).ravel() for v in out)
+
+    def seated_coordinates(self, pose, eccentricity) -> np.ndarray:
+        """q (nq,) with the platform at pose (3,) and each passive joint B1..Bn, C1..Cn
+        opened by its eccentricity (2n, 2) [m] (outboard point - inboard point)."""
+        e = np.asarray(eccentricity, float).reshape(2 * self.n, 2).T
+        return np.array(self.seated_coordinates_function(np.asarray(pose, float), e)).ravel()
 
     def fk(self, theta, guess=None, tol: float = 1e-9) -> np.ndarray:
         """Platform pose (3,) from actuator angles by Newton from `guess`
