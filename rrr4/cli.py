@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from .errors import Rrr4Error
@@ -101,6 +102,9 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("rrr4: interrupted; earlier results are left as they were", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # e.g. `rrr4 check SCENE | head`: the reader left, nothing to report
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
 
 
 if __name__ == "__main__":

@@ -12,13 +12,7 @@ import numpy as np
 
 from ..simulation import Simulation
 
-__all__ = ["arm_metrics", "loss_times", "SEATING_FRACTION"]
-
-# The simulation starts with centred journals, so every clearance joint first has to close
-# its gap by an impact, and rebounds (c_r = 0.9) follow. Losses within the first
-# SEATING_FRACTION of the path duration are counted apart as the seating transient; over
-# that span the quintic time law covers under 1 % of the path.
-SEATING_FRACTION = 0.1
+__all__ = ["arm_metrics", "loss_times"]
 
 
 def loss_times(sim: Simulation) -> dict:
@@ -35,19 +29,16 @@ def arm_metrics(sim: Simulation, wall_time: float) -> dict:
     """JSON-ready metrics of one simulation (units in the key names).
 
     contact_loss_events: joint -> count from the simulation's per-step counter (whole run);
-    contact_loss_events_after_seating: joint -> count after the seating time;
+    last_contact_loss_s (None without losses);
     free_flight_fraction: joint -> share of samples with delta <= 0; max_penetration_m;
-    peak_contact_force_N: joint -> max normal force (ideal joint: max |reaction|);
-    min_contact_force_after_seating_N (None if the run ends
-    before the seating time); platform_error_rms_m / _max_m (position distance to
+    peak_contact_force_N / min_contact_force_N: joint -> max / min normal force (ideal
+    joint: |reaction|); platform_error_rms_m / _max_m (position distance to
     the commanded path); torque_rms_Nm (over time and actuators), torque_peak_Nm;
     energy_audit_residual; wall_time_s; simulated_time_s; integrator, step_s, steps.
     """
     names = [j.name for j in sim.scene.joints]
     idx = {j: k for k, j in enumerate(sim.clearance_joints)}
     ideal = {j: k for k, j in enumerate(sim.ideal_passive_joints)}
-    seating = SEATING_FRACTION * sim.scene.path.duration
-    after = sim.t >= seating
     times = loss_times(sim)
 
     def per_joint(clearance_value, ideal_value):
@@ -57,16 +48,13 @@ def arm_metrics(sim: Simulation, wall_time: float) -> dict:
     reaction = np.linalg.norm(sim.reaction, axis=2) if sim.reaction.size else np.zeros((len(sim.t), 0))
     return {
         "contact_loss_events": {j: int(sim.contact_loss_events.get(j, 0)) for j in names},
-        "contact_loss_events_after_seating": {j: int(np.sum(times[j] >= seating)) for j in names},
         "last_contact_loss_s": max((float(v[-1]) for v in times.values() if v.size), default=None),
-        "seating_time_s": seating,
         "free_flight_fraction": per_joint(lambda k: float(np.mean(sim.penetration[:, k] <= 0)), lambda k: 0.0),
         "max_penetration_m": float(np.max(sim.penetration, initial=0.0)),
         "peak_contact_force_N": per_joint(lambda k: float(np.max(sim.normal_force[:, k])),
                                           lambda k: float(np.max(reaction[:, k]))),
-        "min_contact_force_after_seating_N": per_joint(
-            lambda k: float(np.min(sim.normal_force[after, k])) if after.any() else None,
-            lambda k: float(np.min(reaction[after, k])) if after.any() else None),
+        "min_contact_force_N": per_joint(lambda k: float(np.min(sim.normal_force[:, k])),
+                                         lambda k: float(np.min(reaction[:, k]))),
         "platform_error_rms_m": float(np.sqrt(np.mean(sim.platform_error**2))),
         "platform_error_max_m": float(np.max(sim.platform_error)),
         "torque_rms_Nm": float(np.sqrt(np.mean(sim.tau**2))),

@@ -51,9 +51,9 @@ def orbits(study: Study, path: Path) -> Path | None:
         c = study.scene.joint(name).radial_clearance * 1e6
         phi = np.linspace(0, 2 * np.pi, 361)
         ax.plot(c * np.cos(phi), c * np.sin(phi), color="0.3", lw=1.0, label="clearance circle")
-        for arm_name, arm in study.arms.items():
+        for arm_name, arm in reversed(study.arms.items()):  # the preloaded orbit is short: draw it last, thick
             e = arm.simulation.eccentricity[:, k, :] * 1e6
-            ax.plot(e[:, 0], e[:, 1], lw=0.6, **STYLE[arm_name])
+            ax.plot(e[:, 0], e[:, 1], lw=2.5 if arm_name == "with_preload" else 0.6, **STYLE[arm_name])
         ax.set_aspect("equal")
         lim = 1.15 * c
         ax.set_xlim(-lim, lim)
