@@ -7,13 +7,31 @@ At one instant the passive reactions are r_j(alpha) = r_p[:, j] + alpha r_n[:, j
     a_j alpha^2 + b_j alpha + c_j >= 0,  a_j = |r_n,j|^2 >= 0,  b_j = 2 r_p,j . r_n,j,
     c_j = |r_p,j|^2 - f_min^2,
 
-violated only strictly between its two real roots, so the feasible set is a union of
-intervals; the actuator limits |tau_i| <= L_i cut it to a box [lo, hi]. The weighted
-effort sum_i w_i tau_i^2 is a convex quadratic in alpha, so its minimum over that set is
-the box-clipped unconstrained minimiser or an interval end: a root or a box end. All
-candidates are evaluated and the feasible one with the least effort wins (if_else
-selection, no solver, code-generable). If none is feasible the candidate with the least
-violation is returned with feasible = 0.
+violated only on the open interval (l_j, u_j) between its two real roots (or nowhere, or,
+if r_n,j = 0 and c_j < 0, everywhere). The feasible set F is the box [lo, hi] from the
+actuator limits |tau_i| <= L_i (and the branch, alpha >= 0 or <= 0) minus these
+intervals: a union of closed intervals.
+
+The weighted effort sum_i w_i tau_i^2 = D (alpha - alpha*)^2 + const (D > 0) grows with
+the distance to its minimiser alpha*, so with x0 = alpha* clipped to the box the optimum
+over F is the better of R = min(F ∩ [x0, inf)) and L = max(F ∩ (-inf, x0]) (if
+alpha* > hi then x0 = hi and L is best, and vice versa). R is the fixed point of
+
+    x <- max(x, max {u_j : l_j < x}),   x = x0 at the start.
+
+Proof: (i) x <= R throughout: if l_j < x <= R then R, being feasible, is not in
+(l_j, u_j), so R >= u_j. (ii) Every step that moves x adds at least one j with l_j < x
+to the set of such j, so after 2n = 8 steps (one per joint) x no longer moves. (iii) A
+fixed point lies in no interval and x >= x0, so x is joint-feasible, and by (i) x = R
+if x <= hi; if x > hi there is no feasible point right of x0. L is the mirror image
+(x <- min(x, min {l_j : u_j > x})). So the law is closed form: 8 roots and 2 x 8
+compare-and-select passes, no solver, code-generable (Zhang & Zhang 2017 state the
+problem; the interval argument is ours).
+
+If F is empty the law returns, with feasible = 0, whichever of R and L clipped to the
+box (on the branch's side of 0 if the box is empty) has the smaller relative violation
+(:func:`constraint_violation`): the torques stay within the limits where the branch
+allows it and alpha never leaves the branch.
 """
 
 from __future__ import annotations
@@ -27,7 +45,7 @@ from ..scene import Scene
 __all__ = ["exact_preload_function", "constraint_violation"]
 
 # Roots are pushed this far (relative) to the feasible side so that rounding cannot put
-# a boundary candidate inside the forbidden interval.
+# a boundary point inside the forbidden interval.
 _ROOT_NUDGE = 1e-12
 _TINY = 1e-300
 
@@ -37,13 +55,21 @@ def constraint_violation(tau, r, f_min: float, limits):
 
     margin = min_j ||r_j|| - f_min [N]; violation >= 0 is the largest shortfall relative to
     its bound: max(f_min - ||r_j||)/f_min over joints and (|tau_i| - L_i)/L_i over actuators.
+    One square root: that of the smallest squared norm (sqrt is monotone, so this equals
+    the smallest norm exactly).
     """
-    norms = ca.sqrt(ca.sum1(r**2)).T
-    margin = ca.mmin(norms) - f_min
+    margin = ca.sqrt(ca.mmin(ca.sum1(r**2))) - f_min
     lim = ca.DM(limits)
-    force_gap = (f_min - norms) / max(f_min, 1e-12)
     torque_gap = (ca.fabs(tau) - lim) / lim
-    return margin, ca.fmax(0, ca.fmax(ca.mmax(force_gap), ca.mmax(torque_gap)))
+    return margin, ca.fmax(0, ca.fmax(-margin / max(f_min, 1e-12), ca.mmax(torque_gap)))
+
+
+def _into_box(x, lo, hi, branch: int):
+    """x clipped to [lo, hi]; if the box is empty (lo > hi) the end on the branch's side
+    wins (lo for branch +1, where lo >= 0; hi otherwise)."""
+    if branch > 0:
+        return ca.fmax(ca.fmin(x, hi), lo)
+    return ca.fmin(ca.fmax(x, lo), hi)
 
 
 @functools.cache
@@ -53,10 +79,10 @@ def _build(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...], 
     tau_p, tau_n = ca.SX.sym("tau_p", n), ca.SX.sym("tau_n", n, 1)
     r_p, r_n = ca.SX.sym("r_p", 2, nj), ca.SX.sym("r_n", 2, nj)
     w, lim = ca.DM(weights), ca.DM(limits)
-    big = ca.inf
+    inf = ca.inf
 
     # box from the actuator limits: -L <= tau_p + alpha tau_n <= L
-    lo, hi = -big, big
+    lo, hi = -inf, inf
     for i in range(n):
         tn = tau_n[i]
         safe = ca.if_else(tn >= 0, 1.0, -1.0) * ca.fmax(ca.fabs(tn), _TINY)
@@ -69,43 +95,45 @@ def _build(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...], 
     elif branch < 0:
         hi = ca.fmin(hi, 0.0)
 
-    # unconstrained minimiser of sum w_i (tau_p,i + alpha tau_n,i)^2, clipped to the box
+    # unconstrained minimiser of sum w_i (tau_p,i + alpha tau_n,i)^2, into the box
     den = ca.dot(w, tau_n**2)
-    alpha_free = -ca.dot(w, tau_p * tau_n) / ca.fmax(den, _TINY)
-    cands = [ca.fmin(ca.fmax(alpha_free, lo), hi), lo, hi]
-    valid = [ca.SX(1), lo > -big, hi < big]
-    for j in range(nj):
-        a = ca.sumsqr(r_n[:, j])
-        b = 2 * ca.dot(r_p[:, j], r_n[:, j])
-        c = ca.sumsqr(r_p[:, j]) - f_min**2
-        disc = b**2 - 4 * a * c
-        ok = ca.logic_and(a > 1e-14 * (1 + ca.fabs(c)), disc >= 0)
-        sq = ca.sqrt(ca.fmax(disc, 0))
-        a2 = 2 * ca.fmax(a, _TINY)
-        for sgn in (-1.0, 1.0):
-            root = (-b + sgn * sq) / a2
-            cands.append(root + sgn * _ROOT_NUDGE * (1 + ca.fabs(root)))
-            valid.append(ok)
+    x0 = _into_box(-ca.dot(w, tau_p * tau_n) / ca.fmax(den, _TINY), lo, hi, branch)
 
-    best = None
-    for alpha, ok in zip(cands, valid, strict=True):
-        alpha = ca.if_else(ok, alpha, 0.0)
-        tau = tau_p + alpha * tau_n
-        r = r_p + alpha * r_n
-        margin, viol = constraint_violation(tau, r, f_min, limits)
-        cost = ca.dot(w, tau**2)
-        in_box = ca.logic_and(alpha >= lo - 1e-12 * (1 + ca.fabs(alpha)), alpha <= hi + 1e-12 * (1 + ca.fabs(alpha)))
-        feas = ca.logic_and(ca.logic_and(ok, in_box), viol <= 1e-9)
-        viol = ca.if_else(ok, viol, big)
-        if best is None:
-            best = [alpha, tau, feas, margin, cost, viol]
-            continue
-        b_alpha, b_tau, b_feas, b_margin, b_cost, b_viol = best
-        better = ca.if_else(feas, ca.logic_or(ca.logic_not(b_feas), cost < b_cost),
-                            ca.logic_and(ca.logic_not(b_feas), viol < b_viol))
-        best = [ca.if_else(better, x, y) for x, y in zip([alpha, tau, feas, margin, cost, viol], best, strict=True)]
-    alpha, tau, feas, margin = best[:4]
-    return ca.Function("exact_preload", [tau_p, tau_n, r_p, r_n], [alpha, tau, ca.if_else(feas, 1.0, 0.0), margin],
+    # forbidden interval (l_j, u_j) of each joint, roots nudged outwards; (inf, inf) if none
+    a = ca.sum1(r_n**2).T
+    b = 2 * ca.sum1(r_p * r_n).T
+    c = ca.sum1(r_p**2).T - f_min**2
+    disc = b**2 - 4 * a * c
+    flat = a <= 1e-14 * (1 + ca.fabs(c))
+    has = ca.logic_and(ca.logic_not(flat), disc >= 0)
+    dead = ca.mmax(ca.logic_and(flat, c < 0))  # a joint that never reaches f_min
+    sq = ca.sqrt(ca.fmax(disc, 0))
+    half = 0.5 / ca.fmax(a, _TINY)
+    l_root, u_root = (-b - sq) * half, (-b + sq) * half
+    low = ca.if_else(has, l_root - _ROOT_NUDGE * (1 + ca.fabs(l_root)), inf)
+    up = ca.if_else(has, u_root + _ROOT_NUDGE * (1 + ca.fabs(u_root)), inf)
+
+    # least feasible point >= x0 (right) and greatest <= x0 (left): 2n passes reach the fixed point
+    right, left = x0, x0
+    for _ in range(nj):
+        right = right + ca.fmax(0, ca.mmax(ca.if_else(low < right, up - right, 0)))
+        left = left + ca.fmin(0, ca.mmin(ca.if_else(up > left, low - left, 0)))
+
+    out = []
+    for x in (right, left):
+        ok = ca.logic_and(ca.logic_and(x >= lo, x <= hi), ca.logic_not(dead))
+        x = _into_box(x, lo, hi, branch)
+        tau = tau_p + x * tau_n
+        margin, viol = constraint_violation(tau, r_p + x * r_n, f_min, limits)
+        out.append((x, tau, ok, margin, ca.dot(w, tau**2), viol))
+    (xr, tau_r, ok_r, m_r, cost_r, viol_r), (xl, tau_l, ok_l, m_l, cost_l, viol_l) = out
+    take_left = ca.if_else(ok_l, ca.logic_or(ca.logic_not(ok_r), cost_l < cost_r),
+                           ca.logic_and(ca.logic_not(ok_r), viol_l < viol_r))
+    alpha = ca.if_else(take_left, xl, xr)
+    tau = ca.if_else(take_left, tau_l, tau_r)
+    margin = ca.if_else(take_left, m_l, m_r)
+    feasible = ca.if_else(ca.logic_or(ok_l, ok_r), 1.0, 0.0)
+    return ca.Function("exact_preload", [tau_p, tau_n, r_p, r_n], [alpha, tau, feasible, margin],
                        ["tau_p", "tau_n", "r_p", "r_n"], ["alpha", "tau", "feasible", "margin"])
 
 
