@@ -89,9 +89,21 @@ def reference_function(scene: Scene, feed_forward: bool) -> ca.Function:
                        ["t"], ["pose_ref", "theta_ref", "theta_d_ref", "theta_dd_ref", "tau_ff"])
 
 
+_SYSTEMS: dict[tuple[int, int], tuple[Equations, ca.Function, System]] = {}
+
+
 def _system(eqs: Equations, refs: ca.Function) -> System:
     """The ODE y = [q, qd, W_in, D_damping, D_friction] with discrete z = [delta_dot0,
-    in_contact, losses] (nc each) and frame input u = [t_a, t_b, tau_a (n), tau_b (n)]."""
+    in_contact, losses] (nc each) and frame input u = [t_a, t_b, tau_a (n), tau_b (n)].
+    Built once per (equations, references) pair (the entry keeps both alive, so their ids
+    stay unique keys)."""
+    key = (id(eqs), id(refs))
+    if key not in _SYSTEMS:
+        _SYSTEMS[key] = (eqs, refs, _build_system(eqs, refs))
+    return _SYSTEMS[key][2]
+
+
+def _build_system(eqs: Equations, refs: ca.Function) -> System:
     nq, n, nc = eqs.nq, eqs.n_actuators, len(eqs.clearance_joints)
     t, y, z = ca.SX.sym("t"), ca.SX.sym("y", 2 * nq + 3), ca.SX.sym("z", 3 * nc)
     u = ca.SX.sym("u", 2 + 2 * n)

@@ -8,7 +8,9 @@ z <- g(t, y, z) after each step (contact onset/loss). A method only implements
 - builds ``step``: x = [t, y, z], u -> x_next (one step plus the discrete update),
 - rolls ``steps_per_frame`` steps with ``mapaccum`` into ``frame``, which returns the
   state at the frame end, and rolls frames with ``mapaccum`` again (optionally JIT-compiled),
-- runs frames in chunks so that long runs show a progress bar.
+- runs frames in chunks so that long runs show a progress bar,
+- keeps the built (and compiled) frame Function in memory per system, method settings,
+  step and steps per frame, so a second run of the same scene builds nothing.
 """
 
 from __future__ import annotations
@@ -40,6 +42,11 @@ class System:
         return self.ode.size1_in(3)
 
 
+# (id(system), method settings, h, steps_per_frame) -> (system, frame Function); the system is
+# kept in the value so that its id stays unique while the entry lives.
+_FRAMES: dict[tuple, tuple[System, ca.Function]] = {}
+
+
 class FixedStepIntegrator(ABC):
     """Base of fixed-step methods. Subclasses set `name`, `order` and implement `advance`."""
     name = ""
@@ -64,7 +71,7 @@ class FixedStepIntegrator(ABC):
         t, y, z = x[0], x[1:1 + ny], x[1 + ny:]
         y1 = self.advance(system.ode, t, y, z, u, h)
         z1 = system.discrete(t + h, y1, z)
-        return ca.Function("step", [x, u], [ca.vertcat(t + h, y1, z1)], ["x", "u"], ["x_next"])
+        return ca.Function("step", [x, u], ca.cse([ca.vertcat(t + h, y1, z1)]), ["x", "u"], ["x_next"])
 
     def frame_function(self, system: System, h: float, steps_per_frame: int) -> ca.Function:
         """MX Function 'frame': x, u -> x after `steps_per_frame` steps (mapaccum)."""
@@ -77,10 +84,15 @@ class FixedStepIntegrator(ABC):
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,
             progress: bool = False) -> np.ndarray:
         """States at the end of each frame, (n_frames, nx); u_frames (n_frames, nu)."""
-        frame = self.frame_function(system, h, steps_per_frame)
-        if self.jit:  # generated C of the whole frame loop, cached on disk (see .compiled)
-            from .compiled import compiled
-            frame = compiled(frame)
+        settings = tuple(sorted((k, repr(v)) for k, v in vars(self).items() if k != "run_stats"))
+        key = (id(system), type(self).__name__, settings, float(h), int(steps_per_frame))
+        if key not in _FRAMES:
+            frame = self.frame_function(system, h, steps_per_frame)
+            if self.jit:  # generated C of the whole frame loop, cached on disk (see .compiled)
+                from .compiled import compiled
+                frame = compiled(frame)
+            _FRAMES[key] = (system, frame)
+        frame = _FRAMES[key][1]
         u_frames = np.atleast_2d(np.asarray(u_frames, float))
         n_frames = u_frames.shape[0]
         rolls: dict[int, ca.Function] = {}

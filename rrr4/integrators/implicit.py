@@ -91,7 +91,7 @@ class ImplicitIntegrator(FixedStepIntegrator):
         v1 = v + dv
         done = ca.norm_inf(dv) <= self.newton_tol * (1 + ca.norm_inf(v1))
         pars = ca.vertcat(tt, rq, rv, cq, cv, z, u)
-        upd = ca.Function("newton_update", [v, pars], [v1, done], ["v", "pars"], ["v_next", "converged"])
+        upd = ca.Function("newton_update", [v, pars], ca.cse([v1, done]), ["v", "pars"], ["v_next", "converged"])
         v_in, p_in = ca.MX.sym("v", nq), ca.MX.sym("pars", pars.shape[0])
         skip = ca.Function("newton_skip", [v_in, p_in], [v_in, ca.MX(1)], ["v", "pars"], ["v_next", "converged"])
         return upd, ca.Function.if_else("newton_iteration", skip, upd)
