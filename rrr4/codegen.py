@@ -33,7 +33,7 @@ from pathlib import Path
 
 import casadi as ca
 
-from .dynamics.inverse import inverse_dynamics_function
+from .dynamics.inverse import actuator_motion_function, inverse_dynamics_function
 from .errors import Rrr4Error, SceneError
 from .mechanism import Mechanism
 from .preload.exact import exact_preload_function
@@ -138,12 +138,12 @@ def controller_step_function(scene: Scene, branch: int = 1) -> ca.Function:
     theta, theta_d = ca.SX.sym("theta", n), ca.SX.sym("theta_d", n)
     alpha, tau_ff, feasible, _ = exact_preload_function(scene, branch=branch)(
         *inverse_dynamics_function(scene)(pose, pose_d, pose_dd))
-    theta_ref = mech.ik_function(pose, ca.DM(mech.modes))[0]
-    J = mech.jacobian_function(pose)[0]
-    d = theta_ref - theta
-    e = ca.atan2(ca.sin(d), ca.cos(d))
+    # wrap(theta_ref - theta) = angle from [cos, sin](theta) to the IK's driving-link direction
+    u_ref, theta_d_ref = actuator_motion_function(scene)(pose, pose_d)
+    c, s = ca.cos(theta), ca.sin(theta)
+    e = ca.atan2(c * u_ref[1, :].T - s * u_ref[0, :].T, c * u_ref[0, :].T + s * u_ref[1, :].T)
     lim = ca.DM(scene.actuation.torque_limit)
-    tau = ca.fmin(ca.fmax(tau_ff + scene.actuation.kp * e + scene.actuation.kd * (J @ pose_d - theta_d), -lim), lim)
+    tau = ca.fmin(ca.fmax(tau_ff + scene.actuation.kp * e + scene.actuation.kd * (theta_d_ref - theta_d), -lim), lim)
     return ca.Function("controller_step", [pose, pose_d, pose_dd, theta, theta_d], [tau, tau_ff, alpha, feasible],
                        ["pose_des", "pose_d_des", "pose_dd_des", "theta", "theta_d"],
                        ["tau", "tau_ff", "alpha", "feasible"])

@@ -37,7 +37,7 @@ from ..mechanism import Mechanism
 from ..mechanism import kinematics as kin
 from ..scene import Scene
 
-__all__ = ["inverse_dynamics_function", "joint_reactions_function"]
+__all__ = ["inverse_dynamics_function", "joint_reactions_function", "actuator_motion_function"]
 
 # |T_i| = l_i1 |sin(transmission angle)| below this [m] is treated as a serial singularity.
 _SERIAL_EPS = 1e-12
@@ -56,46 +56,120 @@ def _guarded(x, eps):
     return ca.if_else(x >= 0, 1.0, -1.0) * ca.fmax(ca.fabs(x), eps)
 
 
+def _chain_motion(c, o, w_o, al_o, cs):
+    """Closed-form motion of one chain for a platform motion, without angles or AD.
+
+    c: chain data; o, w_o, al_o: platform position (2,) [m], angular rate [rad/s] and
+    acceleration [rad/s^2]; cs: (cos theta_o, sin theta_o) [-]; the platform's linear
+    velocity and acceleration enter through (o_d, o_dd) in the caller's C_d, C_dd.
+    Returns (u1, e, Co, Cd_rel, Cdd_rel, B): unit vectors of the driving (A -> B) and
+    following (B -> C) link, C - o [m] and the rotational parts of C's velocity and
+    acceleration [m/s, m/s^2], and B [m].
+
+    u1 = cos(acos k) d/|d| + mode sin(acos k) E d/|d| with d = C - A and
+    k = (l1^2 + |d|^2 - l2^2)/(2 l1 |d|): the IK of :func:`rrr4.mechanism.kinematics.chain_ik`
+    written with unit vectors.
+    """
+    l1, l2 = c.driving.length, c.following.length
+    cphi, sphi = ca.cos(c.attachment_angle), ca.sin(c.attachment_angle)
+    u = ca.vertcat(cs[0] * cphi - cs[1] * sphi, cs[1] * cphi + cs[0] * sphi) * c.attachment_radius
+    C = o + u
+    d = C - ca.DM(c.base)
+    dist2 = ca.sumsqr(d)
+    inv_dist = 1 / ca.sqrt(dist2)
+    k = (l1**2 - l2**2 + dist2) * inv_dist / (2 * l1)
+    u1 = (k * d + c.working_mode * ca.sqrt(1 - k**2) * kin.perp(d)) * inv_dist
+    B = ca.DM(c.base) + l1 * u1
+    e = (C - B) / l2
+    return u1, e, u, w_o * kin.perp(u), al_o * kin.perp(u) - w_o**2 * u, B
+
+
+def _transmission(c, u1, e):
+    """(T, T guarded away from 0, 1 / guarded T) [m, m, 1/m], T = (B - A) x e = l1 (u1 x e)."""
+    T = c.driving.length * kin.cross(u1, e)
+    Ts = _guarded(T, _SERIAL_EPS)
+    return T, Ts, 1 / Ts
+
+
+def _link_rates(c, u1, e, v, inv_T):
+    """Rates (w1, w2) of the driving and following link [rad/s] with
+    v = l1 w1 E u1 + l2 w2 E e (v = C_d); with v = C_dd + l1 w1^2 u1 + l2 w2^2 e, the
+    angular accelerations [rad/s^2]. Dot products with e and u1, u1 x e = T / l1."""
+    return ca.dot(e, v) * inv_T, -ca.dot(u1, v) * inv_T * (c.driving.length / c.following.length)
+
+
+@functools.cache
+def _actuator_motion(mech: Mechanism) -> ca.Function:
+    pose, pose_d = ca.SX.sym("pose", 3), ca.SX.sym("pose_d", 3)
+    cs = (ca.cos(pose[2]), ca.sin(pose[2]))
+    u1s, rates = [], []
+    for c in mech.data.chains:
+        u1, e, _, Cd_rel, _, _ = _chain_motion(c, pose[0:2], pose_d[2], 0, cs)
+        u1s.append(u1)
+        rates.append(_link_rates(c, u1, e, pose_d[0:2] + Cd_rel, _transmission(c, u1, e)[2])[0])
+    return ca.Function("actuator_motion", [pose, pose_d], [ca.horzcat(*u1s), ca.vertcat(*rates)],
+                       ["pose", "pose_d"], ["driving_direction", "theta_d"])
+
+
+def actuator_motion_function(model: Mechanism | Scene) -> ca.Function:
+    """SX Function 'actuator_motion': pose (3) [m, m, rad], pose_d (3) ->
+    driving_direction (2, n) [-] = [cos theta_i, sin theta_i] of the IK actuator angles in
+    the scene's working modes, theta_d (n,) [rad/s] = J pose_d.
+
+    The same closed-form expressions as the inverse dynamics (no trigonometry of the
+    angles), so a controller built from both shares them. Built once per mechanism.
+    """
+    return _actuator_motion(_as_model(model, None)[0])
+
+
 @functools.cache
 def _build(mech: Mechanism, gravity: tuple[float, float]) -> ca.Function:
     data, n = mech.data, mech.n
     pose, pose_d, pose_dd = (ca.SX.sym(s, 3) for s in ("pose", "pose_d", "pose_dd"))
-    q, _, qdd = mech.body_motion_function(pose, pose_d, pose_dd)
     g = ca.DM(gravity)
-    qo, ao = q[6 * n: 6 * n + 3], qdd[6 * n: 6 * n + 3]
+    cs = (ca.cos(pose[2]), ca.sin(pose[2]))
+    ao = pose_dd
 
-    e, T, t0, rC_fixed, f2, fA = [], [], [], [], [], []
-    for i, c in enumerate(data.chains):
-        q1, q2 = q[6 * i: 6 * i + 3], q[6 * i + 3: 6 * i + 6]
-        a1, a2 = qdd[6 * i: 6 * i + 3], qdd[6 * i + 3: 6 * i + 6]
+    e, T, Ts, inv_T, t0, rC_fixed, f2, fA, Co = [], [], [], [], [], [], [], [], []
+    for c in data.chains:
         m1, I1, m2, I2 = c.driving.mass, c.driving.inertia, c.following.mass, c.following.inertia
+        l1, l2 = c.driving.length, c.following.length
         A = ca.DM(c.base)
-        B = q1[0:2] + 0.5 * c.driving.length * kin.unit(q1[2])
-        C = q2[0:2] + 0.5 * c.following.length * kin.unit(q2[2])
-        ei = (C - B) / c.following.length
+        u1, ei, Coi, Cd_rel, Cdd_rel, B = _chain_motion(c, pose[0:2], pose_d[2], pose_dd[2], cs)
+        # link rates from C_d = l1 w1 E u1 + l2 w2 E e (and its derivative), T = l1 (u1 x e)
+        Ti, Tsi, inv_Ti = _transmission(c, u1, ei)
+        w1, w2 = _link_rates(c, u1, ei, pose_d[0:2] + Cd_rel, inv_Ti)
+        al1, al2 = _link_rates(c, u1, ei, pose_dd[0:2] + Cdd_rel + l1 * w1**2 * u1 + l2 * w2**2 * ei, inv_Ti)
+        aB = l1 * (al1 * kin.perp(u1) - w1**2 * u1)
+        a1 = 0.5 * aB  # centre of mass of the driving link
+        a2 = aB + 0.5 * l2 * (al2 * kin.perp(ei) - w2**2 * ei)
         # following link: r_B = r_C + m2 (a2 - g); moment about its CoM fixes the normal part p of r_C
-        f2i = m2 * (a2[0:2] - g)
-        p = (kin.cross(B - q2[0:2], f2i) - I2 * a2[2]) / c.following.length
+        f2i = m2 * (a2 - g)
+        p = (kin.cross(-0.5 * l2 * ei, f2i) - I2 * al2) / l2
         rC_fixed.append(p * kin.perp(ei))
         f2.append(f2i)
         # driving link, moment about the fixed pivot A_i: tau = I1 al1 + (G1 - A) x m1 (a1 - g) + (B - A) x r_B
-        t0.append(I1 * a1[2] + kin.cross(q1[0:2] - A, m1 * (a1[0:2] - g)) + kin.cross(B - A, p * kin.perp(ei) + f2i))
-        T.append(kin.cross(B - A, ei))
-        fA.append(m1 * (a1[0:2] - g))
+        t0.append(I1 * al1 + kin.cross(0.5 * l1 * u1, m1 * (a1 - g)) + kin.cross(B - A, p * kin.perp(ei) + f2i))
+        T.append(Ti)
+        Ts.append(Tsi)
+        inv_T.append(inv_Ti)
+        fA.append(m1 * (a1 - g))
         e.append(ei)
-    T = ca.vertcat(*T)
-    Ts = _guarded(T, _SERIAL_EPS)
-    t0 = ca.vertcat(*t0)
+        Co.append(Coi)
+    T, Ts, inv_T, t0 = ca.vertcat(*T), ca.vertcat(*Ts), ca.vertcat(*inv_T), ca.vertcat(*t0)
 
     # platform Newton-Euler with the axial parts s_i of r_C as unknowns: W s = w0
-    Co = [kin.platform_point(data, i, qo) - qo[0:2] for i in range(n)]
     sum_f = sum(rC_fixed[1:], rC_fixed[0])
     sum_m = sum(kin.cross(Co[i], rC_fixed[i]) for i in range(n))
     w0 = ca.vertcat(data.platform.mass * (ao[0:2] - g) - sum_f, data.platform.inertia * ao[2] - sum_m)
-    JT = ca.horzcat(*[ca.vertcat(e[i], kin.cross(Co[i], e[i])) / Ts[i] for i in range(n)])  # = J^T
+    W = ca.horzcat(*[ca.vertcat(e[i], kin.cross(Co[i], e[i])) for i in range(n)])
+    JT = W @ ca.diag(inv_T)  # = J^T
     tau_p = JT.T @ ca.solve(JT @ JT.T, w0 + JT @ t0)
     if n == 4:
-        tau_n = mech.null_space_function(pose)
+        # Mechanism.null_space (unit cofactor vector of J^T) without forming J: with
+        # J^T = W diag(1/T), cof_k(J^T) = cof_k(W) T_k / prod(T)
+        cof = ca.vertcat(*[(-1) ** k * ca.det(W[:, [i for i in range(4) if i != k]]) for k in range(4)]) * Ts
+        tau_n = ca.sign(Ts[0] * Ts[1] * Ts[2] * Ts[3]) * cof / ca.norm_2(cof)
     else:  # no redundancy: an empty family
         tau_n = ca.SX(n, 0)
     m = tau_n.shape[1]
@@ -104,7 +178,7 @@ def _build(mech: Mechanism, gravity: tuple[float, float]) -> ca.Function:
         """Reactions (2, 3n) ordered A1..An, B1..Bn, C1..Cn for torques tau (n,)."""
         rA, rB, rC = [], [], []
         for i in range(n):
-            s = (tau[i] - (t0[i] if particular else 0)) / Ts[i]
+            s = (tau[i] - (t0[i] if particular else 0)) * inv_T[i]
             rc = s * e[i] + (rC_fixed[i] if particular else 0)
             rb = rc + (f2[i] if particular else 0)
             rA.append(rb + (fA[i] if particular else 0))
