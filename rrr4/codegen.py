@@ -88,7 +88,7 @@ _KERNEL_DOC = {
     "preload": "Exact preload law for a desired motion: inverse_dynamics followed by exact_preload.",
     "controller_step": "One controller step: tau = clip(tau_ff + kp (theta_ref - theta) + kd (theta_d_ref - "
                        "theta_d), +-limit) with theta_ref = ik(pose_des), theta_d_ref = J pose_d_des and the "
-                       "angle error wrapped to (-pi, pi].",
+                       "angle error wrapped to [-pi, pi).",
     "qp_preload": "Preload as a QP (qrqp active set, no allocation): fixed-sign axial force >= min_force in "
                   "every following link, torque limits, least weighted effort. Returns non-zero, with the "
                   "outputs undefined, when qrqp stops without a solution (an infeasible QP).",
@@ -129,7 +129,7 @@ def controller_step_function(scene: Scene, branch: int = 1) -> ca.Function:
     tau_ff = inverse-dynamics feed-forward + exact preload at the desired motion, on the
     preload branch `branch` (+1: alpha >= 0, -1: alpha <= 0, 0: global optimum, which may
     jump between the two and so reverse every bearing force);
-    tau = clip(tau_ff + kp e + kd e_d, +-torque_limit) with e = wrap(ik(pose_des) - theta)
+    tau = clip(tau_ff + kp e + kd e_d, +-torque_limit) with e = ik(pose_des) - theta wrapped to [-pi, pi)
     and e_d = J(pose_des) pose_d_des - theta_d (gains ``actuation.kp``, ``actuation.kd``).
     """
     mech = Mechanism.from_scene(scene)
@@ -138,10 +138,10 @@ def controller_step_function(scene: Scene, branch: int = 1) -> ca.Function:
     theta, theta_d = ca.SX.sym("theta", n), ca.SX.sym("theta_d", n)
     alpha, tau_ff, feasible, _ = exact_preload_function(scene, branch=branch)(
         *inverse_dynamics_function(scene)(pose, pose_d, pose_dd))
-    # wrap(theta_ref - theta) = angle from [cos, sin](theta) to the IK's driving-link direction
+    # theta_ref from the driving-link directions the inverse dynamics computes anyway
     u_ref, theta_d_ref = actuator_motion_function(scene)(pose, pose_d)
-    c, s = ca.cos(theta), ca.sin(theta)
-    e = ca.atan2(c * u_ref[1, :].T - s * u_ref[0, :].T, c * u_ref[0, :].T + s * u_ref[1, :].T)
+    d = ca.atan2(u_ref[1, :], u_ref[0, :]).T - theta
+    e = d - 2 * ca.pi * ca.floor((d + ca.pi) / (2 * ca.pi))  # wrapped to [-pi, pi)
     lim = ca.DM(scene.actuation.torque_limit)
     tau = ca.fmin(ca.fmax(tau_ff + scene.actuation.kp * e + scene.actuation.kd * (theta_d_ref - theta_d), -lim), lim)
     return ca.Function("controller_step", [pose, pose_d, pose_dd, theta, theta_d], [tau, tau_ff, alpha, feasible],
