@@ -8,7 +8,7 @@ import pytest
 
 from rrr4 import Mechanism
 from rrr4.dynamics import actuator_matrix, gravity_forces, mass_matrix
-from rrr4.dynamics.inverse import inverse_dynamics_function, joint_reactions_function
+from rrr4.dynamics.inverse import actuator_motion_function, inverse_dynamics_function, joint_reactions_function
 from rrr4.mechanism import kinematics as kin
 from rrr4.scene import parse_scene
 
@@ -164,3 +164,14 @@ def test_ideal_forward_dynamics_driven_by_the_family_reproduces_the_motion(paper
                   theta_d_ref=qd[2:24:6], theta_dd_ref=qdd[2:24:6])
         assert np.allclose(np.array(out["qdd"]).ravel(), qdd, atol=1e-9)
         assert np.allclose(np.array(out["reaction"]), (r_p + alpha * r_n)[:, 4:], atol=1e-9)
+
+
+def test_actuator_motion_matches_the_ik_and_jacobian(paper_scene):
+    """driving_direction = [cos, sin](ik(pose)) and theta_d = J(pose) pose_d on random motions."""
+    mech = Mechanism.from_scene(paper_scene)
+    f = actuator_motion_function(paper_scene)
+    for pose, pd, _ in _random_motions(np.random.default_rng(8)):
+        u, theta_d = (np.array(v) for v in f(pose, pd))
+        theta = mech.ik(pose)
+        np.testing.assert_allclose(u, np.vstack([np.cos(theta), np.sin(theta)]), atol=1e-13)
+        np.testing.assert_allclose(theta_d.ravel(), mech.jacobian(pose) @ pd, rtol=1e-12, atol=1e-12)

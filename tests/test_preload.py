@@ -28,16 +28,17 @@ def solutions(paper_scene):
     return {m: solve_preload(paper_scene, m, sample_rate=RATE) for m in ("exact", "qp", "nlp")}
 
 
-def _scan_optimum(tau_p, tau_n, r_p, r_n, f_min, limits, weights, span=30.0, k=600001):
-    """Brute force: the least weighted effort over a dense alpha grid, or None if no grid point is feasible."""
-    a = np.linspace(-span, span, k)
+def _scan_optimum(tau_p, tau_n, r_p, r_n, f_min, limits, weights, span=30.0, k=600001, signed=0):
+    """Brute force: the least weighted effort over a dense alpha grid, or None if no grid point is feasible.
+    signed = +1 / -1 scans alpha >= 0 / <= 0 only."""
+    a = np.linspace(-span, span, k) if signed == 0 else signed * np.linspace(0.0, span, k // 2 + 1)
     tau = tau_p[:, None] + a * tau_n[:, None]
     r = r_p[:, :, None] + a * r_n[:, :, None]
     ok = (np.linalg.norm(r, axis=0).min(axis=0) >= f_min) & np.all(np.abs(tau) <= np.asarray(limits)[:, None], axis=0)
     if not ok.any():
         return None
     cost = np.where(ok, np.asarray(weights) @ tau**2, np.inf)
-    return a[np.argmin(cost)], cost.min(), a[1] - a[0]
+    return a[np.argmin(cost)], cost.min(), abs(a[1] - a[0])
 
 
 @pytest.mark.filterwarnings("ignore::rrr4.preload.PreloadWarning")
@@ -213,3 +214,96 @@ def test_exact_on_one_branch_stays_on_it_and_never_beats_the_global_optimum(pape
     assert np.all(one.statistics["branch"] * one.alpha >= 0)
     assert np.all(np.sum(one.tau**2, axis=1) >= np.sum(glob.tau**2, axis=1) - 1e-9)
     assert one.roughness < 0.01 * glob.roughness
+
+
+def _enumerated_optimum(tau_p, tau_n, r_p, r_n, f_min, limits, weights, branch):
+    """Reference law by enumeration: every candidate (box ends, clipped effort minimiser,
+    every root of ||r_j(alpha)|| = f_min) checked against all constraints in numpy; the
+    least-effort feasible one, or None. Independent of the interval pushes of the law."""
+    lim = np.asarray(limits)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ends = np.stack([(-lim - tau_p) / tau_n, (lim - tau_p) / tau_n])
+    lo, hi = np.max(np.min(ends, axis=0)), np.min(np.max(ends, axis=0))
+    lo, hi = (max(lo, 0.0), hi) if branch > 0 else (lo, min(hi, 0.0)) if branch < 0 else (lo, hi)
+    w = np.asarray(weights)
+    free = -np.dot(w, tau_p * tau_n) / np.dot(w, tau_n**2)
+    a, b = np.sum(r_n**2, axis=0), 2 * np.sum(r_p * r_n, axis=0)
+    c = np.sum(r_p**2, axis=0) - f_min**2
+    disc = b**2 - 4 * a * c
+    ok = (a > 0) & (disc >= 0)
+    roots = np.r_[(-b[ok] - np.sqrt(disc[ok])) / (2 * a[ok]), (-b[ok] + np.sqrt(disc[ok])) / (2 * a[ok])]
+    best = None
+    for x in np.r_[lo, hi, np.clip(free, lo, hi), roots]:
+        x = x + 1e-9 * (1 + abs(x)) * np.sign(x - free)  # a hair off the boundary, away from the minimiser
+        tau, r = tau_p + x * tau_n, r_p + x * r_n
+        if (lo <= x <= hi and np.all(np.linalg.norm(r, axis=0) >= f_min) and np.all(np.abs(tau) <= lim)
+                and (best is None or np.dot(w, tau**2) < best[1])):
+            best = (x, np.dot(w, tau**2))
+    return best
+
+
+def _random_families(rng, k):
+    """k random affine families (tau_p, tau_n unit, r_p, r_n); a few joints without null-space reaction."""
+    for _ in range(k):
+        tau_n = rng.normal(size=4)
+        r_n = rng.normal(scale=8.0, size=(2, 8))
+        r_n[:, rng.random(8) < 0.05] = 0.0
+        yield rng.normal(scale=2.0, size=4), tau_n / np.linalg.norm(tau_n), rng.normal(scale=15.0, size=(2, 8)), r_n
+
+
+@pytest.mark.parametrize("branch", [0, 1, -1])
+@pytest.mark.parametrize("limit", [5.0, 2.5])
+def test_exact_equals_the_enumerated_optimum_on_random_families(paper_scene, branch, limit):
+    """On many random families (disjoint feasible intervals, flat joints, infeasible cases)
+    the closed form is feasible exactly when some candidate is, with the same effort; when
+    it is infeasible alpha stays on the branch and the torques within the limits if the
+    branch allows it."""
+    scene = _with(paper_scene, weights=(1.0, 2.0, 0.5, 1.5), torque_limit=limit)
+    f = exact_preload_function(scene, branch=branch)
+    w, f_min = scene.actuation.preload.weights, scene.actuation.preload.min_force
+    counts = {"feasible": 0, "infeasible": 0}
+    for tau_p, tau_n, r_p, r_n in _random_families(np.random.default_rng(11 + branch), 400):
+        alpha, tau, feas, margin = (np.array(v).ravel() for v in f(tau_p, tau_n, r_p, r_n))
+        ref = _enumerated_optimum(tau_p, tau_n, r_p, r_n, f_min, (limit,) * 4, w, branch)
+        assert branch * alpha[0] >= 0
+        np.testing.assert_allclose(tau, tau_p + alpha[0] * tau_n, rtol=1e-12, atol=1e-12)
+        r = r_p + alpha[0] * r_n
+        assert margin[0] == pytest.approx(np.linalg.norm(r, axis=0).min() - f_min, abs=1e-9)
+        if ref is None:
+            assert feas[0] == 0.0
+            counts["infeasible"] += 1
+            continue
+        counts["feasible"] += 1
+        assert feas[0] == 1.0
+        assert margin[0] >= -1e-9 and np.all(np.abs(tau) <= limit * (1 + 1e-12))
+        cost = np.dot(w, tau**2)
+        assert cost <= ref[1] + 1e-9 * (1 + ref[1])
+        assert cost >= ref[1] - 1e-6 * (1 + ref[1])  # ref sits 1e-9 (relative) inside the feasible set
+    assert min(counts.values()) >= 20, counts
+
+
+@pytest.mark.filterwarnings("ignore::rrr4.preload.PreloadWarning")
+@pytest.mark.parametrize("branch", [1, -1])
+def test_exact_on_a_branch_is_the_optimum_of_a_dense_scan_of_that_branch(paper_scene, branch):
+    """Along the path with tight limits: effort equal to the least over a dense scan of
+    alpha restricted to the branch's sign."""
+    scene = _with(paper_scene, weights=(1.0, 2.0, 0.5, 1.5), torque_limit=3.3)
+    sol = solve_preload(scene, "exact", sample_rate=50.0, branch=branch)
+    f = exact_preload_function(scene, branch=branch)
+    w, f_min = scene.actuation.preload.weights, scene.actuation.preload.min_force
+    checked = 0
+    for k in range(0, len(sol.t), 5):
+        r_n = _null_reactions(sol, k).T
+        tau_p, tau_n, r_p = sol.tau_particular[k], sol.null_space[k], (sol.reactions[k]).T - sol.alpha[k] * r_n
+        alpha, tau, feas, _ = (np.array(v).ravel() for v in f(tau_p, tau_n, r_p, r_n))
+        scan = _scan_optimum(tau_p, tau_n, r_p, r_n, f_min, scene.actuation.torque_limit, w, signed=branch)
+        if scan is None:
+            assert feas[0] == 0.0
+            continue
+        _, c_scan, da = scan
+        cost = float(np.dot(w, tau**2))
+        assert feas[0] == 1.0 and branch * alpha[0] >= 0
+        assert cost <= c_scan + 1e-9
+        assert c_scan - cost <= (2 * abs(np.dot(w, tau * tau_n)) + 2 * np.dot(w, tau_n**2) * da) * da + 1e-9
+        checked += 1
+    assert checked >= 5
