@@ -201,6 +201,7 @@ class IntegratorSettings:
     rho_inf: float
     newton_tol: float
     max_newton: int
+    refine: int = 1  # sub-steps that re-take a fixed step across a contact onset or loss (1: off)
 
 
 @dataclass(frozen=True)
@@ -551,6 +552,7 @@ def _integrator(sec: _Section) -> IntegratorSettings:
         rho_inf=sec.number("rho_inf", 0.0, lo=0.0, hi=1.0),
         newton_tol=sec.number("newton_tol", 1e-10, positive=True),
         max_newton=sec.integer("max_newton", 20, positive=True),
+        refine=sec.integer("refine", 1, positive=True),
     )
     sec.done()
     return s

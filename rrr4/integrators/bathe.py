@@ -31,8 +31,8 @@ class Bathe(ImplicitIntegrator):
     order = 2
 
     def __init__(self, jit: bool = False, gamma: float = 0.5, rho_inf: float = 0.0, newton_tol: float = 1e-10,
-                 max_newton: int = 8):
-        super().__init__(jit=jit, newton_tol=newton_tol, max_newton=max_newton)
+                 max_newton: int = 8, refine: int = 1):
+        super().__init__(jit=jit, newton_tol=newton_tol, max_newton=max_newton, refine=refine)
         if not 0 < gamma < 1:
             raise Rrr4Error(f"integrator.gamma: {gamma!r} is not allowed (must be in (0, 1))")
         if not 0 <= rho_inf <= 1:
@@ -46,7 +46,7 @@ class Bathe(ImplicitIntegrator):
     @classmethod
     def from_settings(cls, settings, jit: bool = False):
         return cls(jit=jit, gamma=settings.gamma, rho_inf=settings.rho_inf, newton_tol=settings.newton_tol,
-                   max_newton=settings.max_newton)
+                   max_newton=settings.max_newton, refine=settings.refine)
 
     def advance_implicit(self, stage, ode, t, y, z, u, h, memory, nq):
         q0, q1, q2 = self.weights

@@ -47,8 +47,8 @@ class ImplicitIntegrator(FixedStepIntegrator):
     acceleration-like variable of generalised-alpha), initialised by :meth:`initial_memory`.
     """
 
-    def __init__(self, jit: bool = False, newton_tol: float = 1e-10, max_newton: int = 8):
-        super().__init__(jit=jit)
+    def __init__(self, jit: bool = False, newton_tol: float = 1e-10, max_newton: int = 8, refine: int = 1):
+        super().__init__(jit=jit, refine=refine)
         if not (np.isfinite(newton_tol) and newton_tol > 0):
             raise Rrr4Error(f"integrator.newton_tol: {newton_tol!r} is not allowed (must be > 0)")
         if int(max_newton) < 1:
@@ -58,7 +58,7 @@ class ImplicitIntegrator(FixedStepIntegrator):
 
     @classmethod
     def from_settings(cls, settings, jit: bool = False):
-        return cls(jit=jit, newton_tol=settings.newton_tol, max_newton=settings.max_newton)
+        return cls(jit=jit, newton_tol=settings.newton_tol, max_newton=settings.max_newton, refine=settings.refine)
 
     # ---- what a method implements
     def memory_size(self, nq: int) -> int:
