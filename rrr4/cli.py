@@ -48,12 +48,13 @@ def _bench(args) -> int:
     from .bench import work_precision, write_work_precision
     from .errors import SceneError
     from .scene import load_scene
-    if not (args.t_end > 0):
+    if args.t_end is not None and not (args.t_end > 0):
         raise SceneError(f"--t-end: {args.t_end!r} is not allowed (must be > 0 s)")
     scene = load_scene(args.scene)
     out = args.out or "results/work_precision"
-    rows = work_precision(scene, t_end=args.t_end, progress=True)
-    for f in write_work_precision(rows, scene, out, args.t_end):
+    t_end = scene.path.duration if args.t_end is None else args.t_end
+    rows = work_precision(scene, t_end=t_end, progress=True)
+    for f in write_work_precision(rows, scene, out, t_end):
         print(f)
     return 0
 
@@ -86,7 +87,8 @@ def build_parser() -> argparse.ArgumentParser:
     a = bsub.add_parser("accuracy", help="work-precision diagram (error vs CPU time per integrator) and CSV")
     a.add_argument("scene", help="scene YAML file, e.g. problems/paper_circle.yaml")
     a.add_argument("--out", help="output directory (default: results/work_precision/)")
-    a.add_argument("--t-end", type=float, default=0.02, help="simulated time [s] (default 0.02)")
+    a.add_argument("--t-end", type=float, default=None,
+                   help="simulated time [s] from the path's start (default: the path duration)")
     a.set_defaults(func=_bench)
     return p
 

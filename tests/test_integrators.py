@@ -141,3 +141,24 @@ def test_onset_refinement_resolves_the_first_impacts_better_per_step(paper_scene
 def test_refine_must_be_a_positive_integer():
     with pytest.raises(rrr4.Rrr4Error, match="refine"):
         RK4(refine=0)
+
+
+def test_work_precision_measures_all_methods_against_one_checked_reference_and_marks_blow_ups(paper_scene, tmp_path):
+    """A tiny window: RK4 at 1e-3 s (10x beyond its stability limit) is a row marked unstable,
+    not a failure; the reference's two cross-checks agree with it far below 1 um; the figure
+    and the CSV are written."""
+    import csv
+
+    from rrr4.bench import work_precision, write_work_precision
+    plan = {"rk4": ("step", [1e-3, 5e-5]), "cvodes": ("rtol", [1e-6])}
+    rows = work_precision(paper_scene, t_end=0.005, plan=plan)
+    status = {(r["method"], r["setting"]): r["status"] for r in rows}
+    assert status[("rk4", 1e-3)] == "unstable" and status[("rk4", 5e-5)] == "ok"
+    assert status[("cvodes", 1e-6)] == "ok"
+    checks = [r for r in rows if r["status"] == "cross-check"]
+    assert len(checks) == 2 and all(r["error_m"] < 1e-9 for r in checks)
+    assert len({r["reference"] for r in rows}) == 1
+    assert all(r["error_m"] < 1e-6 and r["cpu_s"] > 0 for r in rows if r["status"] == "ok")
+    png, table = write_work_precision(rows, paper_scene, tmp_path, 0.005)
+    assert png.stat().st_size > 0
+    assert [r["status"] for r in csv.DictReader(table.open())] == [r["status"] for r in rows]
