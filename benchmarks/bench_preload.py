@@ -24,11 +24,11 @@ import casadi as ca
 import numpy as np
 
 from rrr4 import load_scene
+from rrr4.dynamics.family import effort_family
 from rrr4.dynamics.inverse import inverse_dynamics_function
 from rrr4.preload.exact import exact_preload_function
 from rrr4.preload.nlp import solve_trajectory_nlp
 from rrr4.preload.qp import qp_preload_function
-from rrr4.preload.solve import _family
 from rrr4.trajectory import sample_path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -52,7 +52,8 @@ def main(argv=None) -> int:
     scene = load_scene(args.scene)
     s = sample_path(scene.path)
     N = len(s.t)
-    raw, tau_p, tau_n, r_p, r_n = _family(scene, s)
+    fam = effort_family(scene, s.pose, s.pose_d, s.pose_dd)
+    raw, tau_p, tau_n, r_p, r_n = fam.raw, fam.tau_p, fam.tau_n, fam.r_p, fam.r_n
     pre = scene.actuation.preload
 
     rows: list[tuple[str, float, str]] = []

@@ -10,7 +10,7 @@ from .errors import Rrr4Error
 
 
 def _check(args) -> int:
-    from .scene import load_scene
+    from .mechanism import load_scene
     from .summary import scene_summary
     print(scene_summary(load_scene(args.scene)))
     return 0
@@ -18,7 +18,7 @@ def _check(args) -> int:
 
 def _codegen(args) -> int:
     from .codegen import codegen
-    from .scene import load_scene
+    from .mechanism import load_scene
     branch = args.branch if args.branch == "auto" else int(args.branch)
     for f in codegen(load_scene(args.scene), args.out, branch=branch):
         print(f)
@@ -31,8 +31,8 @@ def _run(args) -> int:
 
     from tqdm import tqdm
 
+    from .mechanism import load_scene
     from .results import check_target, write_results
-    from .scene import load_scene
     from .study import run_study
     scene = load_scene(args.scene)
     out = Path(args.out) if args.out else Path("results") / scene.name
@@ -47,7 +47,7 @@ def _run(args) -> int:
 def _bench(args) -> int:
     from .bench import work_precision, write_work_precision
     from .errors import SceneError
-    from .scene import load_scene
+    from .mechanism import load_scene
     if args.t_end is not None and not (args.t_end > 0):
         raise SceneError(f"--t-end: {args.t_end!r} is not allowed (must be > 0 s)")
     scene = load_scene(args.scene)

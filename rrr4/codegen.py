@@ -153,6 +153,9 @@ def controller_step_function(scene: Scene, branch: int = 1) -> ca.Function:
 def kernels(scene: Scene, branch: int = 1) -> tuple[Kernel, ...]:
     """The generated kernels of a 4-RRR scene, in :data:`KERNELS` order (built once, cached);
     the exact preload (in exact_preload, preload and controller_step) on `branch` (+1, -1, 0)."""
+    if scene.mechanism is None:
+        raise SceneError("mechanism.kind: 'graph' is not supported by codegen yet (the generated controller needs "
+                         "the closed-form IK of an n-RRR scene: mechanism.kind n-rrr with 4 chains)")
     if scene.mechanism.n_chains != 4:
         raise SceneError(f"mechanism.chains: {scene.mechanism.n_chains} chains is not allowed for code generation "
                          "(the controller needs the 4-RRR's one degree of redundancy: 4 chains)")

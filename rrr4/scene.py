@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import difflib
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import yaml
@@ -21,22 +21,43 @@ from .errors import SceneError
 __all__ = [
     "SceneError", "Scene", "Link", "Chain", "Platform", "Mechanism_", "Material",
     "JointSpec", "ContactEffect", "FrictionEffect", "Effects", "PreloadSettings",
-    "Actuation", "PathSpec", "Initial", "IntegratorSettings", "load_scene",
-    "parse_scene", "PASSIVE_JOINTS", "CONTACT_LAWS", "FRICTION_LAWS",
-    "INTEGRATORS", "PRELOAD_METHODS", "QP_SOLVERS",
+    "Actuation", "PathSpec", "Initial", "IntegratorSettings", "read_scene",
+    "parse_scene", "PASSIVE_JOINTS", "Body", "ActuatorSpec", "DriverSpec", "Graph", "GROUND", "choices",
+    "expand_nrrr",
 ]
 
 
 
-CONTACT_LAWS = ("hertz", "kelvin-voigt", "hunt-crossley", "lankarani-nikravesh", "flores", "gonthier")
-FRICTION_LAWS = ("none", "coulomb", "ambrosio", "smooth", "stribeck")
-INTEGRATORS = ("bathe", "newmark", "generalized-alpha", "rk4", "erk", "rosenbrock", "cvodes",
-               "idas", "rk45", "radau")
-PRELOAD_METHODS = ("exact", "qp", "nlp")
-QP_SOLVERS = ("qrqp", "osqp", "daqp", "qpoases")
-PATH_TYPES = ("circle", "line", "waypoints")
+PATH_TYPES = ("circle", "line", "waypoints", "none")  # none: no task, the drivers set the motion
 TIME_LAWS = ("quintic", "cycloidal", "linear")
 ACTUATION_MODES = ("torque", "prescribed", "free")  # free: zero actuator torque
+MECHANISM_KINDS = ("n-rrr", "graph")
+JOINT_TYPES = ("revolute", "prismatic")
+GROUND = "ground"
+
+
+def choices(what: str) -> tuple[str, ...]:
+    """The allowed names of a registry, read from the registry itself: 'contact law',
+    'friction law', 'integrator', 'preload method' or 'qp solver'. Imported when a scene is
+    parsed (the registries' modules import this one)."""
+    if what == "contact law":
+        from .contact.normal import NORMAL_LAWS
+        return tuple(NORMAL_LAWS)
+    if what == "friction law":
+        from .contact.friction import FRICTION_LAWS
+        return ("none", *FRICTION_LAWS)
+    if what == "integrator":
+        from .integrators import METHODS
+        return tuple(METHODS)
+    if what == "preload method":
+        from .preload.solve import PRELOAD_METHODS
+        return tuple(PRELOAD_METHODS)
+    if what == "qp solver":
+        from .preload.qp import QP_OPTIONS
+        return tuple(QP_OPTIONS)
+    raise KeyError(what)
+
+
 MATERIALS = {  # name: (Young's modulus [Pa], Poisson ratio)
     "steel": (207e9, 0.3),
     "aluminium": (70e9, 0.33),
@@ -98,17 +119,92 @@ class Material:
 
 @dataclass(frozen=True)
 class JointSpec:
-    """A passive joint B_i or C_i. With clearance=False it is an ideal pin."""
+    """A joint between two bodies (or a body and 'ground').
+
+    type 'revolute': points (2,) in each body's frame (ground: global) coincide; with
+    clearance=True it is a journal in a bearing (Flores): the body bodies[journal] carries
+    the journal, the other the bearing. type 'prismatic' (always ideal): the second body
+    slides along `axis` (unit, first body's frame) through the first body's point, at the
+    fixed relative angle `angle` [rad]. Joint coordinate: theta_2 - theta_1 [rad] for a
+    revolute, the slide (p_2 - p_1) . axis [m] for a prismatic.
+    """
     name: str
     clearance: bool
     journal_radius: float
     radial_clearance: float
     journal_material: Material
     bearing_material: Material
+    type: str = "revolute"
+    bodies: tuple[str, str] = (GROUND, GROUND)
+    points: tuple[tuple[float, float], tuple[float, float]] = ((0.0, 0.0), (0.0, 0.0))
+    axis: tuple[float, float] = (1.0, 0.0)
+    angle: float = 0.0
+    journal: int = 1
 
     @property
     def bearing_radius(self) -> float:
         return self.journal_radius + self.radial_clearance
+
+    @property
+    def journal_body(self) -> str:
+        return self.bodies[self.journal]
+
+    @property
+    def bearing_body(self) -> str:
+        return self.bodies[1 - self.journal]
+
+
+@dataclass(frozen=True)
+class Body:
+    """A rigid body: mass [kg], inertia [kg m^2] about its centre of mass, named points
+    (x, y) [m] in the body frame (origin at the centre of mass), and a pose guess
+    [x, y, theta] [m, m, rad] for assembling the mechanism."""
+    name: str
+    mass: float
+    inertia: float
+    points: tuple[tuple[str, tuple[float, float]], ...] = ()
+    pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class ActuatorSpec:
+    """An actuator on a joint: a torque [N m] on a revolute, a force [N] on a prismatic,
+    limited to +-limit."""
+    name: str
+    joint: str
+    limit: float
+
+
+@dataclass(frozen=True)
+class DriverSpec:
+    """A joint coordinate prescribed in time: initial + speed t [rad or m, rad/s or m/s]."""
+    name: str
+    joint: str
+    initial: float
+    speed: float
+
+
+@dataclass(frozen=True)
+class Graph:
+    """The planar body/joint graph of a scene: every mechanism is one (an n-RRR expands
+    into it). task: the body whose pose follows the path, or None (drivers set the motion)."""
+    bodies: tuple[Body, ...]
+    joints: tuple[JointSpec, ...]
+    actuators: tuple[ActuatorSpec, ...]
+    drivers: tuple[DriverSpec, ...]
+    task: str | None
+
+    @property
+    def passive_joints(self) -> tuple[str, ...]:
+        """Joints with neither an actuator nor a driver, in graph order."""
+        busy = {a.joint for a in self.actuators} | {d.joint for d in self.drivers}
+        return tuple(j.name for j in self.joints if j.name not in busy)
+
+    def joint(self, name: str) -> JointSpec:
+        for j in self.joints:
+            if j.name == name:
+                return j
+        raise KeyError(name)
 
 
 @dataclass(frozen=True)
@@ -206,10 +302,12 @@ class IntegratorSettings:
 
 @dataclass(frozen=True)
 class Scene:
+    """A validated scene. mechanism: the compact n-RRR form (None for a graph scene);
+    graph: the body/joint graph every scene has (an n-RRR expands into it)."""
     name: str
     description: str
-    mechanism: Mechanism_
-    joints: tuple[JointSpec, ...]  # ordered B1..Bn, C1..Cn
+    mechanism: Mechanism_ | None
+    graph: Graph
     effects: Effects
     actuation: Actuation
     path: PathSpec
@@ -218,18 +316,28 @@ class Scene:
     source: str = field(default="", compare=False)
 
     @property
+    def joints(self) -> tuple[JointSpec, ...]:
+        """The passive joints (no actuator, no driver) in graph order: B1..Bn, C1..Cn for an n-RRR."""
+        passive = set(self.graph.passive_joints)
+        return tuple(j for j in self.graph.joints if j.name in passive)
+
+    @property
     def clearance_joints(self) -> tuple[str, ...]:
         return tuple(j.name for j in self.joints if j.clearance)
 
     @property
     def ideal_joints(self) -> tuple[str, ...]:
+        """Passive joints without clearance."""
         return tuple(j.name for j in self.joints if not j.clearance)
 
     def joint(self, name: str) -> JointSpec:
-        for j in self.joints:
-            if j.name == name:
-                return j
-        raise KeyError(name)
+        return self.graph.joint(name)
+
+    def with_joints(self, joints) -> Scene:
+        """This scene with joint specs replaced by `joints` (matched by name), e.g. to
+        change which joints have clearance."""
+        new = {j.name: j for j in joints}
+        return replace(self, graph=replace(self.graph, joints=tuple(new.get(j.name, j) for j in self.graph.joints)))
 
 
 PASSIVE_JOINTS = ("B1", "B2", "B3", "B4", "C1", "C2", "C3", "C4")
@@ -387,7 +495,7 @@ def _mechanism(sec: _Section) -> Mechanism_:
         mode = -1 if mode_raw in ("-", "-acos", -1) else 1
         c.done()
         chains.append(Chain(name, base, *links, r, ang, mode))
-    sec.done()
+    sec.done(["kind"])
     return Mechanism_(platform, tuple(chains))
 
 
@@ -401,10 +509,10 @@ def _material(v, key) -> Material:
                              f"(choose one of: {', '.join(MATERIALS)}, or give youngs_modulus and poisson_ratio){hint}")
         return Material(name, *MATERIALS[name])
     s = _Section(v, key)
-    m = Material("custom", s.number("youngs_modulus", positive=True),
+    m = Material(s.string("name", "custom"), s.number("youngs_modulus", positive=True),
                  s.number("poisson_ratio", lo=0.0, hi=0.5, hi_open=True))
     s.done()
-    return Material(s.data.get("name", "custom"), m.youngs_modulus, m.poisson_ratio)
+    return m
 
 
 def _joints(sec: _Section, n_chains: int) -> tuple[JointSpec, ...]:
@@ -459,9 +567,198 @@ def _joints(sec: _Section, n_chains: int) -> tuple[JointSpec, ...]:
     return tuple(out)
 
 
+# ----------------------------------------------------------------------------- the graph
+
+def _unknown(key: str, what: str, v, allowed) -> SceneError:
+    near = difflib.get_close_matches(str(v), list(allowed), n=1)
+    hint = f"; did you mean '{near[0]}'?" if near else ""
+    return SceneError(f"{key}: unknown {what} {_describe(v)} (choose one of: {', '.join(map(str, allowed))}){hint}")
+
+
+def _name(sec: _Section, k: str = "name", default=None) -> str:
+    v = sec.raw(k, default)
+    if not isinstance(v, str) or not v.strip() or not all(ch.isalnum() or ch in "_-" for ch in v):
+        raise SceneError(f"{sec.key(k)}: {_describe(v)} is not allowed (a name of letters, digits, '_' and '-')")
+    return v
+
+
+def _points(sec: _Section, k: str) -> tuple[tuple[str, tuple[float, float]], ...]:
+    raw = sec.raw(k, {}) or {}
+    if not isinstance(raw, dict):
+        raise SceneError(f"{sec.key(k)}: expected a mapping of point name to [x, y] in m, got {_describe(raw)}")
+    ps = _Section(raw, sec.key(k))
+    return tuple((str(name), ps.vector(name, 2)) for name in raw)
+
+
+def _clearance(v, key: str, bodies: tuple[str, str]) -> dict:
+    s = _Section(v, key)
+    journal = s.raw("journal", bodies[1])
+    if journal not in bodies or journal == GROUND:
+        raise _unknown(s.key("journal"), "body", journal, [b for b in bodies if b != GROUND])
+    rj = s.number("journal_radius", positive=True)
+    c = s.number("radial_clearance", positive=True)
+    if c >= rj:
+        raise SceneError(f"{s.key('radial_clearance')}: {c:g} m is not allowed "
+                         f"(must be smaller than the journal radius {rj:g} m)")
+    out = {"clearance": True, "journal_radius": rj, "radial_clearance": c, "journal": bodies.index(journal),
+           "journal_material": _material(s.raw("journal_material", "steel"), s.key("journal_material")),
+           "bearing_material": _material(s.raw("bearing_material", "steel"), s.key("bearing_material"))}
+    s.done()
+    return out
+
+
+def _graph(sec: _Section) -> Graph:
+    ground = dict(_points(sec.section("ground"), "points"))
+    sec.section("ground").done(["points"])
+    raw_bodies = sec.raw("bodies")
+    if not isinstance(raw_bodies, list) or not raw_bodies:
+        raise SceneError(f"{sec.key('bodies')}: {_describe(raw_bodies)} is not allowed (a list of bodies is required)")
+    bodies, points = [], {GROUND: ground}
+    for i, raw in enumerate(raw_bodies):
+        b = _Section(raw, f"{sec.key('bodies')}[{i}]")
+        name = _name(b)
+        if name in points:
+            raise SceneError(f"{b.key('name')}: {name!r} is not allowed (names a body twice, or the ground)")
+        pts = _points(b, "points")
+        bodies.append(Body(name, b.number("mass", positive=True), b.number("inertia", positive=True), pts,
+                           b.vector("pose", 3, [0.0, 0.0, 0.0])))
+        points[name] = dict(pts)
+        b.done()
+    names = [GROUND] + [b.name for b in bodies]
+
+    raw_joints = sec.raw("joints")
+    if not isinstance(raw_joints, list) or not raw_joints:
+        raise SceneError(f"{sec.key('joints')}: {_describe(raw_joints)} is not allowed (a list of joints is required)")
+    joints, used = [], set()
+    for i, raw in enumerate(raw_joints):
+        j = _Section(raw, f"{sec.key('joints')}[{i}]")
+        name = _name(j)
+        if any(x.name == name for x in joints):
+            raise SceneError(f"{j.key('name')}: {name!r} names a joint twice")
+        kind = j.choice("type", JOINT_TYPES, "revolute")
+        pair = j.raw("bodies")
+        if not isinstance(pair, list) or len(pair) != 2:
+            raise SceneError(f"{j.key('bodies')}: {_describe(pair)} is not allowed (a list of two body names)")
+        for b in pair:
+            if b not in names:
+                raise _unknown(j.key("bodies"), "body", b, names)
+        if pair[0] == pair[1]:
+            raise SceneError(f"{j.key('bodies')}: {_describe(pair)} is not allowed (two different bodies)")
+        raw_pts = j.raw("points", [[0.0, 0.0], [0.0, 0.0]])
+        if not isinstance(raw_pts, list) or len(raw_pts) != 2:
+            raise SceneError(f"{j.key('points')}: {_describe(raw_pts)} is not allowed "
+                             "(two points, one per body: a point name or [x, y] in m)")
+        pts = []
+        for k, (b, pt) in enumerate(zip(pair, raw_pts, strict=True)):
+            if isinstance(pt, str):
+                if pt not in points[b]:
+                    raise _unknown(f"{j.key('points')}[{k}]", f"point of {b}", pt, list(points[b]) or ["(none)"])
+                pts.append(points[b][pt])
+            else:
+                pts.append(_Section({"p": pt}, f"{j.key('points')}[{k}]").vector("p", 2))
+        extra = {}
+        if kind == "prismatic":
+            axis = j.vector("axis", 2, [1.0, 0.0])
+            norm = math.hypot(*axis)
+            if not norm > 1e-12:
+                raise SceneError(f"{j.key('axis')}: {list(axis)} is not allowed (a direction of non-zero length)")
+            extra = {"axis": (axis[0] / norm, axis[1] / norm), "angle": math.radians(j.number("angle_deg", 0.0))}
+            if j.has("clearance"):
+                raise SceneError(f"{j.key('clearance')}: not allowed on a prismatic joint (revolute clearance only)")
+        cl = {"clearance": False, "journal_radius": 0.005, "radial_clearance": 1e-4,
+              "journal_material": Material("steel", *MATERIALS["steel"]),
+              "bearing_material": Material("steel", *MATERIALS["steel"])}
+        if kind == "revolute" and j.raw("clearance") is not None:
+            cl.update(_clearance(j.raw("clearance"), j.key("clearance"), tuple(pair)))
+        j.done()
+        joints.append(JointSpec(name, type=kind, bodies=tuple(pair), points=tuple(pts), **cl, **extra))
+        used.update(pair)
+    for b in bodies:
+        if b.name not in used:
+            raise SceneError(f"{sec.key('bodies')}: body {b.name!r} is not allowed (it has no joint: "
+                             "every body must be connected)")
+    jnames = [x.name for x in joints]
+
+    def refs(k: str, what: str):
+        raw = sec.raw(k, []) or []
+        if not isinstance(raw, list):
+            raise SceneError(f"{sec.key(k)}: {_describe(raw)} is not allowed (a list of {what})")
+        for i, r in enumerate(raw):
+            e = _Section(r, f"{sec.key(k)}[{i}]")
+            joint = e.raw("joint")
+            if joint not in jnames:
+                raise _unknown(e.key("joint"), "joint", joint, jnames)
+            yield e, joint
+
+    actuators = []
+    for e, joint in refs("actuators", "actuators"):
+        unit = "N m" if joints[jnames.index(joint)].type == "revolute" else "N"
+        actuators.append(ActuatorSpec(_name(e, default=joint), joint, e.number("limit", positive=True)))
+        e.done()
+        del unit
+    drivers = []
+    for e, joint in refs("drivers", "drivers"):
+        jt = joints[jnames.index(joint)]
+        if e.has("speed_rpm"):
+            speed = e.number("speed_rpm") * 2 * math.pi / 60
+            if jt.type != "revolute":
+                raise SceneError(f"{e.key('speed_rpm')}: not allowed on a prismatic joint (give speed in m/s)")
+        else:
+            speed = e.number("speed")
+        initial = math.radians(e.number("initial_deg", 0.0)) if jt.type == "revolute" else e.number("initial", 0.0)
+        drivers.append(DriverSpec(_name(e, default=joint), joint, initial, speed))
+        e.done()
+    busy = [a.joint for a in actuators] + [d.joint for d in drivers]
+    for j in joints:
+        if busy.count(j.name) > 1:
+            raise SceneError(f"{sec.key('actuators')}: joint {j.name!r} is not allowed to carry more than one "
+                             "actuator or driver")
+        if j.clearance and j.name in busy:
+            raise SceneError(f"{sec.key('joints')}: joint {j.name!r} has clearance and an actuator or driver "
+                             "(clearance is allowed on passive joints only)")
+    task = sec.raw("task")
+    if task in (None, "none"):
+        task = None
+    elif task not in names[1:]:
+        raise _unknown(sec.key("task"), "body", task, names[1:] + ["none"])
+    sec.done()
+    return Graph(tuple(bodies), tuple(joints), tuple(actuators), tuple(drivers), task)
+
+
+def expand_nrrr(m: Mechanism_, joints: tuple[JointSpec, ...], torque_limit) -> Graph:
+    """The body/joint graph of an n-RRR: bodies driving_i, following_i (i = 1..n) and
+    platform, in this order (q = [q_11, q_12, ..., q_n1, q_n2, q_o], Zhang & Zhang 2017);
+    joints A1..An (ground - driving, actuated), B1..Bn, C1..Cn with the clearance settings
+    of `joints` (B1..Bn, C1..Cn); the platform is the task body."""
+    bodies, js, acts = [], [], []
+    spec = {j.name: j for j in joints}
+    for i, c in enumerate(m.chains, start=1):
+        h1, h2 = 0.5 * c.driving.length, 0.5 * c.following.length
+        bodies += [Body(f"driving_{i}", c.driving.mass, c.driving.inertia, (("A", (-h1, 0.0)), ("B", (h1, 0.0)))),
+                   Body(f"following_{i}", c.following.mass, c.following.inertia,
+                        (("B", (-h2, 0.0)), ("C", (h2, 0.0))))]
+    attach = tuple((f"C{i}", (c.attachment_radius * math.cos(c.attachment_angle),
+                              c.attachment_radius * math.sin(c.attachment_angle)))
+                   for i, c in enumerate(m.chains, start=1))
+    bodies.append(Body("platform", m.platform.mass, m.platform.inertia, attach))
+    steel = Material("steel", *MATERIALS["steel"])
+    for i, c in enumerate(m.chains, start=1):
+        h1 = 0.5 * c.driving.length
+        js.append(JointSpec(f"A{i}", False, 0.005, 1e-4, steel, steel, bodies=(GROUND, f"driving_{i}"),
+                            points=(tuple(c.base), (-h1, 0.0))))
+        acts.append(ActuatorSpec(f"A{i}", f"A{i}", float(torque_limit[i - 1])))
+    for i, c in enumerate(m.chains, start=1):
+        h1, h2 = 0.5 * c.driving.length, 0.5 * c.following.length
+        js.append(replace(spec[f"B{i}"], bodies=(f"driving_{i}", f"following_{i}"), points=((h1, 0.0), (-h2, 0.0))))
+    for i, c in enumerate(m.chains, start=1):
+        h2 = 0.5 * c.following.length
+        js.append(replace(spec[f"C{i}"], bodies=(f"following_{i}", "platform"), points=((h2, 0.0), attach[i - 1][1])))
+    return Graph(tuple(bodies), tuple(js), tuple(acts), (), "platform")
+
+
 def _effects(sec: _Section) -> Effects:
     c = sec.section("contact")
-    law = c.choice("law", CONTACT_LAWS, "lankarani-nikravesh")
+    law = c.choice("law", choices("contact law"), "lankarani-nikravesh")
     cr = c.number("restitution", 0.9, lo=0.0, hi=1.0, lo_open=True)
     exponent = c.number("exponent", 1.0 if law == "kelvin-voigt" else 1.5, positive=True)
     k = c.raw("stiffness", "auto")
@@ -472,7 +769,7 @@ def _effects(sec: _Section) -> Effects:
     damping = c.number("damping", 0.0, nonneg=True)
     c.done()
     f = sec.section("friction")
-    flaw = f.choice("law", FRICTION_LAWS, "none")
+    flaw = f.choice("law", choices("friction law"), "none")
     mu = f.number("coefficient", 0.0 if flaw == "none" else None, nonneg=True)
     mus = f.number("static_coefficient", mu, nonneg=True)
     v0 = f.number("v0", 1e-4, positive=True)
@@ -487,20 +784,30 @@ def _effects(sec: _Section) -> Effects:
                    FrictionEffect(flaw, mu, mus, v0, v1, vs), g)
 
 
-def _actuation(sec: _Section, n: int) -> Actuation:
-    mode = sec.choice("mode", ACTUATION_MODES, "torque")
-    limits = sec.vector("torque_limit", n, 1e3, scalar_ok=True)
-    for i, v in enumerate(limits):
-        if v <= 0:
-            raise SceneError(f"{sec.key('torque_limit')}[{i}]: {v:g} N m is not allowed (must be > 0)")
+def _actuation(sec: _Section, n: int, graph: Graph | None = None) -> Actuation:
+    """n actuators; for a graph scene their limits come from mechanism.actuators, and the
+    mode defaults to 'free' when there is no task to track."""
+    if graph is None:
+        mode = sec.choice("mode", ACTUATION_MODES, "torque")
+        limits = sec.vector("torque_limit", n, 1e3, scalar_ok=True)
+        for i, v in enumerate(limits):
+            if v <= 0:
+                raise SceneError(f"{sec.key('torque_limit')}[{i}]: {v:g} N m is not allowed (must be > 0)")
+    else:
+        mode = sec.choice("mode", ACTUATION_MODES, "torque" if graph.task and n else "free")
+        if mode != "free" and (graph.task is None or n == 0):
+            raise SceneError(f"{sec.key('mode')}: {mode!r} is not allowed without "
+                             f"{'a task (mechanism.task)' if graph.task is None else 'actuators'} to track the "
+                             "path (choose 'free'; drivers prescribe their joints in every mode)")
+        limits = tuple(a.limit for a in graph.actuators)
     p = sec.section("preload")
-    method = p.choice("method", PRELOAD_METHODS, "exact")
+    method = p.choice("method", choices("preload method"), "exact")
     fmin = p.number("min_force", nonneg=True, default=5.0)
     weights = p.vector("weights", n, 1.0, scalar_ok=True)
     for i, v in enumerate(weights):
         if v <= 0:
             raise SceneError(f"{p.key('weights')}[{i}]: {v:g} is not allowed (must be > 0)")
-    qp = p.choice("qp_solver", QP_SOLVERS, "qrqp")
+    qp = p.choice("qp_solver", choices("qp solver"), "qrqp")
     smooth = p.number("smoothness_weight", 1e-4, nonneg=True)
     turn = p.number("max_turn_rate", 50.0, positive=True)
     p.done()
@@ -512,8 +819,12 @@ def _actuation(sec: _Section, n: int) -> Actuation:
     return Actuation(mode, limits, PreloadSettings(method, fmin, weights, qp, smooth, turn), kp, kd)
 
 
-def _path(sec: _Section) -> PathSpec:
-    kind = sec.choice("type", PATH_TYPES)
+def _path(sec: _Section, task: bool = True) -> PathSpec:
+    kind = sec.choice("type", PATH_TYPES, None if task else "none")
+    if (kind == "none") == task:
+        raise SceneError(f"{sec.key('type')}: {kind!r} is not allowed "
+                         + ("(the task body follows a path: circle, line or waypoints)" if task else
+                            "(no task body: the drivers set the motion; use 'none' with duration and sample_rate)"))
     common = dict(
         type=kind,
         duration=sec.number("duration", positive=True),
@@ -531,6 +842,8 @@ def _path(sec: _Section) -> PathSpec:
                         orientation=sec.number("orientation", 0.0))
     elif kind == "line":
         spec = PathSpec(**common, start=sec.vector("start", 3), end=sec.vector("end", 3))
+    elif kind == "none":
+        spec = PathSpec(**common)
     else:
         pts = sec.raw("points")
         if not isinstance(pts, list) or len(pts) < 2:
@@ -544,7 +857,7 @@ def _path(sec: _Section) -> PathSpec:
 
 def _integrator(sec: _Section) -> IntegratorSettings:
     s = IntegratorSettings(
-        method=sec.choice("method", INTEGRATORS, "bathe"),
+        method=sec.choice("method", choices("integrator"), "bathe"),
         step=sec.number("step", 1e-5, positive=True),
         rtol=sec.number("rtol", 1e-8, positive=True),
         atol=sec.number("atol", 1e-10, positive=True),
@@ -565,31 +878,43 @@ def _initial(sec: _Section) -> Initial:
     return v
 
 
-def parse_scene(data, name: str = "scene", source: str = "", check_path: bool = True) -> Scene:
-    """Build a :class:`Scene` from a parsed YAML mapping (raises SceneError)."""
+def parse_scene(data, name: str = "scene", source: str = "") -> Scene:
+    """Build a :class:`Scene` from a parsed YAML mapping (raises SceneError).
+
+    Validates the data only; :func:`rrr4.load_scene` also checks the scene against its
+    model (assembly, workspace, singularities)."""
     top = _Section(data, "")
-    mech = _mechanism(top.section("mechanism"))
+    msec = top.section("mechanism")
+    kind = msec.choice("kind", MECHANISM_KINDS, "n-rrr")
+    if kind == "n-rrr":
+        mech = _mechanism(msec)
+        joints = _joints(top.section("joints"), mech.n_chains)
+        actuation = _actuation(top.section("actuation"), mech.n_chains)
+        graph = expand_nrrr(mech, joints, actuation.torque_limit)
+    else:
+        mech, graph = None, _graph(msec)
+        if top.has("joints"):
+            raise SceneError("joints: not allowed with mechanism.kind 'graph' (give each joint's clearance in "
+                             "mechanism.joints)")
+        actuation = _actuation(top.section("actuation"), len(graph.actuators), graph)
     scene = Scene(
         name=top.string("name", name),
         description=top.string("description", ""),
         mechanism=mech,
-        joints=_joints(top.section("joints"), mech.n_chains),
+        graph=graph,
         effects=_effects(top.section("effects")),
-        actuation=_actuation(top.section("actuation"), mech.n_chains),
-        path=_path(top.section("path")),
+        actuation=actuation,
+        path=_path(top.section("path"), graph.task is not None),
         initial=_initial(top.section("initial")),
         integrator=_integrator(top.section("integrator")),
         source=source,
     )
     top.done()
-    if check_path:
-        from .mechanism.workspace import check_path as _check
-        _check(scene)
     return scene
 
 
-def load_scene(path) -> Scene:
-    """Read and validate a YAML scene file. Raises :class:`SceneError`."""
+def read_scene(path) -> Scene:
+    """Read and validate a YAML scene file (data only, see :func:`parse_scene`). Raises :class:`SceneError`."""
     p = Path(path)
     if not p.is_file():
         raise SceneError(f"scene file '{path}' does not exist")

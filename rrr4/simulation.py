@@ -5,11 +5,14 @@ module feeds them with references, picks the integrator, rolls it inside compile
 and collects the results.
 
 References in the 'torque' and 'prescribed' modes: theta_ref(t), theta_d_ref, theta_dd_ref
-come from the scene's path through the closed-form IK, inside the graph. tau_ref is the
-ideal inverse-dynamics feed-forward tau_p(t) (minimum norm, no preload), built in the graph
-too, unless a ``preload`` solution (anything with ``t`` (N,) [s] and ``tau`` (N, n) [N m],
+come from the scene's path. An n-RRR scene evaluates them through the closed-form IK,
+inside the graph; any other graph with a task body solves its IK by Newton on the output
+frames and the right-hand side interpolates them (cubic Hermite in theta and theta_d).
+tau_ref is the ideal inverse-dynamics feed-forward tau_p(t) (minimum norm, no preload),
+unless a ``preload`` solution (anything with ``t`` (N,) [s] and ``tau`` (N, n) [N m],
 e.g. a PreloadSolution) is given; then tau_ref is that torque, linear between its samples.
-In the 'free' mode the actuators carry no torque.
+In the 'free' mode the actuators carry no torque. A graph without a task body moves by its
+drivers (prescribed joint coordinates, constraint rows in time).
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ from .dynamics.builder import Equations, build_equations, graph_size
 from .dynamics.energy import energy_audit_residual, energy_terms
 from .errors import SceneError
 from .integrators import METHODS, FixedStepIntegrator, System
-from .mechanism import Mechanism
+from .mechanism import Mechanism, Model
 from .scene import Scene
 from .trajectory import trajectory_function
 
@@ -38,15 +41,17 @@ OVERRIDES = ("step", "output_rate", "preload", "v_min", "baumgarte", "jit", "pro
 class Simulation:
     """Result of :func:`simulate`. N output instants (t = 0 included), nc clearance joints.
 
-    t (N,) [s]; q, qd (N, nq); pose, pose_ref (N, 3) [m, m, rad]; platform_error (N,) [m]
-    (position distance to the commanded path); tau (N, n) [N m]; contact_force (N, nc, 2)
-    [N] on the journal (outboard) body, global frame = the reaction convention;
-    normal_force (N, nc) [N]; eccentricity (N, nc, 2) [m]; penetration (N, nc) [m];
-    reaction (N, k, 2) [N] of the k ideal passive joints (same convention);
-    contact_loss_events: joint -> count of contact -> free-flight transitions (B1..C4, 0 for
-    ideal joints); energy: dict of (N,) arrays [J] (see :mod:`rrr4.dynamics.energy`);
-    energy_audit_residual = max |W_in - dE - D| / largest energy term; stats: solver
-    statistics (method, step, steps, wall time, graph sizes).
+    t (N,) [s]; q, qd (N, nq); pose, pose_ref (N, 3) [m, m, rad] of the task body (zeros
+    without one); platform_error (N,) [m] (position distance to the commanded path); tau
+    (N, n) [N m or N]; contact_force (N, nc, 2) [N] on the journal body, global frame (the
+    reaction convention when the journal sits on the joint's second body, as in every
+    n-RRR); normal_force (N, nc) [N]; eccentricity (N, nc, 2) [m]; penetration (N, nc) [m];
+    reaction (N, k, 2) [N] of the k ideal passive revolute joints (force of the first body
+    on the second); contact_loss_events: passive joint -> count of contact -> free-flight
+    transitions (0 for ideal joints); energy: dict of (N,) arrays [J] (see
+    :mod:`rrr4.dynamics.energy`); energy_audit_residual = max |W_in - dE - D| / largest
+    energy term; stats: solver statistics (method, step, steps, wall time, graph sizes).
+    :meth:`body` gives the (N, 3) pose of any body.
     """
     scene: Scene
     clearance_joints: tuple[str, ...]
@@ -68,6 +73,13 @@ class Simulation:
     energy: dict
     energy_audit_residual: float
     stats: dict = field(default_factory=dict)
+
+    def body(self, name: str) -> np.ndarray:
+        """(N, 3) pose [x, y, theta] [m, m, rad] of the centre of mass of the body `name`."""
+        model = Model.of(self.scene.graph)
+        if name not in model.body_names:
+            raise SceneError(f"body: unknown value {name!r} (choose one of: {', '.join(model.body_names)})")
+        return model.body_poses(self.q, name)
 
 
 @functools.cache
@@ -92,33 +104,82 @@ def reference_function(scene: Scene, feed_forward: bool) -> ca.Function:
 _SYSTEMS: dict[tuple[int, int], tuple[Equations, ca.Function, System]] = {}
 
 
-def _system(eqs: Equations, refs: ca.Function) -> System:
+def _system(eqs: Equations, refs: ca.Function | None) -> System:
     """The ODE y = [q, qd, W_in, D_damping, D_friction] with discrete z = [delta_dot0,
-    in_contact, losses] (nc each) and frame input u = [t_a, t_b, tau_a (n), tau_b (n)].
-    Built once per (equations, references) pair (the entry keeps both alive, so their ids
-    stay unique keys)."""
+    in_contact, losses] (nc each) and frame input u = [t_a, t_b, tau_a (n), tau_b (n)],
+    followed, for sampled references (refs None), by theta, theta_d and theta_dd at both
+    frame ends (n each). Built once per (equations, references) pair (the entry keeps both
+    alive, so their ids stay unique keys)."""
     key = (id(eqs), id(refs))
     if key not in _SYSTEMS:
         _SYSTEMS[key] = (eqs, refs, _build_system(eqs, refs))
     return _SYSTEMS[key][2]
 
 
-def _build_system(eqs: Equations, refs: ca.Function) -> System:
+def _hermite(s, h, a, b, da, db):
+    """Cubic Hermite interpolant at s in [0, 1] of an interval of length h [s]."""
+    s2, s3 = s * s, s * s * s
+    return (2 * s3 - 3 * s2 + 1) * a + (s3 - 2 * s2 + s) * h * da + (3 * s2 - 2 * s3) * b + (s3 - s2) * h * db
+
+
+def _build_system(eqs: Equations, refs: ca.Function | None) -> System:
     nq, n, nc = eqs.nq, eqs.n_actuators, len(eqs.clearance_joints)
     t, y, z = ca.SX.sym("t"), ca.SX.sym("y", 2 * nq + 3), ca.SX.sym("z", 3 * nc)
-    u = ca.SX.sym("u", 2 + 2 * n)
+    u = ca.SX.sym("u", 2 + 2 * n + (0 if refs is not None else 6 * n))
     q, qd = y[:nq], y[nq:2 * nq]
     dd0, inc, losses = z[:nc], z[nc:2 * nc], z[2 * nc:]
-    _, th, th_d, th_dd, tau_ff = refs(t)
-    s = ca.fmin(ca.fmax((t - u[0]) / ca.fmax(u[1] - u[0], 1e-300), 0.0), 1.0)
-    tau_ref = tau_ff + (1 - s) * u[2:2 + n] + s * u[2 + n:]
+    h = ca.fmax(u[1] - u[0], 1e-300)
+    s = ca.fmin(ca.fmax((t - u[0]) / h, 0.0), 1.0)
+    tau_ref = (1 - s) * u[2:2 + n] + s * u[2 + n:2 + 2 * n]
+    if refs is not None:
+        _, th, th_d, th_dd, tau_ff = refs(t)
+        tau_ref = tau_ref + tau_ff
+    else:
+        th_a, th_b, thd_a, thd_b, thdd_a, thdd_b = (u[2 + n * k:2 + n * (k + 1)] for k in range(2, 8))
+        th = _hermite(s, h, th_a, th_b, thd_a, thd_b)
+        th_d = _hermite(s, h, thd_a, thd_b, thdd_a, thdd_b)
+        th_dd = (1 - s) * thdd_a + s * thdd_b
     out = eqs.acceleration(q=q, qd=qd, tau_ref=tau_ref, theta_ref=th, theta_d_ref=th_d, theta_dd_ref=th_dd,
-                           delta_dot0=dd0, in_contact=inc)
+                           delta_dot0=dd0, in_contact=inc, t=t)
     ydot = ca.vertcat(qd, out["qdd"], out["power_in"], out["power_damping"], out["power_friction"])
     ode = ca.Function("ode", [t, y, z, u], [ydot], ["t", "y", "z", "u"], ["y_dot"])
     dd0n, incn, loss = eqs.contact_update(q, qd, dd0, inc)
     disc = ca.Function("discrete", [t, y, z], [ca.vertcat(dd0n, incn, losses + loss)], ["t", "y", "z"], ["z_next"])
     return System(ode, disc)
+
+
+@dataclass(frozen=True)
+class _References:
+    """References on the output frames (N,): task pose (N, 3) (zeros without a task),
+    actuator theta, theta_d, theta_dd (N, n) and the feed-forward effort (N, n); `function`
+    is the closed-form n-RRR reference Function evaluated inside the right-hand side, or
+    None when the frame samples are interpolated (cubic Hermite) instead."""
+    pose: np.ndarray
+    theta: np.ndarray
+    theta_d: np.ndarray
+    theta_dd: np.ndarray
+    tau_ff: np.ndarray
+    function: ca.Function | None
+
+
+def _references(scene: Scene, mech: Mechanism, t_frames: np.ndarray, feed_forward: bool) -> _References:
+    N, n = len(t_frames), mech.n
+    if scene.mechanism is not None:
+        f = reference_function(scene, feed_forward)
+        pose, th, th_d, th_dd, tau_ff = (np.array(v).T for v in f.map(N)(t_frames[None, :]))
+        return _References(pose, th, th_d, th_dd, tau_ff, f)
+    if scene.graph.task is None:
+        z = np.zeros((N, n))
+        return _References(np.zeros((N, 3)), z, z, z, z, None)
+    pose, pose_d, pose_dd = (np.array(v).T for v in trajectory_function(scene.path).map(N)(t_frames[None, :]))
+    q = mech.path_coordinates(pose)
+    _, qdd, th_d, th_dd = mech.motion(q, pose_d, pose_dd)
+    th = np.array(mech.model.actuator_coordinates_function.map(N)(q.T)[0]).T
+    tau_ff = np.zeros((N, n))
+    if feed_forward:
+        from .dynamics.family import graph_family
+        tau_ff = graph_family(mech, q, qdd, scene.effects.gravity).tau_p
+    return _References(pose, th, th_d, th_dd, tau_ff, None)
 
 
 def _integrator(scene: Scene, integrator, jit: bool) -> FixedStepIntegrator:
@@ -131,26 +192,26 @@ def _integrator(scene: Scene, integrator, jit: bool) -> FixedStepIntegrator:
     return METHODS[name].from_settings(scene.integrator, jit=jit)
 
 
-def _seated_eccentricity(scene: Scene, eqs: Equations, motion, tau0) -> np.ndarray:
-    """Eccentricities (2n, 2) [m] of B1..Bn, C1..Cn with each clearance journal resting on
-    its bearing wall under the ideal reaction r_j at t = 0 of the torque tau0 (n,) [N m]:
-    e_j = -(c_j + delta_j) r_j / |r_j| with K_j delta_j^n = |r_j| (the elastic part of the
-    contact law; the contact force on the journal points back to the bearing centre).
-    Joints carrying less than 1e-9 N stay centred."""
-    from .dynamics.inverse import inverse_dynamics_function
-    tau_p, tau_n, r_p, r_n = (np.array(v) for v in inverse_dynamics_function(scene)(*motion))
-    alpha = np.linalg.pinv(tau_n) @ (tau0 - tau_p.ravel()) if tau_n.size else np.zeros(0)
-    n2 = r_p.shape[1]
-    r = r_p.T + sum((a * r_n[:, k * n2:(k + 1) * n2].T for k, a in enumerate(alpha)), np.zeros((n2, 2)))
-    names = [j.name for j in scene.joints]
-    ecc = np.zeros((n2, 2))
-    for j, K in zip(eqs.clearance_joints, eqs.stiffness, strict=True):
-        k = names.index(j)
-        f = float(np.linalg.norm(r[k]))
+def _seated_offsets(scene: Scene, eqs: Equations, mech: Mechanism, q0, qd0, qdd0, tau0) -> np.ndarray:
+    """Offsets (nc, 2) [m] (second joint point - first) of the clearance joints with each
+    journal resting on its bearing wall under the ideal reaction r_j at t = 0 of the
+    efforts tau0 (n,): -(c_j + delta_j) r_j / |r_j| with K_j delta_j^n = |r_j| (the elastic
+    part of the contact law), whichever body carries the journal. Joints carrying less than
+    1e-9 N stay centred."""
+    from .dynamics.family import graph_family
+    fam = graph_family(mech, np.atleast_2d(q0), np.atleast_2d(qdd0), scene.effects.gravity)
+    tau_n = fam.tau_n[0]
+    alpha = np.linalg.pinv(tau_n) @ (tau0 - fam.tau_p[0]) if tau_n.size else np.zeros(0)
+    r = fam.r_p[0] + (fam.r_n[0] @ alpha if alpha.size else 0.0)
+    names = mech.model.preload_joints
+    out = np.zeros((len(eqs.clearance_joints), 2))
+    for k, (j, K) in enumerate(zip(eqs.clearance_joints, eqs.stiffness, strict=True)):
+        rj = r[names.index(j)]
+        f = float(np.linalg.norm(rj))
         if f > 1e-9:
             delta = (f / K) ** (1.0 / scene.effects.contact.exponent)
-            ecc[k] = -(scene.joint(j).radial_clearance + delta) * r[k] / f
-    return ecc
+            out[k] = -(scene.joint(j).radial_clearance + delta) * rj / f
+    return out
 
 
 def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overrides) -> Simulation:
@@ -186,24 +247,42 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
 
     preload = overrides.get("preload")
     feed_forward = eqs.mode == "torque" and preload is None
-    refs = reference_function(scene, feed_forward)
+    ref = _references(scene, mech, t_frames, feed_forward)
     tab = np.zeros((n_frames + 1, n))
     if preload is not None and eqs.mode == "torque":
         pt, ptau = np.asarray(preload.t, float), np.asarray(preload.tau, float)
         tab = np.column_stack([np.interp(t_frames, pt, ptau[:, i]) for i in range(n)])
-    u = np.column_stack([t_frames[:-1], t_frames[1:], tab[:-1], tab[1:]])
+    ends = [tab]
+    if ref.function is None:
+        ends = [tab + ref.tau_ff, ref.theta, ref.theta_d, ref.theta_dd]
+    u = np.column_stack([t_frames[:-1], t_frames[1:]] + [v for e in ends for v in (e[:-1], e[1:])])
 
-    pose0, pose_d0, pose_dd0 = (np.array(v).ravel() for v in trajectory_function(scene.path)(0.0))
-    q0, qd0, _ = mech.body_motion(pose0, pose_d0 + np.asarray(scene.initial.platform_velocity))
+    model = mech.model
+    if model.task is not None:
+        pose0, pose_d0, pose_dd0 = (np.array(v).ravel() for v in trajectory_function(scene.path)(0.0))
+        target, target_d, target_dd = pose0, pose_d0 + np.asarray(scene.initial.platform_velocity), pose_dd0
+    else:
+        target = mech.driver_targets(0.0)[0]
+        target_d = np.array([d.speed for d in scene.graph.drivers])
+        target_dd = np.zeros(len(target))
+    if scene.mechanism is not None:  # closed form
+        q0, qd0, qdd0 = mech.body_motion(target, target_d, target_dd)
+    else:
+        q0 = mech.assemble(target)
+        qd0, qdd0, _, _ = (v.ravel() for v in mech.motion(q0, target_d, target_dd))
     seated = np.zeros(nc)
     if scene.initial.journals == "seated" and nc and eqs.mode != "free":
-        ecc = _seated_eccentricity(scene, eqs, (pose0, pose_d0, pose_dd0), tab[0] + np.array(refs(0.0)[4]).ravel())
-        q0 = mech.seated_coordinates(pose0, ecc)
-        names = [j.name for j in scene.joints]
-        seated = np.array([np.any(ecc[names.index(j)] != 0) for j in eqs.clearance_joints], dtype=float)
+        offsets = _seated_offsets(scene, eqs, mech, q0, qd0, qdd0, tab[0] + ref.tau_ff[0])
+        if scene.mechanism is not None:  # closed form; eccentricities of all passive joints
+            ecc = np.zeros((len(scene.joints), 2))
+            ecc[[[j.name for j in scene.joints].index(c) for c in eqs.clearance_joints]] = offsets
+            q0 = mech.seated_coordinates(target, ecc)
+        else:
+            q0 = mech.assemble(target, offsets, guess=q0)
+        seated = np.any(offsets != 0, axis=1).astype(float)
     x0 = np.r_[0.0, q0, qd0, 0.0, 0.0, 0.0, np.full(nc, eqs.v_min), seated, np.zeros(nc)]
 
-    system = _system(eqs, refs)
+    system = _system(eqs, ref.function)
     wall = time.perf_counter()
     X = method.run(system, x0, u, h, spf, progress=bool(overrides.get("progress", False)))
     wall = time.perf_counter() - wall
@@ -217,20 +296,18 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
                          "use a smaller step")
 
     N = len(t_frames)
-    pose_ref, th, th_d, th_dd, tau_ff = (np.array(v) for v in refs.map(N)(t_frames[None, :]))
-    tau_ref = tau_ff + tab.T
+    tau_ref = (ref.tau_ff + tab).T
     acc = eqs.acceleration.map(N)
-    out = acc(q=q.T, qd=qd.T, tau_ref=tau_ref, theta_ref=th, theta_d_ref=th_d, theta_dd_ref=th_dd,
-              delta_dot0=z[:, :nc].T, in_contact=z[:, nc:2 * nc].T)
+    out = acc(q=q.T, qd=qd.T, tau_ref=tau_ref, theta_ref=ref.theta.T, theta_d_ref=ref.theta_d.T,
+              theta_dd_ref=ref.theta_dd.T, delta_dot0=z[:, :nc].T, in_contact=z[:, nc:2 * nc].T, t=t_frames[None, :])
     k = len(eqs.passive_ideal_joints)
 
     def per_joint(a, rows):
         return np.array(a).reshape(rows, N, -1).transpose(1, 2, 0) if rows == 2 else np.array(a).T
 
-    pose = q[:, 6 * n:6 * n + 3]
-    losses = {j: 0 for j in scene.ideal_joints}
+    pose = model.body_poses(q, model.task) if model.task else np.zeros((N, 3))
+    losses = {j.name: 0 for j in scene.joints}
     losses.update({j: int(round(v)) for j, v in zip(eqs.clearance_joints, z[-1, 2 * nc:], strict=True)})
-    losses = {j.name: losses[j.name] for j in scene.joints}
     energy = energy_terms(eqs.energy, q, qd, W, Dd, Df)
     stats = {"method": method.name, "step": h, "steps": spf * n_frames, "frames": n_frames, "wall_time": wall,
              "jit": method.jit, "graph": {f.name(): graph_size(f) for f in (eqs.acceleration, system.ode)},
@@ -238,8 +315,8 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     stats.update(getattr(method, "run_stats", {}))
     return Simulation(
         scene=scene, clearance_joints=eqs.clearance_joints, ideal_passive_joints=eqs.passive_ideal_joints,
-        terms=eqs.terms, t=t_frames, q=q, qd=qd, pose=pose, pose_ref=pose_ref.T,
-        platform_error=np.linalg.norm(pose[:, :2] - pose_ref.T[:, :2], axis=1),
+        terms=eqs.terms, t=t_frames, q=q, qd=qd, pose=pose, pose_ref=ref.pose,
+        platform_error=np.linalg.norm(pose[:, :2] - ref.pose[:, :2], axis=1),
         tau=np.array(out["tau"]).T,
         contact_force=per_joint(out["contact_force"], 2) if nc else np.zeros((N, 0, 2)),
         normal_force=per_joint(out["normal_force"], 1) if nc else np.zeros((N, 0)),

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .dynamics.inverse import inverse_dynamics_function
+from .mechanism import Model
 from .preload import PreloadSolution, solve_preload
 from .preload.solve import PreloadWarning
 from .scene import Scene
@@ -65,8 +66,8 @@ class Study:
 
 
 def has_preload_arm(scene: Scene) -> bool:
-    """True if the study of `scene` has a "with preload" arm (4 chains and f_min > 0)."""
-    return scene.mechanism.n_chains >= 4 and scene.actuation.preload.min_force > 0
+    """True if the study of `scene` has a "with preload" arm (actuation redundancy and f_min > 0)."""
+    return Model.of(scene.graph).redundancy >= 1 and scene.actuation.preload.min_force > 0
 
 
 def _min_norm_torques(scene: Scene, t_path: np.ndarray) -> np.ndarray:

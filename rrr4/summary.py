@@ -4,27 +4,36 @@ from __future__ import annotations
 
 import numpy as np
 
-from .mechanism import Mechanism
+from .mechanism import Model
 from .mechanism.workspace import path_kinematics
 from .scene import Scene
 from .trajectory import sample_path
 
 
 def scene_summary(scene: Scene) -> str:
-    mech = Mechanism.from_scene(scene)
+    model = Model.of(scene.graph)
     m = scene.mechanism
     lines = [f"scene {scene.name}: {scene.description}".rstrip(": "), ""]
-    lines.append(f"bodies ({2 * m.n_chains + 1}, {mech.nq} coordinates):")
-    for c in m.chains:
-        lines.append(f"  chain {c.name}: base ({c.base[0]:+.3f}, {c.base[1]:+.3f}) m, "
-                     f"driving {c.driving.length:.3f} m / {c.driving.mass:.3f} kg, "
-                     f"following {c.following.length:.3f} m / {c.following.mass:.3f} kg, "
-                     f"working mode {'+' if c.working_mode > 0 else '-'}acos")
-    lines.append(f"  platform: {m.platform.mass:.3f} kg, {m.platform.inertia:.4g} kg m^2")
-    redundancy = m.n_chains - 3
-    lines.append(f"actuators: {m.n_chains} for 3 DOF (degree of redundancy {redundancy})")
+    lines.append(f"bodies ({len(model.body_names)}, {model.nq} coordinates):")
+    if m is not None:
+        for c in m.chains:
+            lines.append(f"  chain {c.name}: base ({c.base[0]:+.3f}, {c.base[1]:+.3f}) m, "
+                         f"driving {c.driving.length:.3f} m / {c.driving.mass:.3f} kg, "
+                         f"following {c.following.length:.3f} m / {c.following.mass:.3f} kg, "
+                         f"working mode {'+' if c.working_mode > 0 else '-'}acos")
+        lines.append(f"  platform: {m.platform.mass:.3f} kg, {m.platform.inertia:.4g} kg m^2")
+    else:
+        for b in scene.graph.bodies:
+            pts = ", ".join(b.points)
+            lines.append(f"  {b.name}: {b.mass:.4g} kg, {b.inertia:.4g} kg m^2; points {pts or 'none'}")
+    acts = [f"{a.name} on {a.joint}" for a in scene.graph.actuators]
+    task = f"task body {model.task}" if model.task else "no task body"
+    lines.append(f"actuators ({len(acts)}): {', '.join(acts) or 'none'}; {task} "
+                 f"(degree of redundancy {model.redundancy})")
+    for d in scene.graph.drivers:
+        lines.append(f"driver {d.name}: joint {d.joint} from {d.initial:g} at {d.speed:g} per s")
     lines.append("")
-    ideal = [f"A{i + 1}" for i in range(m.n_chains)] + list(scene.ideal_joints)
+    ideal = [j for j in model.joint_names if j not in model.clearance_joints]
     lines.append(f"ideal joints ({len(ideal)}): {' '.join(ideal)}")
     cl = [scene.joint(j) for j in scene.clearance_joints]
     if cl:
@@ -62,7 +71,12 @@ def scene_summary(scene: Scene) -> str:
     lines += _graph_lines(scene)
     lines.append("")
     s = sample_path(scene.path)
-    pk = path_kinematics(scene, mech)
+    pk = path_kinematics(scene)
+    if scene.graph.task is None:
+        lines.append(f"path: none; the drivers set the motion for {scene.path.duration:g} s")
+        integ = scene.integrator
+        lines.append(f"integrator: {integ.method}, step {integ.step:g} s")
+        return "\n".join(lines)
     lo, hi = s.pose.min(axis=0), s.pose.max(axis=0)
     speed = np.linalg.norm(s.pose_d[:, :2], axis=1).max()
     lines.append(f"path: {scene.path.type}, {scene.path.duration:g} s, {scene.path.time_law} time law, "
@@ -72,8 +86,9 @@ def scene_summary(scene: Scene) -> str:
     cond, t = pk.worst_condition
     lines.append(f"  worst Jacobian condition number {cond:.4g} at t = {t:.4g} s "
                  f"(allowed <= {scene.path.max_condition_number:g})")
-    lines.append(f"  smallest transmission |sin| {np.abs(pk.sin_transmission).min():.3f} "
-                 f"(allowed >= {scene.path.min_transmission:g})")
+    if pk.sin_transmission is not None:
+        lines.append(f"  smallest transmission |sin| {np.abs(pk.sin_transmission).min():.3f} "
+                     f"(allowed >= {scene.path.min_transmission:g})")
     integ = scene.integrator
     lines.append(f"integrator: {integ.method}, step {integ.step:g} s")
     return "\n".join(lines)

@@ -35,7 +35,7 @@ def _with(scene, clearance=None, friction=None, mode=None, restitution=None, rad
     if restitution is not None:
         eff = dataclasses.replace(eff, contact=dataclasses.replace(eff.contact, restitution=restitution))
     act = scene.actuation if mode is None else dataclasses.replace(scene.actuation, mode=mode)
-    return dataclasses.replace(scene, joints=joints, effects=eff, actuation=act)
+    return dataclasses.replace(scene.with_joints(joints), effects=eff, actuation=act)
 
 
 def test_frictionless_scene_has_no_friction_term_in_its_graph(paper_scene):

@@ -216,7 +216,7 @@ def test_codegen_rejects_a_mechanism_without_redundancy_and_keeps_earlier_files(
     paper_data["mechanism"]["chains"] = paper_data["mechanism"]["chains"][:3]
     paper_data["joints"]["clearance"] = "all"
     paper_data["actuation"]["preload"]["weights"] = 1.0
-    scene = parse_scene(paper_data, check_path=False)
+    scene = parse_scene(paper_data)
     (tmp_path / "rrr4.h").write_text("/* earlier */")
     with pytest.raises(SceneError, match="mechanism.chains"):
         codegen(scene, tmp_path, branch=1)

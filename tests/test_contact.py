@@ -100,7 +100,7 @@ def _one_clearance_scene(name, friction="ambrosio"):
     joints = tuple(dataclasses.replace(j, clearance=(j.name == name)) for j in s.joints)
     eff = dataclasses.replace(s.effects, contact=dataclasses.replace(s.effects.contact, law="lankarani-nikravesh"),
                               friction=_friction(friction))
-    return dataclasses.replace(s, joints=joints, effects=eff)
+    return dataclasses.replace(s.with_joints(joints), effects=eff)
 
 
 @pytest.mark.parametrize("name", PASSIVE_JOINTS)
@@ -171,7 +171,7 @@ def test_approach_velocity_is_captured_at_onset_held_and_reset():
 def test_hard_inputs_stay_finite(law, restitution, clearance):
     s = load_scene(CONSERVATIVE)
     s = dataclasses.replace(
-        s, joints=tuple(dataclasses.replace(j, radial_clearance=clearance) for j in s.joints),
+        s.with_joints(tuple(dataclasses.replace(j, radial_clearance=clearance) for j in s.joints)),
         effects=dataclasses.replace(s.effects, contact=dataclasses.replace(s.effects.contact, law=law,
                                                                            restitution=restitution)))
     r = simulate(s, step=2e-6, t_end=0.02)

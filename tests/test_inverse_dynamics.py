@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 from rrr4 import Mechanism
-from rrr4.dynamics import actuator_matrix, gravity_forces, mass_matrix
 from rrr4.dynamics.inverse import actuator_motion_function, inverse_dynamics_function, joint_reactions_function
 from rrr4.mechanism import kinematics as kin
 from rrr4.scene import parse_scene
@@ -29,7 +28,7 @@ def _three_chain_scene(paper_data):
     paper_data["mechanism"]["chains"] = paper_data["mechanism"]["chains"][:3]
     paper_data["joints"]["clearance"] = "all"
     paper_data["actuation"]["preload"]["weights"] = 1.0
-    return parse_scene(paper_data, check_path=False)
+    return parse_scene(paper_data)
 
 
 @pytest.mark.parametrize("gravity", [(0.0, 0.0), (0.0, -9.81)])
@@ -37,8 +36,7 @@ def test_family_satisfies_constrained_equations_of_motion(paper_scene, gravity):
     """M qdd + Phi_q^T lambda = Q_g + B tau with lambda = -r for every member of the family."""
     mech = Mechanism.from_scene(paper_scene)
     f = joint_reactions_function(mech, gravity)
-    M, B = mass_matrix(mech.data), actuator_matrix(mech.data)
-    Q = gravity_forces(mech.data, gravity)
+    M, Q = mech.model.mass_matrix(), mech.model.gravity_forces(gravity)
     for pose, pd, pdd in _random_motions(np.random.default_rng(1)):
         tau_p, tau_n, r_p, r_n, _ = (np.array(v) for v in f(pose, pd, pdd))
         q, qd, qdd = mech.body_motion(pose, pd, pdd)
@@ -46,6 +44,7 @@ def test_family_satisfies_constrained_equations_of_motion(paper_scene, gravity):
         for alpha in (0.0, -3.0, 2.5):
             tau = tau_p.ravel() + alpha * tau_n.ravel()
             lam = -(r_p + alpha * r_n).T.ravel()
+            B = np.array(mech.model.actuator_coordinates_function(q)[1]).T  # S^T
             residual = M @ qdd + phi_q.T @ lam - Q - B @ tau
             assert np.max(np.abs(residual)) < 1e-10 * max(1.0, np.max(np.abs(M @ qdd)))
 
@@ -60,7 +59,8 @@ def test_three_chain_mechanism_has_a_unique_solution(paper_data):
     assert tau_n.size == 0 and r_n.size == 0
     q, qd, qdd = mech.body_motion(pose, pd, pdd)
     phi_q = np.array(mech.constraints()(q, qd)[1])
-    residual = mass_matrix(mech.data) @ qdd - phi_q.T @ r_p.T.ravel() - actuator_matrix(mech.data) @ tau_p.ravel()
+    B = np.array(mech.model.actuator_coordinates_function(q)[1]).T
+    residual = mech.model.mass_matrix() @ qdd - phi_q.T @ r_p.T.ravel() - B @ tau_p.ravel()
     assert np.max(np.abs(residual)) < 1e-10
 
 
@@ -79,7 +79,7 @@ def test_jt_tau_equals_platform_newton_euler_wrench_plus_link_inertia(paper_scen
     pose_sx = ca.SX.sym("pose", 3)
     Jq = ca.Function("Jq", [pose_sx], [ca.jacobian(kin.body_coordinates(mech.data, pose_sx, ca.DM(mech.modes)),
                                                     pose_sx)])
-    M, Q = mass_matrix(mech.data), gravity_forces(mech.data, g)
+    M, Q = mech.model.mass_matrix(), mech.model.gravity_forces(g)
     for pose, pd, pdd in _random_motions(np.random.default_rng(3)):
         tau_p, tau_n = (np.array(v).ravel() for v in f(pose, pd, pdd)[:2])
         _, _, qdd = mech.body_motion(pose, pd, pdd)

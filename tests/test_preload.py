@@ -148,7 +148,7 @@ def test_qp_extends_to_two_degrees_of_redundancy():
     s = rng.uniform(0.5, 2.0, size=(2 * n, m))  # axial null-space forces along each link
     r_n = np.hstack([e * s[:, k] for k in range(m)])
     r_p = rng.normal(size=(2, 2 * n))
-    f = qp_module._build("daqp", f_min, (1.0,) * n, (10.0,) * n, (1.0,) * (2 * n))
+    f = qp_module._build("daqp", f_min, (1.0,) * n, (10.0,) * n, (1.0,) * (2 * n), m)
     alpha, tau, feas, _ = (np.array(v).ravel() for v in f(tau_p, tau_n, r_p, r_n))
     assert feas[0] == 1.0
     g = np.linspace(-8, 8, 801)
@@ -178,7 +178,7 @@ def test_too_tight_torque_limits_are_reported_with_time_and_joint(paper_scene):
 def test_unreachable_pose_is_reported_not_returned_as_numbers(paper_data):
     """A path leaving the workspace (scene check skipped) gives 'pose' entries, finite output."""
     paper_data["path"]["radius"] = 0.4
-    scene = parse_scene(paper_data, check_path=False)
+    scene = parse_scene(paper_data)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PreloadWarning)
         sol = solve_preload(scene, "exact", sample_rate=20.0)

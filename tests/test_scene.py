@@ -8,7 +8,7 @@ import sys
 import pytest
 import yaml
 
-from rrr4 import SceneError, load_scene
+from rrr4 import SceneError, check_scene, load_scene
 from rrr4.scene import PASSIVE_JOINTS, parse_scene
 
 
@@ -69,7 +69,7 @@ BAD = [
 def test_bad_input_raises_scene_error_naming_the_key(paper_data, key, value, expected):
     _set(paper_data, key, value)
     with pytest.raises(SceneError) as err:
-        parse_scene(paper_data)
+        check_scene(parse_scene(paper_data))
     assert expected in str(err.value)
 
 
@@ -82,7 +82,7 @@ def test_path_through_serial_singularity_is_rejected(paper_data):
     s = (0.5 - d0) / np.sqrt(2) * (1 - 1e-9)
     paper_data["path"] = {"type": "line", "start": [0, 0, 0], "end": [s, s, 0], "duration": 1.0}
     with pytest.raises(SceneError, match=r"path: passes through a serial singularity at t = .* chain 1"):
-        parse_scene(paper_data)
+        check_scene(parse_scene(paper_data))
 
 
 def test_unknown_top_level_key_suggests_nearest(paper_data):

@@ -2,9 +2,9 @@
 eq. 1-12; Flores et al. 2011, Kinematics and Dynamics of Multibody Systems with Imperfect
 Joints, ch. 3).
 
-The journal sits on the joint's outboard body, the bearing on its inboard body (outboard =
-further from ground). With the joint points from :func:`rrr4.mechanism.kinematics.joint_points`
-the eccentricity is e = r_journal - r_bearing = the joint's gap.
+The scene names the body that carries the journal (:attr:`rrr4.scene.JointSpec.journal_body`;
+in an n-RRR the outboard body, further from ground); the other body carries the bearing.
+The eccentricity is e = r_journal - r_bearing, the gap between the joint's points.
 
 - n = e / |e| (contact normal, bearing -> journal), t = E n (tangent, n rotated by +90 deg);
 - penetration delta = |e| - c, c = R_B - R_J; contact while delta > 0;
@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import casadi as ca
 
-from ..mechanism.kinematics import perp
+from ..mechanism.graph import perp
 
 # |e| is evaluated as sqrt(e.e + (EPS_REL c)^2) so that n stays finite for a centred journal.
 EPS_REL = 1e-6
@@ -65,6 +65,8 @@ def contact_generalized_forces(k: ClearanceKinematics, f_n, f_t, g_bearing, g_jo
     f = -f_n * k.normal + f_t * k.tangent
     Q = g_journal.T @ f - g_bearing.T @ f
     arm = ca.DM.zeros(nq, 1)
-    arm[i_journal] += journal_radius
-    arm[i_bearing] -= bearing_radius
+    if i_journal is not None:  # None: the ground carries it
+        arm[i_journal] += journal_radius
+    if i_bearing is not None:
+        arm[i_bearing] -= bearing_radius
     return Q + arm * f_t, f

@@ -1,5 +1,3 @@
-"""Rigid-body dynamics in reference-point coordinates (Zhang & Zhang 2017, eq. 3-5)."""
-
-from .mass import actuator_matrix, gravity_forces, mass_matrix
-
-__all__ = ["mass_matrix", "gravity_forces", "actuator_matrix"]
+"""Dynamics in reference-point coordinates (Nikravesh 1988; Zhang & Zhang 2017, eq. 3-5): the
+equation builder, the affine family of efforts, the closed-form n-RRR inverse dynamics and
+the energy audit. Masses and constraint equations live in :class:`rrr4.mechanism.Model`."""

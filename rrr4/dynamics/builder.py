@@ -8,23 +8,25 @@ Flores & Ambrosio 2004 for the clearance joints)
 
 with exactly the effects the scene asks for:
 
-- Phi holds A1..An (always ideal), the passive joints *without* clearance
-  (``Mechanism.constraints``), and in the prescribed mode the driving constraints
-  theta_i1 - theta_ref,i(t) = 0;
+- Phi holds every joint without clearance (actuated or passive, ``Model.constraints``), one
+  row per driver s_d(q) - (initial + speed t) = 0, and in the prescribed mode the driving
+  constraints s(q) - theta_ref(t) = 0 (s: actuator coordinates);
 - Q_contact has one journal-bearing contact per clearance joint, with the scene's normal
   law; the friction term exists only if the friction law is not 'none'; with no clearance
   joint there is no contact code at all;
-- tau: 'free' -> 0 (no torque inputs in the graph); 'torque' -> clip(tau_ref + kp
-  (theta_ref - theta) + kd (theta_d_ref - theta_d), +-torque_limit); 'prescribed' ->
-  tau = -lambda of the driving constraints.
+- tau (actuator efforts, generalised force S^T tau with S = ds/dq): 'free' -> 0 (no
+  effort inputs in the graph); 'torque' -> clip(tau_ref + kp (theta_ref - theta) + kd
+  (theta_d_ref - theta_d), +-torque_limit); 'prescribed' -> tau = -lambda of the driving
+  constraints.
 
 Every Function is SX, named, with named inputs and outputs. Common inputs ("refs"):
 q (nq,) [m, rad], qd (nq,), tau_ref (n,) [N m], theta_ref (n,) [rad], theta_d_ref (n,)
-[rad/s], theta_dd_ref (n,) [rad/s^2], delta_dot0 (nc,) [m/s], in_contact (nc,) {0, 1}
-(nc = number of clearance joints, in scene order B1..Bn, C1..Cn).
+[rad/s], theta_dd_ref (n,) [rad/s^2], delta_dot0 (nc,) [m/s], in_contact (nc,) {0, 1},
+t [s] (drivers only) (nc = number of clearance joints, in graph order; B1..Bn, C1..Cn for an
+n-RRR; prismatic actuators in m, m/s, N).
 
 ``acceleration`` (index-1 form, for explicit integrators): refs -> qdd (nq,), lambda (m,),
-tau (n,) [N m], reaction (2, k) [N] of the k ideal passive joints, contact_force (2, nc)
+tau (n,) [N m], reaction (2, k) [N] of the k ideal passive revolute joints, contact_force (2, nc)
 [N], normal_force (nc,), friction_force (nc,), penetration (nc,) [m], delta_dot (nc,)
 [m/s], eccentricity (2, nc) [m], power_in [W] (actuators), power_damping [W],
 power_friction [W] (both >= 0, dissipated).
@@ -44,8 +46,9 @@ A loss is a transition contact -> free flight.
 
 ``energy``: q, qd -> kinetic [J], potential [J] = sum K delta^(n+1)/(n+1) + gravity.
 
-Reaction convention: contact_force[:, j] and reaction[:, j] are the force the inboard
-body exerts on the outboard body, global frame (= -lambda for an ideal joint).
+Reaction convention: reaction[:, j] is the force the joint's first (inboard) body exerts on
+its second, global frame (= -lambda); contact_force[:, j] is the force on the journal body,
+the same convention when the journal sits on the second body (always in an n-RRR).
 """
 
 from __future__ import annotations
@@ -66,10 +69,8 @@ from ..contact import (
 )
 from ..contact.normal import V_MIN
 from ..errors import SceneError
-from ..mechanism import Mechanism
-from ..mechanism.kinematics import joint_points
+from ..mechanism.graph import Model
 from ..scene import Scene
-from .mass import actuator_matrix, gravity_forces, mass_matrix
 
 __all__ = ["Equations", "build_equations", "joint_stiffness", "graph_size", "BAUMGARTE_OMEGA"]
 
@@ -82,7 +83,8 @@ class Equations:
     """The built equations of one scene (immutable). See the module docstring."""
     scene: Scene
     clearance_joints: tuple[str, ...]   # in scene order
-    ideal_joints: tuple[str, ...]       # A1..An and the ideal passive joints
+    ideal_joints: tuple[str, ...]       # every joint held by an ideal constraint, graph order
+    passive_ideal_joints: tuple[str, ...]  # ideal passive revolute joints: the `reaction` columns
     mode: str                           # 'free' | 'torque' | 'prescribed'
     terms: tuple[str, ...]              # effects present in the graph
     stiffness: tuple[float, ...]        # K per clearance joint [N/m^n]
@@ -96,10 +98,6 @@ class Equations:
     v_min: float
     baumgarte: float
     mass: np.ndarray = field(repr=False)
-
-    @property
-    def passive_ideal_joints(self) -> tuple[str, ...]:
-        return tuple(j for j in self.ideal_joints if not j.startswith("A"))
 
 
 def joint_stiffness(scene: Scene, name: str) -> float:
@@ -117,12 +115,6 @@ def graph_size(f: ca.Function) -> dict:
     return {"instructions": f.n_instructions(), "nodes": f.n_nodes(), "inputs": f.nnz_in()}
 
 
-def _body_rotation_indices(n: int, name: str) -> tuple[int, int]:
-    """(bearing, journal) rotation-coordinate indices of passive joint B_i / C_i."""
-    i = int(name[1:]) - 1
-    return (6 * i + 2, 6 * i + 5) if name[0] == "B" else (6 * i + 5, 6 * n + 2)
-
-
 def build_equations(scene: Scene, v_min: float = V_MIN, baumgarte: float = BAUMGARTE_OMEGA) -> Equations:
     """Build (once per scene and options, cached) the equations of `scene`.
 
@@ -138,44 +130,46 @@ def build_equations(scene: Scene, v_min: float = V_MIN, baumgarte: float = BAUMG
 
 @functools.cache
 def _build(scene: Scene, v_min: float, omega: float) -> Equations:
-    mech = Mechanism.from_scene(scene)
-    data, n, nq = scene.mechanism, mech.n, mech.nq
+    model = Model.of(scene.graph)
+    graph = scene.graph
+    n, nq, nd = model.n_actuators, model.nq, len(graph.drivers)
     act = scene.actuation
-    clear = scene.clearance_joints
-    if act.mode == "prescribed" and not clear and n > 3:
-        raise SceneError("actuation.mode: 'prescribed' is not allowed with all passive joints ideal "
-                         f"({n} driving constraints over-constrain a mechanism with 3 DOF; use 'torque')")
-    ideal = tuple(f"A{i + 1}" for i in range(n)) + scene.ideal_joints
+    clear = model.clearance_joints
+    ideal = model.constrained_joints
+    dof = nq - 2 * len(ideal) - nd
+    if act.mode == "prescribed" and n > dof:
+        raise SceneError(f"actuation.mode: 'prescribed' is not allowed here ({n} driving constraints over-constrain "
+                         f"a mechanism with {dof} degrees of freedom; use 'torque')")
     nc = len(clear)
 
+    t = ca.SX.sym("t")
     q, qd, qdd_s = ca.SX.sym("q", nq), ca.SX.sym("qd", nq), ca.SX.sym("qdd", nq)
     tau_ref, th_ref, thd_ref, thdd_ref = (ca.SX.sym(s, n) for s in ("tau_ref", "theta_ref", "theta_d_ref",
                                                                      "theta_dd_ref"))
     dd0, inc = ca.SX.sym("delta_dot0", nc), ca.SX.sym("in_contact", nc)
-    refs = [q, qd, tau_ref, th_ref, thd_ref, thdd_ref, dd0, inc]
-    ref_names = ["q", "qd", "tau_ref", "theta_ref", "theta_d_ref", "theta_dd_ref", "delta_dot0", "in_contact"]
+    refs = [q, qd, tau_ref, th_ref, thd_ref, thdd_ref, dd0, inc, t]
+    ref_names = ["q", "qd", "tau_ref", "theta_ref", "theta_d_ref", "theta_dd_ref", "delta_dot0", "in_contact", "t"]
 
-    M = mass_matrix(data)
-    m_diag = np.diag(M)
-    B = ca.DM(actuator_matrix(data))
-    theta, theta_d = B.T @ q, B.T @ qd
+    m_diag = model.mass_diagonal
+    M = np.diag(m_diag)
+    theta, S = model.actuator_coordinates_function(q)
+    theta_d = S @ qd
     terms = []
-    Q = ca.SX(ca.DM(gravity_forces(data, scene.effects.gravity)))
+    Q = ca.SX(ca.DM(model.gravity_forces(scene.effects.gravity)))
     if scene.effects.gravity != (0.0, 0.0):
         terms.append("gravity")
 
-    # ---- actuation
+    # ---- actuation: generalised forces S^T tau of the actuator efforts (virtual work)
     if act.mode == "torque":
         lim = ca.DM(act.torque_limit)
         tau = ca.fmin(ca.fmax(tau_ref + act.kp * (th_ref - theta) + act.kd * (thd_ref - theta_d), -lim), lim)
-        Q = Q + B @ tau
-        terms.append("actuator torques (feed-forward + PD, clipped)")
+        Q = Q + S.T @ tau
+        terms.append("actuator efforts (feed-forward + PD, clipped)")
     elif act.mode == "free":
         tau = ca.SX.zeros(n)
-        terms.append("free actuators")
+        terms.append("free actuators" if n else "no actuators")
 
     # ---- contacts
-    pts = {name: (inb, outb) for name, inb, outb in joint_points(data, q)}
     ce = scene.effects.contact
     fe = scene.effects.friction
     stiff = tuple(joint_stiffness(scene, j) for j in clear)
@@ -187,19 +181,20 @@ def _build(scene: Scene, v_min: float, omega: float) -> Equations:
         if fe.law != "none":
             terms.append(f"friction ({fe.law})")
     for j, name in enumerate(clear):
-        spec = scene.joint(name)
-        p_in, p_out = pts[name]
-        g_in, g_out = ca.jacobian(p_in, q), ca.jacobian(p_out, q)
-        i_b, i_j = _body_rotation_indices(n, name)
-        kin = clearance_kinematics(p_out - p_in, (g_out - g_in) @ qd, qd[i_b], qd[i_j],
-                                   spec.journal_radius, spec.bearing_radius)
+        spec = graph.joint(name)
+        pts = model.joint_points(q, spec)
+        p_j, p_b = pts[spec.journal], pts[1 - spec.journal]
+        g_j, g_b = ca.jacobian(p_j, q), ca.jacobian(p_b, q)
+        i_b, i_j = model.rotation_index(spec.bearing_body), model.rotation_index(spec.journal_body)
+        kin = clearance_kinematics(p_j - p_b, (g_j - g_b) @ qd, 0 if i_b is None else qd[i_b],
+                                   0 if i_j is None else qd[i_j], spec.journal_radius, spec.bearing_radius)
         K = stiff[j]
         dd0_eff = ca.if_else(inc[j] > 0.5, dd0[j], ca.fmax(kin.delta_dot, v_min))
         fn = normal_force(ce.law, kin.penetration, kin.delta_dot, dd0_eff, K, ce.exponent, ce.restitution,
                           ce.damping)
         f_el = elastic_force(kin.penetration, K, ce.exponent)
         ft = friction_force(fe, kin.v_t, fn) if fe.law != "none" else ca.SX(0)
-        Qc, f = contact_generalized_forces(kin, fn, ft, g_in, g_out, i_b, i_j, spec.journal_radius,
+        Qc, f = contact_generalized_forces(kin, fn, ft, g_b, g_j, i_b, i_j, spec.journal_radius,
                                            spec.bearing_radius, nq)
         Q = Q + Qc
         V_contact += K * ca.fmax(kin.penetration, 0.0) ** (ce.exponent + 1) / (ce.exponent + 1)
@@ -218,15 +213,21 @@ def _build(scene: Scene, v_min: float, omega: float) -> Equations:
     fn_v, ft_v, delta_v, dd_v = (ca.vertcat(*cols[k]) if nc else ca.SX(0, 1)
                                  for k in ("fn", "ft", "delta", "delta_dot"))
 
-    # ---- constraints: ideal joints (+ driving constraints), Baumgarte-stabilised
-    phi, phi_q, gamma = mech.constraints(ideal)(q, qd)
+    # ---- constraints: ideal joints, drivers (+ driving constraints), Baumgarte-stabilised
+    phi, phi_q, gamma = model.constraints(ideal, drivers=bool(nd))(q, qd)
     phi_dot = phi_q @ qd
+    if nd:
+        value, rate, acc_d = model.driver_values(t)
+        off = ca.vertcat(ca.SX.zeros(2 * len(ideal)), value)
+        phi, phi_dot = phi - off, phi_dot - ca.vertcat(ca.SX.zeros(2 * len(ideal)), rate)
+        gamma = gamma + ca.vertcat(ca.SX.zeros(2 * len(ideal)), acc_d)
+        terms.append("drivers " + " ".join(f"{d.name} ({d.joint})" for d in graph.drivers))
     if act.mode == "prescribed":
         phi = ca.vertcat(phi, theta - th_ref)
-        phi_q = ca.vertcat(phi_q, B.T)
-        gamma = ca.vertcat(gamma, thdd_ref)
+        phi_q = ca.vertcat(phi_q, S)
+        gamma = ca.vertcat(gamma, thdd_ref - ca.jtimes(theta_d, q, qd))
         phi_dot = ca.vertcat(phi_dot, theta_d - thd_ref)
-        terms.append("prescribed actuator angles (driving constraints)")
+        terms.append("prescribed actuator coordinates (driving constraints)")
     gamma_s = gamma - 2 * omega * phi_dot - omega**2 * phi
     n_con = phi.shape[0]
     m_inv = ca.DM(1.0 / m_diag)
@@ -234,7 +235,9 @@ def _build(scene: Scene, v_min: float, omega: float) -> Equations:
     qdd = m_inv * (Q - phi_q.T @ lam)
     if act.mode == "prescribed":
         tau = -lam[n_con - n:]
-    reaction = ca.reshape(-lam[2 * n: 2 * len(ideal)], 2, len(ideal) - n)
+    reacting = tuple(j for j in model.ideal_passive_joints if graph.joint(j).type == "revolute")
+    rows = [2 * ideal.index(j) + c for j in reacting for c in (0, 1)]
+    reaction = ca.reshape(-lam[rows], 2, len(reacting)) if reacting else ca.SX(2, 0)
     power_in = ca.dot(tau, theta_d)
     if act.mode == "free":
         power_in = ca.SX(0)
@@ -263,8 +266,8 @@ def _build(scene: Scene, v_min: float, omega: float) -> Equations:
                       ["q", "qd", "delta_dot0", "in_contact"], ["delta_dot0_next", "in_contact_next", "loss"])
 
     kinetic = 0.5 * ca.dot(qd, ca.DM(m_diag) * qd)
-    potential = V_contact - ca.dot(ca.DM(gravity_forces(data, scene.effects.gravity)), q)
+    potential = V_contact - ca.dot(ca.DM(model.gravity_forces(scene.effects.gravity)), q)
     energy = ca.Function("energy", [q, qd], [kinetic, potential], ["q", "qd"], ["kinetic", "potential"])
 
-    return Equations(scene, clear, ideal, act.mode, tuple(terms), stiff, nq, n, n_con, acc, res, upd, energy,
-                     v_min, omega, M)
+    return Equations(scene, clear, ideal, reacting, act.mode, tuple(terms), stiff, nq, n, n_con, acc, res, upd,
+                     energy, v_min, omega, M)

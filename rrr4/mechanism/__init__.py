@@ -1,5 +1,8 @@
-"""Planar n-RRR kinematics: closed-form IK, FK, Jacobians and null space in CasADi."""
+"""Planar mechanisms: the body/joint graph model, its kinematics (any graph; closed-form
+n-RRR IK as a specialisation) and the checks of a scene against its model."""
 
-from .model import Mechanism
+from .graph import Model
+from .model import Mechanism, NRRRMechanism
+from .workspace import check_scene, load_scene
 
-__all__ = ["Mechanism"]
+__all__ = ["Model", "Mechanism", "NRRRMechanism", "check_scene", "load_scene"]

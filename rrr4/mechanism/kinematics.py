@@ -11,15 +11,11 @@ from __future__ import annotations
 import casadi as ca
 
 from ..scene import Mechanism_
+from .graph import perp
 
 
 def unit(a):
     return ca.vertcat(ca.cos(a), ca.sin(a))
-
-
-def perp(v):
-    """Rotate a planar vector by +90 degrees (E v)."""
-    return ca.vertcat(-v[1], v[0])
 
 
 def cross(a, b):

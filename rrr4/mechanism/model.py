@@ -1,8 +1,13 @@
-"""`Mechanism`: the immutable symbolic model of an n-RRR, built once per scene.
+"""Kinematics of a scene's mechanism: task IK, FK, Jacobian and null space.
 
-All CasADi Functions are SX, named, with named inputs/outputs, and built when the
-model is created. Numeric wrappers take and return numpy arrays.
-pose = [x, y, theta_o] in m, m, rad; theta = actuator angles (n,) in rad.
+:class:`Mechanism` works on any body/joint graph (:class:`~rrr4.mechanism.graph.Model`):
+position analysis by Newton on the constraint equations (CasADi ``rootfinder``), velocity
+and acceleration analysis by linear solves, the actuator Jacobian J (d theta = J d pose)
+and its null space. :class:`NRRRMechanism` is the n-RRR specialisation with the closed-form
+IK (Zhang & Zhang 2017) that n-RRR scenes use.
+
+pose = [x, y, theta] of the task body in m, m, rad; theta = actuator coordinates (n,) in
+rad (revolute) or m (prismatic).
 """
 
 from __future__ import annotations
@@ -13,23 +18,203 @@ import itertools
 import casadi as ca
 import numpy as np
 
-from ..errors import KinematicsError
-from ..scene import Mechanism_, Scene
+from ..errors import KinematicsError, SceneError
+from ..scene import MATERIALS, JointSpec, Material, Mechanism_, Scene, expand_nrrr
 from . import kinematics as kin
+from .graph import Model
 
-__all__ = ["Mechanism"]
+__all__ = ["Mechanism", "NRRRMechanism"]
+
+NEWTON = {"abstol": 1e-13, "max_iter": 60, "error_on_fail": False}
 
 
 class Mechanism:
-    """Symbolic kinematics of one mechanism. Build with :meth:`from_scene` (cached)."""
+    """Kinematics of any graph. Build with :meth:`from_scene` (cached per scene graph).
 
-    def __init__(self, data: Mechanism_):
+    The position analysis solves, from a guess, Phi_k(q) = o_k for every joint k (o_k = 0
+    for an ideal joint, the eccentricity of a clearance joint) and the task rows: the task
+    body's pose = pose (3 rows), or, without a task, each driver's coordinate = its value.
+    """
+
+    def __init__(self, model: Model):
+        self.model = model
+        self.n = model.n_actuators
+        self.nq = model.nq
+        self.modes = None
+        self.body_names = model.body_names
+        self.joint_names = model.joint_names
+        q, qd = ca.SX.sym("q", self.nq), ca.SX.sym("qd", self.nq)
+        g = model.graph
+        rows = ca.vertcat(*[model.joint_equations(q, j) for j in self.joint_names])
+        if model.task is not None:
+            task = q[model.coordinates(model.task)]
+        else:
+            task = ca.vertcat(*[model.joint_coordinate(q, d.joint) for d in g.drivers]) if g.drivers else ca.SX(0, 1)
+        self.n_task = task.numel()
+        if rows.numel() + self.n_task != self.nq:
+            dof = self.nq - rows.numel()
+            need = "a task body (3 rows)" if model.task is not None else f"{self.n_task} driver(s)"
+            raise SceneError(f"mechanism: the graph has {dof} degrees of freedom with every joint closed, and "
+                             f"{need} cannot fix them (a task body needs 3 DOF; otherwise give one driver per DOF)")
+        target = ca.SX.sym("target", self.n_task)
+        offset = ca.SX.sym("offset", rows.numel())
+        residual = ca.vertcat(rows - offset, task - target)
+        closure = ca.Function("closure", [q, ca.vertcat(target, offset)], [residual], ["q", "p"], ["residual"])
+        self.assemble_function = ca.rootfinder("assemble", "newton", closure, NEWTON)
+        self.closure_function = closure
+        Jf = ca.jacobian(residual, q)
+        gamma = -ca.jtimes(Jf @ qd, q, qd)
+        s, S = model.actuator_coordinates_function(q)
+        self.constraint_jacobian_function = ca.Function(
+            "constraint_jacobian", [q, qd], [Jf, gamma, s, S], ["q", "qd"], ["Phi_q", "gamma", "s", "S"])
+        # velocity and acceleration analysis (MX, one sparse LU per call)
+        qm, td, tdd = ca.MX.sym("q", self.nq), ca.MX.sym("target_d", self.n_task), ca.MX.sym("target_dd", self.n_task)
+        A, _, _, Sm = self.constraint_jacobian_function(qm, ca.MX.zeros(self.nq))
+        pad = ca.MX.zeros(rows.numel())
+        qdm = ca.solve(A, ca.vertcat(pad, td), "lapacklu")
+        _, gam, _, _ = self.constraint_jacobian_function(qm, qdm)
+        qddm = ca.solve(A, ca.vertcat(gam[:rows.numel()], tdd), "lapacklu")
+        self.motion_function = ca.Function("motion", [qm, td, tdd], [qdm, qddm, Sm @ qdm, Sm @ qddm],
+                                           ["q", "target_d", "target_dd"], ["qd", "qdd", "theta_d", "theta_dd"])
+        self._n_rows = rows.numel()
+        self._clearance_rows = [2 * self.joint_names.index(j) + k for j in model.clearance_joints for k in (0, 1)]
+
+    # ------------------------------------------------------------------ construction
+
+    @classmethod
+    def from_scene(cls, scene: Scene | Mechanism_) -> Mechanism:
+        if isinstance(scene, Mechanism_):
+            return _nrrr(scene, None)
+        if scene.mechanism is not None:
+            return _nrrr(scene.mechanism, scene.graph)
+        return _generic(scene.graph)
+
+    # ------------------------------------------------------------------ position analysis
+
+    def assemble(self, target, offsets=None, guess=None) -> np.ndarray:
+        """q (nq,) closing every joint (clearance joint k opened by offsets (nc, 2) [m],
+        outboard - inboard point) with the task rows at `target`; Newton from `guess`
+        (default: the bodies' pose guesses). Raises KinematicsError if it does not close."""
+        target = np.atleast_1d(np.asarray(target, float))
+        off = np.zeros(self._n_rows)
+        if offsets is not None:
+            off[self._clearance_rows] = np.asarray(offsets, float).ravel()
+        guess = self.model.pose_guess if guess is None else np.asarray(guess, float)
+        p = np.r_[target, off]
+        q = np.array(self.assemble_function(guess, p)).ravel()
+        res = np.array(self.closure_function(q, p)).ravel()
+        if not (np.all(np.isfinite(q)) and np.max(np.abs(res), initial=0.0) <= 1e-9):
+            raise KinematicsError(f"the mechanism does not assemble at target {list(np.round(target, 6))} "
+                                  f"(constraint residual {np.max(np.abs(res)):.3g} after Newton from the pose "
+                                  "guesses; check the geometry, or give bodies[].pose closer to an assembly)")
+        return q
+
+    def path_coordinates(self, targets, guess=None) -> np.ndarray:
+        """q (N, nq) along targets (N, n_task), each Newton solve started from the previous
+        solution (one ``mapaccum``, no Python loop). Raises KinematicsError where it fails."""
+        targets = np.atleast_2d(np.asarray(targets, float))
+        N = targets.shape[0]
+        qs, t = ca.MX.sym("q", self.nq), ca.MX.sym("t", self.n_task)
+        track = ca.Function("track", [qs, t], [self.assemble_function(qs, ca.vertcat(t, ca.MX.zeros(self._n_rows)))])
+        q0 = self.assemble(targets[0], guess=guess)
+        Q = np.array(track.mapaccum(N)(q0, targets.T)).T
+        res = np.array(self.closure_function.map(N)(Q.T, np.vstack([targets.T, np.zeros((self._n_rows, N))])))
+        bad = np.flatnonzero(~(np.max(np.abs(res), axis=0) <= 1e-9))
+        if bad.size:
+            raise KinematicsError(f"the mechanism does not assemble along the path from sample {bad[0]} "
+                                  f"(target {list(np.round(targets[bad[0]], 6))})")
+        return Q
+
+    def driver_targets(self, t) -> np.ndarray:
+        """(N, n_drivers) prescribed driver coordinates at times t (N,) [s]."""
+        t = np.atleast_1d(np.asarray(t, float))
+        return np.column_stack([d.initial + d.speed * t for d in self.model.graph.drivers] or [np.zeros((len(t), 0))])
+
+    def path_jacobians(self, q) -> np.ndarray:
+        """J (N, n, 3) at states q (N, nq) of a task-driven graph: d theta = J d pose."""
+        N = q.shape[0]
+        Jf, _, _, S = (np.array(v).reshape(v.shape[0], N, v.shape[1] // N).transpose(1, 0, 2)
+                       for v in self.constraint_jacobian_function.map(N)(q.T, np.zeros((self.nq, N))))
+        rhs = np.vstack([np.zeros((self._n_rows, 3)), np.eye(3)])
+        return S @ np.linalg.solve(Jf, np.broadcast_to(rhs, (N, *rhs.shape)))
+
+    def motion(self, q, target_d, target_dd):
+        """(qd, qdd, theta_d, theta_dd) for q (N, nq) and task-row rates (N, n_task)."""
+        q = np.atleast_2d(q)
+        N = q.shape[0]
+        out = self.motion_function.map(N)(q.T, np.atleast_2d(target_d).T, np.atleast_2d(target_dd).T)
+        return tuple(np.array(v).T for v in out)
+
+    # ------------------------------------------------------------------ public kinematics
+
+    def body_motion(self, pose, pose_d=None, pose_dd=None):
+        """q, qd, qdd (each (nq,)) of all bodies for a task pose and its rates."""
+        z = np.zeros(self.n_task)
+        q = self.assemble(pose)
+        qd, qdd, _, _ = self.motion(q, z if pose_d is None else pose_d, z if pose_dd is None else pose_dd)
+        return q, qd.ravel(), qdd.ravel()
+
+    def seated_coordinates(self, pose, eccentricity) -> np.ndarray:
+        """q (nq,) with the task at pose and every clearance joint opened by its
+        eccentricity (nc, 2) [m] (outboard - inboard point), by Newton."""
+        return self.assemble(pose, eccentricity, guess=self.assemble(pose))
+
+    def actuator_coordinates(self, q) -> np.ndarray:
+        return np.array(self.model.actuator_coordinates_function(np.asarray(q, float))[0]).ravel()
+
+    def ik(self, pose, modes=None) -> np.ndarray:
+        """Actuator coordinates theta (n,) for a task pose (3,), by Newton on the constraints
+        from the bodies' pose guesses (modes: not used by a general graph)."""
+        return self.actuator_coordinates(self.assemble(pose))
+
+    def jacobian(self, pose) -> np.ndarray:
+        """J (n x 3) with d theta = J d pose."""
+        q = self.assemble(pose)
+        Jf, _, _, S = (np.array(v) for v in self.constraint_jacobian_function(q, np.zeros(self.nq)))
+        return S @ np.linalg.solve(Jf, np.vstack([np.zeros((self._n_rows, 3)), np.eye(3)]))
+
+    def null_space(self, pose) -> np.ndarray:
+        """Unit null-space basis of J^T: (n,) for one degree of redundancy, else (n, n - 3)."""
+        u, _, _ = np.linalg.svd(self.jacobian(pose))
+        ns = u[:, 3:]
+        return ns[:, 0] if ns.shape[1] == 1 else ns
+
+    def fk(self, theta, guess=None, tol: float = 1e-9) -> np.ndarray:
+        """Task pose (3,) for actuator coordinates theta, by Newton on the constraints with
+        the first actuators held; the others are checked (|residual| <= tol)."""
+        theta = np.asarray(theta, float).ravel()
+        q0 = self.model.pose_guess if guess is None else self.assemble(guess)
+        return self._fk_newton(theta, q0, tol)
+
+    @functools.cached_property
+    def _fk_function(self):
+        q, th = ca.SX.sym("q", self.nq), ca.SX.sym("theta", self.n)
+        rows = ca.vertcat(*[self.model.joint_equations(q, j) for j in self.joint_names])
+        s, _ = self.model.actuator_coordinates_function(q)
+        k = self.nq - rows.numel()
+        f = ca.Function("fk_residual", [q, th], [ca.vertcat(rows, s[:k] - th[:k])])
+        return ca.rootfinder("fk", "newton", f, NEWTON), ca.Function("all", [q, th], [ca.vertcat(rows, s - th)])
+
+    def _fk_newton(self, theta, q0, tol):
+        solve, check = self._fk_function
+        q = np.array(solve(q0, theta)).ravel()
+        res = np.abs(np.array(check(q, theta)).ravel())
+        if not (np.all(np.isfinite(q)) and res.max() <= tol):
+            raise KinematicsError(f"forward kinematics did not converge for theta {list(np.round(theta, 6))} "
+                                  f"(residual {res.max():.3g} > {tol:g}); try another guess")
+        pose = q[self.model.coordinates(self.model.task)].copy()
+        pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
+        return pose
+
+
+class NRRRMechanism(Mechanism):
+    """n-RRR kinematics in closed form (Zhang & Zhang 2017); everything else as :class:`Mechanism`."""
+
+    def __init__(self, data: Mechanism_, graph=None):
+        super().__init__(Model.of(graph or _bare_graph(data)))
         self.data = data
         self.n = n = data.n_chains
         self.modes = np.array([c.working_mode for c in data.chains], dtype=float)
-        self.nq = 3 * (2 * n + 1)
-        self.body_names = tuple(f"{i + 1}{k}" for i in range(n) for k in (1, 2)) + ("o",)
-        self.joint_names = tuple(f"{p}{i + 1}" for p in "ABC" for i in range(n))
 
         pose = ca.SX.sym("pose", 3)
         pose_d = ca.SX.sym("pose_d", 3)
@@ -84,7 +269,6 @@ class Mechanism:
             "joint_points", [q], [ca.horzcat(*[i for _, i, _ in pts]), ca.horzcat(*[o for _, _, o in pts])],
             ["q"], ["inboard", "outboard"])
         self._q, self._qd, self._gap = q, qd, gap
-        self._constraint_cache: dict[tuple[str, ...], ca.Function] = {}
 
         # --- forward kinematics: Newton on the loop closure of the first three chains
         res = []
@@ -103,34 +287,9 @@ class Mechanism:
         self.loop_residual_function = ca.Function(
             "loop_residual", [pose, theta], [ca.vertcat(*all_res)], ["pose", "theta"], ["residual"])
 
-    # ------------------------------------------------------------------ construction
-
-    @classmethod
-    def from_scene(cls, scene: Scene | Mechanism_) -> Mechanism:
-        data = scene.mechanism if isinstance(scene, Scene) else scene
-        return _cached(data)
-
-    # ------------------------------------------------------------------ constraints
-
     def constraints(self, joints: tuple[str, ...] | None = None) -> ca.Function:
-        """Ideal-joint constraints Phi(q) = 0 for the named joints (default: all 3n).
-
-        Returns Function 'constraints': q, qd -> phi (2m,), phi_q (2m x nq),
-        gamma (2m,) with Phi_q qdd = gamma, gamma = -(Phi_q qd)_q qd.
-        Rows come in joint order as given, x then y per joint.
-        """
-        joints = self.joint_names if joints is None else tuple(joints)
-        if joints not in self._constraint_cache:
-            self._constraint_cache[joints] = self._build_constraints(joints)
-        return self._constraint_cache[joints]
-
-    def _build_constraints(self, joints: tuple[str, ...]) -> ca.Function:
-        idx = [self.joint_names.index(j) for j in joints]
-        phi = ca.vertcat(*[self._gap[:, k] for k in idx]) if idx else ca.SX(0, 1)
-        phi_q = ca.jacobian(phi, self._q)
-        gamma = -ca.jtimes(phi_q @ self._qd, self._q, self._qd)
-        return ca.Function("constraints", [self._q, self._qd], [phi, phi_q, gamma],
-                           ["q", "qd"], ["phi", "phi_q", "gamma"])
+        """Ideal-joint constraints of the named joints (default: all 3n), see :meth:`Model.constraints`."""
+        return self.model.constraints(self.joint_names if joints is None else tuple(joints))
 
     # ------------------------------------------------------------------ numeric API
 
@@ -215,6 +374,19 @@ class Mechanism:
         return np.array(found).reshape(-1, 3)
 
 
+def _bare_graph(data: Mechanism_):
+    """The graph of an n-RRR without clearance (kinematics only)."""
+    steel = Material("steel", *MATERIALS["steel"])
+    n = data.n_chains
+    joints = tuple(JointSpec(f"{p}{i + 1}", False, 0.005, 1e-4, steel, steel) for p in "BC" for i in range(n))
+    return expand_nrrr(data, joints, (1.0,) * n)
+
+
 @functools.cache
-def _cached(data: Mechanism_) -> Mechanism:
-    return Mechanism(data)
+def _nrrr(data: Mechanism_, graph) -> NRRRMechanism:
+    return NRRRMechanism(data, graph)
+
+
+@functools.cache
+def _generic(graph) -> Mechanism:
+    return Mechanism(Model.of(graph))

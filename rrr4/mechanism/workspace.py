@@ -1,4 +1,6 @@
-"""Checks that a scene's path stays inside the workspace and away from singularities."""
+"""Checks a scene against its model: the mechanism assembles along the whole motion, and
+the task path stays inside the workspace and away from singularities. :func:`load_scene`
+is the front door that reads a scene file and runs these checks."""
 
 from __future__ import annotations
 
@@ -6,19 +8,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import SceneError
-from ..scene import Scene
+from ..errors import KinematicsError, SceneError
+from ..scene import Scene, read_scene
 from ..trajectory import sample_path
 from .model import Mechanism
+
+__all__ = ["PathKinematics", "path_kinematics", "check_scene", "load_scene", "near_singular"]
 
 
 @dataclass(frozen=True)
 class PathKinematics:
-    """Kinematic quality along the sampled path."""
-    t: np.ndarray                 # (N,) [s]
-    cos_arg: np.ndarray           # (N, n) IK acos argument; |.| <= 1 where reachable
-    sin_transmission: np.ndarray  # (N, n) sin of the angle between driving and following link
-    condition: np.ndarray         # (N,) 2-norm condition number of J
+    """Kinematic quality along the sampled path (n actuators; n-RRR fields None otherwise)."""
+    t: np.ndarray                        # (N,) [s]
+    condition: np.ndarray                # (N,) 2-norm condition number of J (1 without a task)
+    cos_arg: np.ndarray | None           # (N, n) n-RRR IK acos argument; |.| <= 1 where reachable
+    sin_transmission: np.ndarray | None  # (N, n) n-RRR: sin of the angle between driving and following link
 
     @property
     def worst_condition(self) -> tuple[float, float]:
@@ -26,45 +30,79 @@ class PathKinematics:
         return float(self.condition[k]), float(self.t[k])
 
 
-def path_kinematics(scene: Scene, mech: Mechanism | None = None) -> PathKinematics:
-    mech = mech or Mechanism.from_scene(scene)
-    s = sample_path(scene.path)
+def _condition(J: np.ndarray) -> np.ndarray:
+    with np.errstate(all="ignore"):
+        return np.where(np.all(np.isfinite(J), axis=(1, 2)), np.linalg.cond(np.nan_to_num(J)), np.inf)
+
+
+def path_kinematics(scene: Scene, samples=None) -> PathKinematics:
+    """Quality of the motion at the path samples (default: the scene's own). Raises
+    KinematicsError where a general graph does not assemble."""
+    mech = Mechanism.from_scene(scene)
+    s = samples or sample_path(scene.path)
     N = len(s.t)
-    _, cos_arg = mech.ik_function.map(N)(s.pose.T, np.tile(mech.modes[:, None], (1, N)))
-    cos_arg = np.array(cos_arg).T
-    J, _, _, sin_tr = mech.jacobian_function.map(N)(s.pose.T)
-    J = np.array(J).T.reshape(N, 3, mech.n).transpose(0, 2, 1)
-    with np.errstate(invalid="ignore"):
-        cond = np.where(np.all(np.isfinite(J), axis=(1, 2)),
-                        np.linalg.cond(np.nan_to_num(J)), np.inf)
-    return PathKinematics(s.t, cos_arg, np.array(sin_tr).T, cond)
+    if scene.mechanism is not None:
+        _, cos_arg = mech.ik_function.map(N)(s.pose.T, np.tile(mech.modes[:, None], (1, N)))
+        J, _, _, sin_tr = mech.jacobian_function.map(N)(s.pose.T)
+        J = np.array(J).T.reshape(N, 3, mech.n).transpose(0, 2, 1)
+        return PathKinematics(s.t, _condition(J), np.array(cos_arg).T, np.array(sin_tr).T)
+    if scene.graph.task is None:
+        mech.path_coordinates(mech.driver_targets(s.t))
+        return PathKinematics(s.t, np.ones(N), None, None)
+    J = mech.path_jacobians(mech.path_coordinates(s.pose))
+    return PathKinematics(s.t, _condition(J), None, None)
 
 
-def check_path(scene: Scene, mech: Mechanism | None = None) -> PathKinematics:
-    """Raise SceneError (naming time and chain) where the path leaves the workspace,
-    flips a working mode, comes near a serial singularity or near a parallel one."""
-    pk = path_kinematics(scene, mech)
+def near_singular(scene: Scene, pk: PathKinematics) -> np.ndarray:
+    """(N,) reason string or '' per sample: near a serial or parallel singularity."""
+    out = np.full(len(pk.t), "", dtype=object)
+    cmax, smin = scene.path.max_condition_number, scene.path.min_transmission
+    sin_tr = np.ones((len(pk.t), 1)) if pk.sin_transmission is None else np.abs(pk.sin_transmission)
+    for k in np.flatnonzero(~(pk.condition <= cmax) | np.any(~(sin_tr >= smin), axis=1)):
+        why = f"near-singular pose: cond(J) = {pk.condition[k]:.3g} (allowed <= {cmax:g})"
+        if pk.sin_transmission is not None:
+            why += (f", smallest transmission |sin| = {sin_tr[k].min():.3g} at chain {int(np.argmin(sin_tr[k])) + 1}"
+                    f" (allowed >= {smin:g})")
+        out[k] = why
+    return out
+
+
+def check_scene(scene: Scene) -> Scene:
+    """Return `scene` if its mechanism assembles along the motion and the path keeps clear
+    of the workspace boundary, working-mode flips and singularities; else raise SceneError
+    naming the time and the chain or body."""
+    try:
+        Mechanism.from_scene(scene)
+        pk = path_kinematics(scene)
+    except KinematicsError as e:
+        raise SceneError(f"mechanism: {e}") from None
     p = scene.path
-    reach = ~(np.abs(pk.cos_arg) <= 1.0)
-    if reach.any():
-        k, i = np.argwhere(reach)[0]
-        raise SceneError(f"path: leaves the workspace at t = {pk.t[k]:.4g} s: chain {i + 1} cannot reach the "
-                         f"platform (IK cos argument {pk.cos_arg[k, i]:.4g}, allowed [-1, 1])")
-    sign = np.sign(pk.sin_transmission) * np.array([c.working_mode for c in scene.mechanism.chains])
-    flip = sign != sign[0]
-    if flip.any():
-        k, i = np.argwhere(flip)[0]
-        raise SceneError(f"path: chain {i + 1} flips its working mode at t = {pk.t[k]:.4g} s "
-                         "(the path crosses a serial singularity)")
-    weak = np.abs(pk.sin_transmission) < p.min_transmission
-    if weak.any():
-        k, i = np.argwhere(weak)[0]
-        raise SceneError(f"path: passes through a serial singularity at t = {pk.t[k]:.4g} s, chain {i + 1} "
-                         f"(|sin| of the link angle {abs(pk.sin_transmission[k, i]):.3g}, "
-                         f"allowed >= path.min_transmission = {p.min_transmission:g})")
+    if pk.cos_arg is not None:
+        reach = ~(np.abs(pk.cos_arg) <= 1.0)
+        if reach.any():
+            k, i = np.argwhere(reach)[0]
+            raise SceneError(f"path: leaves the workspace at t = {pk.t[k]:.4g} s: chain {i + 1} cannot reach the "
+                             f"platform (IK cos argument {pk.cos_arg[k, i]:.4g}, allowed [-1, 1])")
+        sign = np.sign(pk.sin_transmission) * np.array([c.working_mode for c in scene.mechanism.chains])
+        flip = sign != sign[0]
+        if flip.any():
+            k, i = np.argwhere(flip)[0]
+            raise SceneError(f"path: chain {i + 1} flips its working mode at t = {pk.t[k]:.4g} s "
+                             "(the path crosses a serial singularity)")
+        weak = np.abs(pk.sin_transmission) < p.min_transmission
+        if weak.any():
+            k, i = np.argwhere(weak)[0]
+            raise SceneError(f"path: passes through a serial singularity at t = {pk.t[k]:.4g} s, chain {i + 1} "
+                             f"(|sin| of the link angle {abs(pk.sin_transmission[k, i]):.3g}, "
+                             f"allowed >= path.min_transmission = {p.min_transmission:g})")
     cond, t = pk.worst_condition
     if not cond <= p.max_condition_number:
         raise SceneError(f"path: passes through a parallel singularity at t = {t:.4g} s "
                          f"(condition number of J {cond:.3g}, allowed <= path.max_condition_number = "
                          f"{p.max_condition_number:g})")
-    return pk
+    return scene
+
+
+def load_scene(path) -> Scene:
+    """Read a YAML scene file, validate it and check it against its model. Raises SceneError."""
+    return check_scene(read_scene(path))

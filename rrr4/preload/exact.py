@@ -40,6 +40,8 @@ import functools
 
 import casadi as ca
 
+from ..errors import SceneError
+from ..mechanism.graph import Model
 from ..scene import Scene
 
 __all__ = ["exact_preload_function", "constraint_violation"]
@@ -73,9 +75,8 @@ def _into_box(x, lo, hi, branch: int):
 
 
 @functools.cache
-def _build(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...], branch: int = 0) -> ca.Function:
+def _build(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...], branch: int, nj: int) -> ca.Function:
     n = len(weights)
-    nj = 2 * n
     tau_p, tau_n = ca.SX.sym("tau_p", n), ca.SX.sym("tau_n", n, 1)
     r_p, r_n = ca.SX.sym("r_p", 2, nj), ca.SX.sym("r_n", 2, nj)
     w, lim = ca.DM(weights), ca.DM(limits)
@@ -138,8 +139,8 @@ def _build(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...], 
 
 
 def exact_preload_function(scene: Scene, f_min: float | None = None, branch: int = 0) -> ca.Function:
-    """SX Function 'exact_preload' for a 4-RRR scene:
-    tau_p (4,) [N m], tau_n (4, 1), r_p (2, 8) [N], r_n (2, 8) [N] ->
+    """SX Function 'exact_preload' for a scene with one degree of redundancy (the 4-RRR:
+    tau_p (4,) [N m], tau_n (4, 1), r_p (2, 8) [N], r_n (2, 8) [N]) ->
     alpha [N m], tau (4,) [N m], feasible (1.0 / 0.0), margin [N] = min_j ||r_j|| - f_min.
 
     f_min (default ``actuation.preload.min_force``), weights and torque limits come from
@@ -148,13 +149,13 @@ def exact_preload_function(scene: Scene, f_min: float | None = None, branch: int
     alpha >= 0 (<= 0): still closed form, and continuous along a path where the global
     optimum would jump between the two branches of equal cost. Cached per arguments.
     """
-    if scene.mechanism.n_chains != 4:
-        from ..errors import SceneError
-        raise SceneError(f"mechanism.chains: {scene.mechanism.n_chains} chains is not allowed for the exact preload "
-                         "(it needs one degree of redundancy: 4 chains)")
+    model = Model.of(scene.graph)
+    if model.redundancy != 1:
+        raise SceneError(f"actuation.preload.method: 'exact' is not allowed with {model.redundancy} degrees of "
+                         "actuation redundancy (it needs exactly one; use qp or nlp)")
     p = scene.actuation.preload
     fm = p.min_force if f_min is None else float(f_min)
     if branch not in (0, 1, -1):
-        from ..errors import SceneError
         raise SceneError(f"branch: {branch!r} is not allowed (0 for both, +1 or -1)")
-    return _build(float(fm), tuple(p.weights), tuple(scene.actuation.torque_limit), int(branch))
+    return _build(float(fm), tuple(p.weights), tuple(scene.actuation.torque_limit), int(branch),
+                  len(model.preload_joints))

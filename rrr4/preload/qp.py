@@ -25,7 +25,8 @@ import functools
 import casadi as ca
 
 from ..errors import SceneError
-from ..scene import QP_SOLVERS, Scene
+from ..mechanism.graph import Model
+from ..scene import Scene
 from .exact import constraint_violation
 
 __all__ = ["qp_preload_function", "QP_OPTIONS"]
@@ -43,11 +44,10 @@ FEASIBILITY_TOL = 1e-6
 
 @functools.cache
 def _qp_parts(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...],
-              signs: tuple[float, ...]) -> tuple[ca.Function, ca.Function]:
+              signs: tuple[float, ...], m: int) -> tuple[ca.Function, ca.Function]:
     """SX Functions 'qp_data' (inputs -> H, g, A, lba, uba) and 'qp_result'
-    (inputs, alpha -> tau, feasible, margin)."""
-    n = len(weights)
-    m, nj = n - 3, 2 * n
+    (inputs, alpha -> tau, feasible, margin); n actuators, nj = len(signs) joints, m alphas."""
+    n, nj = len(weights), len(signs)
     tau_p, tau_n = ca.SX.sym("tau_p", n), ca.SX.sym("tau_n", n, m)
     r_p, r_n = ca.SX.sym("r_p", 2, nj), ca.SX.sym("r_n", 2, nj * m)
     W, lim, sig = ca.diag(ca.DM(weights)), ca.DM(limits), ca.DM(signs)
@@ -86,10 +86,9 @@ def _qp_parts(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...
 
 @functools.cache
 def _build(solver: str, f_min: float, weights: tuple[float, ...], limits: tuple[float, ...],
-           signs: tuple[float, ...]) -> ca.Function:
-    n = len(weights)
-    m, nj = n - 3, 2 * n
-    data, result = _qp_parts(f_min, weights, limits, signs)
+           signs: tuple[float, ...], m: int) -> ca.Function:
+    n, nj = len(weights), len(signs)
+    data, result = _qp_parts(f_min, weights, limits, signs, m)
     qp = ca.conic("qp_preload_solver", solver, {"h": ca.Sparsity.dense(m, m), "a": ca.Sparsity.dense(nj + n, m)},
                   QP_OPTIONS[solver])
     ins = [ca.MX.sym("tau_p", n), ca.MX.sym("tau_n", n, m), ca.MX.sym("r_p", 2, nj), ca.MX.sym("r_n", 2, nj * m)]
@@ -111,15 +110,17 @@ def qp_preload_function(scene: Scene, solver: str = "qrqp", signs=1.0, f_min: fl
     positive null-space preload. feasible means every constraint holds within a relative
     1e-6. Weights, limits and f_min (default ``actuation.preload.min_force``) from the scene.
     """
-    if solver not in QP_SOLVERS:
+    if solver not in QP_OPTIONS:
         raise SceneError(f"actuation.preload.qp_solver: unknown value {solver!r} "
-                         f"(choose one of: {', '.join(QP_SOLVERS)})")
-    n = scene.mechanism.n_chains
-    if n < 4:
-        raise SceneError(f"mechanism.chains: {n} chains is not allowed for a preload (needs redundancy: 4 chains)")
-    s = [float(signs)] * (2 * n) if isinstance(signs, (int, float)) else [float(v) for v in signs]
-    if len(s) != 2 * n or any(v not in (1.0, -1.0) for v in s):
-        raise SceneError(f"signs: {signs!r} is not allowed (+1 or -1, or a list of {2 * n} of them)")
+                         f"(choose one of: {', '.join(QP_OPTIONS)})")
+    model = Model.of(scene.graph)
+    m, nj = model.redundancy, len(model.preload_joints)
+    if m < 1:
+        raise SceneError(f"mechanism: a preload is not allowed without actuation redundancy ({model.n_actuators} "
+                         "actuators for a 3-DOF task)")
+    s = [float(signs)] * nj if isinstance(signs, (int, float)) else [float(v) for v in signs]
+    if len(s) != nj or any(v not in (1.0, -1.0) for v in s):
+        raise SceneError(f"signs: {signs!r} is not allowed (+1 or -1, or a list of {nj} of them)")
     p = scene.actuation.preload
     fm = p.min_force if f_min is None else float(f_min)
-    return _build(solver, float(fm), tuple(p.weights), tuple(scene.actuation.torque_limit), tuple(s))
+    return _build(solver, float(fm), tuple(p.weights), tuple(scene.actuation.torque_limit), tuple(s), m)

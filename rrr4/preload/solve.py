@@ -22,20 +22,24 @@ import warnings
 
 import numpy as np
 
-from ..dynamics.inverse import inverse_dynamics_function
+from ..dynamics.family import effort_family
 from ..errors import Rrr4Error, SceneError
-from ..mechanism import Mechanism
-from ..scene import PRELOAD_METHODS, QP_SOLVERS, Scene
+from ..mechanism.graph import Model
+from ..mechanism.workspace import near_singular, path_kinematics
+from ..scene import Scene
 from ..trajectory import sample_path
 from .exact import exact_preload_function
 from .nlp import solve_trajectory_nlp
-from .qp import qp_preload_function
+from .qp import FEASIBILITY_TOL as QP_FEASIBILITY_TOL
+from .qp import QP_OPTIONS, qp_preload_function
 from .solution import Infeasibility, PreloadSolution
 
 __all__ = ["solve_preload", "PreloadWarning", "PreloadInfeasibleError", "FEASIBILITY_TOL"]
 
-# relative tolerance of the final check (f_min and torque limits)
-FEASIBILITY_TOL = 1e-6
+# the methods and the largest degree of redundancy each handles (None: any)
+PRELOAD_METHODS = {"exact": 1, "qp": None, "nlp": None}
+# relative tolerance of the final check (f_min and torque limits); the QP marks its own result with the same
+FEASIBILITY_TOL = QP_FEASIBILITY_TOL
 # relative f_min increase for the NLP on a grid coarser than the samples
 COARSE_GRID_MARGIN = 0.02
 
@@ -46,40 +50,6 @@ class PreloadWarning(UserWarning):
 
 class PreloadInfeasibleError(Rrr4Error, RuntimeError):
     """solve_preload(..., strict=True) found samples that cannot be preloaded."""
-
-
-def _family(scene: Scene, samples):
-    """Inverse dynamics at every sample: tau_p (N, n), tau_n (N, n, m), r_p (N, 2n, 2),
-    r_n (N, 2n, 2, m) and the raw mapped outputs for the CasADi preload Functions."""
-    N = len(samples.t)
-    F = inverse_dynamics_function(scene).map(N)
-    raw = F(samples.pose.T, samples.pose_d.T, samples.pose_dd.T)
-    tp, tn, rp, rn = (np.array(v) for v in raw)
-    n = tp.shape[0]
-    m, nj = n - 3, 2 * n
-    tau_p = tp.T
-    tau_n = tn.reshape(n, m, N, order="F").transpose(2, 0, 1)
-    r_p = rp.reshape(2, nj, N, order="F").transpose(2, 1, 0)
-    r_n = rn.reshape(2, nj, m, N, order="F").transpose(3, 1, 0, 2)
-    return raw, tau_p, tau_n, r_p, r_n
-
-
-def _singular(scene: Scene, samples) -> np.ndarray:
-    """(N,) reason string or '' per sample: near a serial or parallel singularity."""
-    mech = Mechanism.from_scene(scene)
-    N = len(samples.t)
-    J, _, _, sin_tr = mech.jacobian_function.map(N)(samples.pose.T)
-    J = np.array(J).reshape(mech.n, 3, N, order="F").transpose(2, 0, 1)
-    sin_tr = np.abs(np.array(sin_tr)).T
-    out = np.full(N, "", dtype=object)
-    with np.errstate(all="ignore"):
-        cond = np.linalg.cond(J) if np.all(np.isfinite(J)) else np.full(N, np.inf)
-    cmax, smin = scene.path.max_condition_number, scene.path.min_transmission
-    for k in np.flatnonzero(~(cond <= cmax) | np.any(~(sin_tr >= smin), axis=1)):
-        chain = int(np.argmin(sin_tr[k])) + 1
-        out[k] = (f"near-singular pose: cond(J) = {cond[k]:.3g} (allowed <= {cmax:g}), "
-                  f"smallest transmission |sin| = {sin_tr[k].min():.3g} at chain {chain} (allowed >= {smin:g})")
-    return out
 
 
 def _choose_signs(scene, raw, solver, exact=False):
@@ -116,17 +86,22 @@ def solve_preload(scene: Scene, method: str | None = None, *, qp_solver: str | N
     if method not in PRELOAD_METHODS:
         raise SceneError(f"method: unknown value {method!r} (choose one of: {', '.join(PRELOAD_METHODS)})")
     solver = pre.qp_solver if qp_solver is None else qp_solver
-    if solver not in QP_SOLVERS:
-        raise SceneError(f"qp_solver: unknown value {solver!r} (choose one of: {', '.join(QP_SOLVERS)})")
-    if scene.mechanism.n_chains < 4:
-        raise SceneError(f"mechanism.chains: {scene.mechanism.n_chains} chains is not allowed for a preload "
-                         "(needs actuation redundancy: 4 chains)")
+    if solver not in QP_OPTIONS:
+        raise SceneError(f"qp_solver: unknown value {solver!r} (choose one of: {', '.join(QP_OPTIONS)})")
+    model = Model.of(scene.graph)
+    m = model.redundancy
+    if m < 1:
+        raise SceneError(f"mechanism: redundancy {m} is not allowed for a preload (needs more actuators than "
+                         "the task's 3 degrees of freedom)")
+    if PRELOAD_METHODS[method] is not None and m > PRELOAD_METHODS[method]:
+        raise SceneError(f"method: {method!r} handles redundancy <= {PRELOAD_METHODS[method]}, the scene has {m} "
+                         f"(choose one of: {', '.join(k for k, v in PRELOAD_METHODS.items() if v is None or v >= m)})")
     samples = sample_path(scene.path, sample_rate)
     N = len(samples.t)
     f_min, limits = pre.min_force, np.asarray(scene.actuation.torque_limit, float)
     t_start = time.perf_counter()
-    raw, tau_p, tau_n, r_p, r_n = _family(scene, samples)
-    m = tau_n.shape[2]
+    fam = effort_family(scene, samples.pose, samples.pose_d, samples.pose_dd)
+    raw, tau_p, tau_n, r_p, r_n = fam.raw, fam.tau_p, fam.tau_n, fam.r_p, fam.r_n
     stats: dict = {"method": method, "points": N}
     method_ok = np.ones(N, bool)
     used_signs = None
@@ -172,7 +147,7 @@ def solve_preload(scene: Scene, method: str | None = None, *, qp_solver: str | N
     reactions = r_p + np.einsum("kjcm,km->kjc", r_n, alpha)
     norms = np.linalg.norm(reactions, axis=2)
     margin = norms.min(axis=1) - f_min
-    singular = _singular(scene, samples)
+    singular = near_singular(scene, path_kinematics(scene, samples))
     finite = np.all(np.isfinite(tau), axis=1) & np.all(np.isfinite(norms), axis=1)
     # non-finite samples (unreachable or singular pose) are flagged below and zeroed
     tau[~finite], reactions[~finite] = 0.0, 0.0
@@ -182,8 +157,7 @@ def solve_preload(scene: Scene, method: str | None = None, *, qp_solver: str | N
     torque_ok = np.abs(tau) <= limits * (1 + FEASIBILITY_TOL)
     feasible = (method_ok & ~solver_failed & finite & (singular == "") & force_ok.all(axis=1) & torque_ok.all(axis=1))
 
-    names = tuple(f"B{i + 1}" for i in range(scene.mechanism.n_chains)) + \
-        tuple(f"C{i + 1}" for i in range(scene.mechanism.n_chains))
+    names = model.preload_joints
     issues: list[Infeasibility] = []
     for k in np.flatnonzero(~feasible):
         tk = float(samples.t[k])

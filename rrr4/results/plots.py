@@ -14,6 +14,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from ..mechanism import Model  # noqa: E402
 from ..study import Study  # noqa: E402
 
 __all__ = ["orbits", "contact_forces", "platform_error", "torques", "preload_alpha", "all_figures"]
@@ -115,7 +116,8 @@ def platform_error(study: Study, path: Path) -> Path:
 
 def torques(study: Study, path: Path) -> Path:
     """Actuator torques [N m] against time, both arms, with their feed-forward references."""
-    n = study.scene.mechanism.n_chains
+    names = Model.of(study.scene.graph).actuator_names
+    n = len(names)
     fig, axes = _grid(n, 4.0, 2.6)
     for i in range(n):
         ax = axes[i]
@@ -125,7 +127,7 @@ def torques(study: Study, path: Path) -> Path:
         ax.plot(study.t_path, study.tau_min_norm[:, i], "k:", lw=1.0, label="minimum-norm feed-forward")
         if study.preload is not None:
             ax.plot(study.preload.t, study.preload.tau[:, i], "k--", lw=0.8, label="preload feed-forward")
-        ax.set_title(f"actuator A{i + 1}")
+        ax.set_title(f"actuator {names[i]}")
         ax.set_xlabel("t [s]")
         ax.set_ylabel("torque [N m]")
         ax.set_xlim(0, study.t_end)

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..mechanism import Model
 from ..study import Study
 from .metrics import arm_metrics
 
@@ -15,8 +16,9 @@ __all__ = ["study_summary", "target_checks"]
 def _preload(study: Study) -> dict:
     pre = study.scene.actuation.preload
     if study.preload is None:
-        why = ("no actuation redundancy (3 chains): the inverse dynamics has a single solution"
-               if study.scene.mechanism.n_chains < 4 else "min_force = 0 N: the minimum-norm torques are optimal")
+        redundant = Model.of(study.scene.graph).redundancy >= 1
+        why = ("min_force = 0 N: the minimum-norm torques are optimal" if redundant
+               else "no actuation redundancy: the inverse dynamics has a single solution")
         return {"method": None, "reason": why}
     sol = study.preload
     alpha = np.asarray(sol.alpha)
@@ -44,7 +46,9 @@ def study_summary(study: Study) -> dict:
     """JSON-ready summary of a study (see the README's "What the main job prints")."""
     sc = study.scene
     out = {"scene": sc.name, "description": sc.description, "scene_file": Path(sc.source).name if sc.source else None,
-           "chains": sc.mechanism.n_chains, "clearance_joints": list(sc.clearance_joints),
+           "chains": sc.mechanism.n_chains if sc.mechanism is not None else None,
+           "bodies": list(Model.of(sc.graph).body_names), "actuators": list(Model.of(sc.graph).actuator_names),
+           "clearance_joints": list(sc.clearance_joints),
            "contact_law": sc.effects.contact.law if sc.clearance_joints else None,
            "friction_law": sc.effects.friction.law if sc.clearance_joints else None,
            "gains": {"kp_Nm_per_rad": sc.actuation.kp, "kd_Nms_per_rad": sc.actuation.kd},

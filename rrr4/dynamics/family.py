@@ -1,0 +1,103 @@
+"""The affine family of actuator efforts and joint reactions along a task motion.
+
+For the ideal mechanism, M qdd + Phi_q^T lambda = Q_g + S^T u (Nikravesh 1988, ch. 6;
+S = d(actuator coordinates)/dq) fixes (u, lambda) up to the null space of
+A = [Phi_q^T, -S^T], whose dimension is the degree of actuation redundancy m:
+
+    u = u_p + N alpha,     r_j = r_p,j + sum_k alpha_k r_n,j,k,
+
+with u_p orthogonal to the columns of N (the minimum-norm efforts) and N orthonormal. The
+preload layer only ever sees this family (:class:`EffortFamily`). An n-RRR scene uses its
+closed form (:mod:`rrr4.dynamics.inverse`); any other graph gets it here from one batched
+SVD per path (numpy), with the sign of a one-dimensional null space kept continuous along
+the path. Reactions are those of the passive revolute joints (``Model.preload_joints``),
+force of the inboard on the outboard body [N], global frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..mechanism import Mechanism
+from ..mechanism.graph import Model
+from ..scene import Scene
+
+__all__ = ["EffortFamily", "effort_family"]
+
+
+@dataclass(frozen=True)
+class EffortFamily:
+    """tau_p (N, n) [N m or N]; tau_n (N, n, m); r_p (N, nj, 2) [N]; r_n (N, nj, 2, m)."""
+    tau_p: np.ndarray
+    tau_n: np.ndarray
+    r_p: np.ndarray
+    r_n: np.ndarray
+
+    @property
+    def raw(self) -> list[np.ndarray]:
+        """The family as inputs of a mapped preload Function (tau_p, tau_n, r_p, r_n, one
+        sample after the other: (n, N), (n, N m), (2, N nj), (2, N m nj))."""
+        N, n, m = self.tau_n.shape
+        nj = self.r_p.shape[1]
+        return [self.tau_p.T, self.tau_n.transpose(1, 0, 2).reshape(n, N * m),
+                self.r_p.transpose(2, 0, 1).reshape(2, N * nj),
+                self.r_n.transpose(2, 0, 3, 1).reshape(2, N * m * nj)]
+
+    @staticmethod
+    def from_raw(raw) -> EffortFamily:
+        """Inverse of :attr:`raw` for the outputs of a mapped 'inverse_dynamics' Function."""
+        tp, tn, rp, rn = (np.asarray(v, float) for v in raw)
+        n, N = tp.shape
+        m = tn.shape[1] // N
+        nj = rp.shape[1] // N
+        return EffortFamily(tp.T, tn.reshape(n, N, m).transpose(1, 0, 2),
+                            rp.reshape(2, N, nj).transpose(1, 2, 0),
+                            rn.reshape(2, N, m, nj).transpose(1, 3, 0, 2))
+
+
+def effort_family(scene: Scene, pose, pose_d, pose_dd) -> EffortFamily:
+    """The family at task poses (N, 3) and their rates (N, 3) of `scene`'s ideal mechanism."""
+    pose, pose_d, pose_dd = (np.atleast_2d(np.asarray(v, float)) for v in (pose, pose_d, pose_dd))
+    if scene.mechanism is not None:
+        from .inverse import inverse_dynamics_function
+        N = pose.shape[0]
+        return EffortFamily.from_raw(inverse_dynamics_function(scene).map(N)(pose.T, pose_d.T, pose_dd.T))
+    mech = Mechanism.from_scene(scene)
+    q = mech.path_coordinates(pose)
+    _, qdd, _, _ = mech.motion(q, pose_d, pose_dd)
+    return graph_family(mech, q, qdd, scene.effects.gravity)
+
+
+def graph_family(mech: Mechanism, q: np.ndarray, qdd: np.ndarray, gravity) -> EffortFamily:
+    """The family of any graph from q, qdd (N, nq) of its ideal motion (all joints closed).
+    Without a task body the drivers' reactions join the joints' (their rows follow)."""
+    model: Model = mech.model
+    N, nq = q.shape
+    n, m = model.n_actuators, model.redundancy
+    Phi_q, _, _, S = (np.array(v).reshape(v.shape[0], N, v.shape[1] // N).transpose(1, 0, 2)
+                      for v in mech.constraint_jacobian_function.map(N)(np.asarray(q).T, np.zeros((nq, N))))
+    rows = 2 * len(model.joint_names) + (0 if model.task else len(model.graph.drivers))
+    Phi_q = Phi_q[:, :rows]
+    A = np.concatenate([Phi_q.transpose(0, 2, 1), -S.transpose(0, 2, 1)], axis=2)   # (N, nq, rows + n)
+    b = model.gravity_forces(gravity)[None, :] - qdd * model.mass_diagonal[None, :]
+    _, sv, Vt = np.linalg.svd(A)
+    x0 = np.einsum("kij,kj->ki", np.linalg.pinv(A), b)
+    Nsp = Vt[:, Vt.shape[1] - m:, :].transpose(0, 2, 1) if m else np.zeros((N, rows + n, 0))   # (N, rows + n, m)
+    Nu = Nsp[:, rows:, :]
+    if m:
+        # minimum-norm efforts: remove the null-space part of u0; orthonormal effort directions
+        a0 = -np.einsum("kij,kj->ki", np.linalg.pinv(Nu), x0[:, rows:])
+        x0 = x0 + np.einsum("kij,kj->ki", Nsp, a0)
+        Qm, R = np.linalg.qr(Nu)
+        Nsp = np.einsum("kij,kjl->kil", Nsp, np.linalg.inv(R))
+        if m == 1:  # keep the direction continuous along the path
+            s = np.sign(np.einsum("ki,ki->k", Nsp[1:, rows:, 0], Nsp[:-1, rows:, 0]))
+            flip = np.cumprod(np.r_[1.0, np.where(s == 0, 1.0, s)])
+            Nsp = Nsp * flip[:, None, None]
+    idx = [2 * model.joint_names.index(j) + c for j in model.preload_joints for c in (0, 1)]
+    nj = len(model.preload_joints)
+    r_p = -x0[:, idx].reshape(N, nj, 2)
+    r_n = -Nsp[:, idx, :].reshape(N, nj, 2, m)
+    return EffortFamily(x0[:, rows:], Nsp[:, rows:, :], r_p, r_n)
