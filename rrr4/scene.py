@@ -692,10 +692,8 @@ def _graph(sec: _Section) -> Graph:
 
     actuators = []
     for e, joint in refs("actuators", "actuators"):
-        unit = "N m" if joints[jnames.index(joint)].type == "revolute" else "N"
         actuators.append(ActuatorSpec(_name(e, default=joint), joint, e.number("limit", positive=True)))
         e.done()
-        del unit
     drivers = []
     for e, joint in refs("drivers", "drivers"):
         jt = joints[jnames.index(joint)]

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
+from scipy.interpolate import CubicSpline
 
 from .dynamics.builder import Equations, build_equations, graph_size
 from .dynamics.energy import energy_audit_residual, energy_terms
@@ -47,8 +48,8 @@ class Simulation:
     reaction convention when the journal sits on the joint's second body, as in every
     n-RRR); normal_force (N, nc) [N]; eccentricity (N, nc, 2) [m]; penetration (N, nc) [m];
     reaction (N, k, 2) [N] of the k ideal passive revolute joints (force of the first body
-    on the second); contact_loss_events: passive joint -> count of contact -> free-flight
-    transitions (0 for ideal joints); energy: dict of (N,) arrays [J] (see
+    on the second); driver_effort (N, n_drivers) [N m or N]; contact_loss_events: passive
+    joint -> count of contact -> free-flight transitions (0 for ideal joints); energy: dict of (N,) arrays [J] (see
     :mod:`rrr4.dynamics.energy`); energy_audit_residual = max |W_in - dE - D| / largest
     energy term; stats: solver statistics (method, step, steps, wall time, graph sizes).
     :meth:`body` gives the (N, 3) pose of any body.
@@ -69,6 +70,7 @@ class Simulation:
     eccentricity: np.ndarray
     penetration: np.ndarray
     reaction: np.ndarray
+    driver_effort: np.ndarray
     contact_loss_events: dict
     energy: dict
     energy_audit_residual: float
@@ -106,9 +108,10 @@ _SYSTEMS: dict[tuple[int, int], tuple[Equations, ca.Function, System]] = {}
 
 def _system(eqs: Equations, refs: ca.Function | None) -> System:
     """The ODE y = [q, qd, W_in, D_damping, D_friction] with discrete z = [delta_dot0,
-    in_contact, losses] (nc each) and frame input u = [t_a, t_b, tau_a (n), tau_b (n)],
-    followed, for sampled references (refs None), by theta, theta_d and theta_dd at both
-    frame ends (n each). Built once per (equations, references) pair (the entry keeps both
+    in_contact, losses] (nc each) and frame input u = [t_a, t_b, tau_a (n), tau_b (n)]
+    (given efforts, linear in t), followed, for sampled references (refs None), by theta,
+    theta_d, theta_dd, the feed-forward tau_ff and its rate at both frame ends (n each;
+    cubic Hermite in theta, theta_d and tau_ff). Built once per (equations, references) pair (the entry keeps both
     alive, so their ids stay unique keys)."""
     key = (id(eqs), id(refs))
     if key not in _SYSTEMS:
@@ -125,7 +128,7 @@ def _hermite(s, h, a, b, da, db):
 def _build_system(eqs: Equations, refs: ca.Function | None) -> System:
     nq, n, nc = eqs.nq, eqs.n_actuators, len(eqs.clearance_joints)
     t, y, z = ca.SX.sym("t"), ca.SX.sym("y", 2 * nq + 3), ca.SX.sym("z", 3 * nc)
-    u = ca.SX.sym("u", 2 + 2 * n + (0 if refs is not None else 6 * n))
+    u = ca.SX.sym("u", 2 + 2 * n + (0 if refs is not None else 10 * n))
     q, qd = y[:nq], y[nq:2 * nq]
     dd0, inc, losses = z[:nc], z[nc:2 * nc], z[2 * nc:]
     h = ca.fmax(u[1] - u[0], 1e-300)
@@ -135,10 +138,12 @@ def _build_system(eqs: Equations, refs: ca.Function | None) -> System:
         _, th, th_d, th_dd, tau_ff = refs(t)
         tau_ref = tau_ref + tau_ff
     else:
-        th_a, th_b, thd_a, thd_b, thdd_a, thdd_b = (u[2 + n * k:2 + n * (k + 1)] for k in range(2, 8))
+        th_a, th_b, thd_a, thd_b, thdd_a, thdd_b, ff_a, ff_b, ffd_a, ffd_b = (
+            u[2 + n * k:2 + n * (k + 1)] for k in range(2, 12))
         th = _hermite(s, h, th_a, th_b, thd_a, thd_b)
         th_d = _hermite(s, h, thd_a, thd_b, thdd_a, thdd_b)
         th_dd = (1 - s) * thdd_a + s * thdd_b
+        tau_ref = tau_ref + _hermite(s, h, ff_a, ff_b, ffd_a, ffd_b)
     out = eqs.acceleration(q=q, qd=qd, tau_ref=tau_ref, theta_ref=th, theta_d_ref=th_d, theta_dd_ref=th_dd,
                            delta_dot0=dd0, in_contact=inc, t=t)
     ydot = ca.vertcat(qd, out["qdd"], out["power_in"], out["power_damping"], out["power_friction"])
@@ -153,13 +158,15 @@ class _References:
     """References on the output frames (N,): task pose (N, 3) (zeros without a task),
     actuator theta, theta_d, theta_dd (N, n) and the feed-forward effort (N, n); `function`
     is the closed-form n-RRR reference Function evaluated inside the right-hand side, or
-    None when the frame samples are interpolated (cubic Hermite) instead."""
+    None when the frame samples are interpolated (cubic Hermite) instead; tau_ff_d (N, n):
+    the rate of tau_ff from its cubic spline through the frames (sampled references only)."""
     pose: np.ndarray
     theta: np.ndarray
     theta_d: np.ndarray
     theta_dd: np.ndarray
     tau_ff: np.ndarray
     function: ca.Function | None
+    tau_ff_d: np.ndarray | None = None
 
 
 def _references(scene: Scene, mech: Mechanism, t_frames: np.ndarray, feed_forward: bool) -> _References:
@@ -170,7 +177,7 @@ def _references(scene: Scene, mech: Mechanism, t_frames: np.ndarray, feed_forwar
         return _References(pose, th, th_d, th_dd, tau_ff, f)
     if scene.graph.task is None:
         z = np.zeros((N, n))
-        return _References(np.zeros((N, 3)), z, z, z, z, None)
+        return _References(np.zeros((N, 3)), z, z, z, z, None, z)
     pose, pose_d, pose_dd = (np.array(v).T for v in trajectory_function(scene.path).map(N)(t_frames[None, :]))
     q = mech.path_coordinates(pose)
     _, qdd, th_d, th_dd = mech.motion(q, pose_d, pose_dd)
@@ -179,7 +186,8 @@ def _references(scene: Scene, mech: Mechanism, t_frames: np.ndarray, feed_forwar
     if feed_forward:
         from .dynamics.family import graph_family
         tau_ff = graph_family(mech, q, qdd, scene.effects.gravity).tau_p
-    return _References(pose, th, th_d, th_dd, tau_ff, None)
+    tau_ff_d = CubicSpline(t_frames, tau_ff, axis=0)(t_frames, 1) if N > 2 else np.zeros((N, n))
+    return _References(pose, th, th_d, th_dd, tau_ff, None, tau_ff_d)
 
 
 def _integrator(scene: Scene, integrator, jit: bool) -> FixedStepIntegrator:
@@ -254,7 +262,7 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
         tab = np.column_stack([np.interp(t_frames, pt, ptau[:, i]) for i in range(n)])
     ends = [tab]
     if ref.function is None:
-        ends = [tab + ref.tau_ff, ref.theta, ref.theta_d, ref.theta_dd]
+        ends = [tab, ref.theta, ref.theta_d, ref.theta_dd, ref.tau_ff, ref.tau_ff_d]
     u = np.column_stack([t_frames[:-1], t_frames[1:]] + [v for e in ends for v in (e[:-1], e[1:])])
 
     model = mech.model
@@ -323,5 +331,6 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
         eccentricity=per_joint(out["eccentricity"], 2) if nc else np.zeros((N, 0, 2)),
         penetration=per_joint(out["penetration"], 1) if nc else np.zeros((N, 0)),
         reaction=per_joint(out["reaction"], 2) if k else np.zeros((N, 0, 2)),
+        driver_effort=np.array(out["driver_effort"]).T.reshape(N, -1),
         contact_loss_events=losses, energy=energy, energy_audit_residual=energy_audit_residual(energy),
         stats=stats)

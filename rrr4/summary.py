@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .mechanism import Model
@@ -24,14 +26,17 @@ def scene_summary(scene: Scene) -> str:
         lines.append(f"  platform: {m.platform.mass:.3f} kg, {m.platform.inertia:.4g} kg m^2")
     else:
         for b in scene.graph.bodies:
-            pts = ", ".join(b.points)
+            pts = ", ".join(p for p, _ in b.points)
             lines.append(f"  {b.name}: {b.mass:.4g} kg, {b.inertia:.4g} kg m^2; points {pts or 'none'}")
     acts = [f"{a.name} on {a.joint}" for a in scene.graph.actuators]
     task = f"task body {model.task}" if model.task else "no task body"
     lines.append(f"actuators ({len(acts)}): {', '.join(acts) or 'none'}; {task} "
                  f"(degree of redundancy {model.redundancy})")
     for d in scene.graph.drivers:
-        lines.append(f"driver {d.name}: joint {d.joint} from {d.initial:g} at {d.speed:g} per s")
+        rev = scene.graph.joint(d.joint).type == "revolute"
+        what = (f"{math.degrees(d.initial):g} deg at {d.speed * 30 / math.pi:g} rpm" if rev
+                else f"{d.initial:g} m at {d.speed:g} m/s")
+        lines.append(f"driver {d.name}: joint {d.joint} from {what}")
     lines.append("")
     ideal = [j for j in model.joint_names if j not in model.clearance_joints]
     lines.append(f"ideal joints ({len(ideal)}): {' '.join(ideal)}")

@@ -28,8 +28,9 @@ n-RRR; prismatic actuators in m, m/s, N).
 ``acceleration`` (index-1 form, for explicit integrators): refs -> qdd (nq,), lambda (m,),
 tau (n,) [N m], reaction (2, k) [N] of the k ideal passive revolute joints, contact_force (2, nc)
 [N], normal_force (nc,), friction_force (nc,), penetration (nc,) [m], delta_dot (nc,)
-[m/s], eccentricity (2, nc) [m], power_in [W] (actuators), power_damping [W],
-power_friction [W] (both >= 0, dissipated).
+[m/s], eccentricity (2, nc) [m], power_in [W] (actuators and drivers), power_damping [W],
+power_friction [W] (both >= 0, dissipated), driver_effort (n_drivers,) [N m or N] (what
+each driver applies along its joint coordinate, -lambda of its row).
 
 ``residual`` (for implicit Newton methods such as Bathe or Newmark): q, qd, qdd, lambda and
 the other refs -> dynamics (nq,) = M qdd + Phi_q^T lambda - Q, constraint (m,) = Phi_q qdd -
@@ -241,15 +242,21 @@ def _build(scene: Scene, v_min: float, omega: float) -> Equations:
     power_in = ca.dot(tau, theta_d)
     if act.mode == "free":
         power_in = ca.SX(0)
+    # drivers: effort -lambda_d on their coordinate [N m or N]; power -lambda_d . (S_d qd)
+    drv = lam[2 * len(ideal):2 * len(ideal) + nd] if nd else ca.SX(0, 1)
+    driver_effort = -drv
+    if nd:
+        power_in = power_in + ca.dot(driver_effort, phi_q[2 * len(ideal):2 * len(ideal) + nd, :] @ qd)
 
     # ca.cse merges repeated subexpressions (each body's sin/cos is built once per joint point
     # otherwise): about 11 % fewer instructions on the reference scene.
     acc = ca.Function(
         "acceleration", refs,
-        ca.cse([qdd, lam, tau, reaction, contact_force, fn_v, ft_v, delta_v, dd_v, ecc, power_in, p_damp, p_fric]),
+        ca.cse([qdd, lam, tau, reaction, contact_force, fn_v, ft_v, delta_v, dd_v, ecc, power_in, p_damp, p_fric,
+                driver_effort]),
         ref_names,
         ["qdd", "lambda", "tau", "reaction", "contact_force", "normal_force", "friction_force", "penetration",
-         "delta_dot", "eccentricity", "power_in", "power_damping", "power_friction"])
+         "delta_dot", "eccentricity", "power_in", "power_damping", "power_friction", "driver_effort"])
 
     lam_s = ca.SX.sym("lambda", n_con)
     res = ca.Function(

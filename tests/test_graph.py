@@ -1,0 +1,244 @@
+"""The body/joint graph: Flores's slider-crank against its closed form, the graph form of the
+reference 4-RRR against the n-RRR form, Jacobians against finite differences, and bad graphs."""
+
+import copy
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pytest
+import yaml
+
+import rrr4
+from rrr4 import Mechanism, Model, SceneError, check_scene, simulate, solve_preload
+from rrr4.scene import parse_scene
+from tests.conftest import ROOT
+
+SLIDER = ROOT / "problems" / "flores_slider_crank.yaml"
+IDEAL_SLIDER = ROOT / "problems" / "flores_slider_crank_ideal.yaml"
+PAPER_GRAPH = ROOT / "problems" / "paper_circle_graph.yaml"
+R, L = 0.05, 0.12                      # crank and connecting-rod lengths [m]
+OMEGA = 5000.0 * 2 * np.pi / 60        # crank speed [rad/s]
+
+
+def _slider_closed_form(theta):
+    """x, dx/dt, d2x/dt2 of the slider pin for the crank angle theta at constant OMEGA:
+    x = r cos(theta) + sqrt(l^2 - r^2 sin^2(theta))."""
+    s, c = np.sin(theta), np.cos(theta)
+    D = np.sqrt(L**2 - R**2 * s**2)
+    x = R * c + D
+    x1 = -R * s - R**2 * s * c / D
+    x2 = -R * c - R**2 * (c**2 - s**2) / D - R**4 * s**2 * c**2 / D**3
+    return x, x1 * OMEGA, x2 * OMEGA**2
+
+
+@pytest.fixture(scope="module")
+def slider_data():
+    return yaml.safe_load(SLIDER.read_text())
+
+
+def test_ideal_slider_crank_kinematics_equal_the_closed_form():
+    """Position analysis (rootfinder), velocity and acceleration analysis of the graph over one
+    crank revolution: slider x, x_dot, x_ddot to 1e-9 relative."""
+    scene = rrr4.load_scene(IDEAL_SLIDER)
+    mech = Mechanism.from_scene(scene)
+    t = np.linspace(0.0, 2 * np.pi / OMEGA, 181)
+    q = mech.path_coordinates(mech.driver_targets(t))
+    qd, qdd, _, _ = mech.motion(q, np.full((len(t), 1), OMEGA), np.zeros((len(t), 1)))
+    k = mech.model.coordinates("slider").start
+    x, xd, xdd = _slider_closed_form(OMEGA * t)
+    for got, want in ((q[:, k], x), (qd[:, k], xd), (qdd[:, k], xdd)):
+        assert np.max(np.abs(got - want)) <= 1e-9 * np.max(np.abs(want))
+    np.testing.assert_allclose(q[:, mech.model.coordinates("slider")][:, 1:], 0.0, atol=1e-12)
+
+
+def test_ideal_slider_crank_simulation_follows_the_closed_form():
+    """The driven simulation (driver row in the constraints, Baumgarte) keeps the slider on
+    the closed form to 1e-9 relative, and the energy balance closes with the driver's work."""
+    sim = simulate(rrr4.load_scene(IDEAL_SLIDER), step=1e-5, t_end=2 * np.pi / OMEGA)
+    crank, slider = sim.body("crank"), sim.body("slider")
+    np.testing.assert_allclose(np.unwrap(2 * crank[:, 2]) / 2, OMEGA * sim.t, atol=1e-9)
+    x, _, _ = _slider_closed_form(OMEGA * sim.t)
+    assert np.max(np.abs(slider[:, 0] - x)) <= 1e-9 * np.max(np.abs(x))
+    assert sim.energy_audit_residual < 1e-8
+    assert sim.driver_effort.shape == (len(sim.t), 1) and np.ptp(sim.driver_effort) > 1.0
+
+
+def test_conservative_slider_crank_with_clearance_keeps_its_energy(slider_data):
+    """Purely elastic contact (Hertz), no friction: work of the crank driver = change of
+    kinetic + contact energy, nothing dissipated, the residual shrinking with the step (RK4)."""
+    d = copy.deepcopy(slider_data)
+    d["effects"]["contact"] = {"law": "hertz", "exponent": 1.5}
+    scene = check_scene(parse_scene(d))
+    res = []
+    for h in (2e-6, 1e-6):
+        sim = simulate(scene, step=h, t_end=0.006)
+        assert sum(sim.contact_loss_events.values()) > 0            # the journal does fly and hit
+        assert np.max(np.abs(sim.energy["dissipated_damping"])) == 0.0
+        res.append(sim.energy_audit_residual)
+    assert res[1] < 1e-6 and res[1] < res[0] / 4
+
+
+def test_slider_crank_with_clearance_rattles_and_names_its_joints():
+    sim = simulate(rrr4.load_scene(SLIDER), step=1e-6, t_end=0.006)
+    assert sim.clearance_joints == ("B",) and set(sim.contact_loss_events) == {"A", "B", "P"}
+    ecc = np.linalg.norm(sim.eccentricity[:, 0], axis=1)
+    assert ecc.max() > 0.5e-3 and np.all(np.isfinite(sim.q))    # the journal reaches the wall
+    assert sim.contact_loss_events["B"] > 0
+
+
+def test_graph_constraint_and_actuator_jacobians_equal_finite_differences():
+    """Phi_q (revolute and prismatic rows, drivers) and S = ds/dq by central differences, at
+    random configurations of the slider-crank and of the graph 4-RRR."""
+    rng = np.random.default_rng(4)
+    for path in (IDEAL_SLIDER, PAPER_GRAPH):
+        model = Model.of(rrr4.load_scene(path).graph)
+        f = model.constraints(model.joint_names, drivers=True)
+        for _ in range(3):
+            q = rng.normal(size=model.nq)
+            phi_q = np.array(f(q, np.zeros(model.nq))[1])
+            S = np.array(model.actuator_coordinates_function(q)[1])
+            eps = 1e-6
+            fd, fd_s = np.zeros_like(phi_q), np.zeros_like(S)
+            for k in range(model.nq):
+                dq = np.zeros(model.nq)
+                dq[k] = eps
+                fd[:, k] = (np.array(f(q + dq, 0 * q)[0]) - np.array(f(q - dq, 0 * q)[0])).ravel() / (2 * eps)
+                fd_s[:, k] = (np.array(model.actuator_coordinates_function(q + dq)[0])
+                              - np.array(model.actuator_coordinates_function(q - dq)[0])).ravel() / (2 * eps)
+            np.testing.assert_allclose(phi_q, fd, atol=1e-8)
+            np.testing.assert_allclose(S, fd_s, atol=1e-8)
+
+
+def test_graph_task_jacobian_equals_finite_differences_of_its_ik():
+    mech = Mechanism.from_scene(rrr4.load_scene(PAPER_GRAPH))
+    pose, eps = np.array([-0.015, 0.01, 0.05]), 1e-6
+    fd = np.column_stack([(mech.ik(pose + e) - mech.ik(pose - e)) / (2 * eps) for e in np.eye(3) * eps])
+    np.testing.assert_allclose(mech.jacobian(pose), fd, atol=1e-7)
+    n = mech.null_space(pose)
+    assert np.linalg.norm(mech.jacobian(pose).T @ n) < 1e-12
+
+
+@pytest.fixture(scope="module")
+def both_forms(paper_scene):
+    return paper_scene, rrr4.load_scene(PAPER_GRAPH)
+
+
+def test_graph_4rrr_kinematics_equal_the_nrrr_closed_form(both_forms):
+    a, b = (Mechanism.from_scene(s) for s in both_forms)
+    assert type(a).__name__ == "NRRRMechanism" and type(b).__name__ == "Mechanism"
+    for pose in ([0.0, 0.0, 0.0], [-0.02, 0.015, 0.1], [-0.035, -0.01, -0.05]):
+        np.testing.assert_allclose(b.ik(pose), a.ik(pose), atol=1e-12)
+        np.testing.assert_allclose(b.jacobian(pose), a.jacobian(pose), atol=1e-12)
+        q = a.body_motion(pose)[0]
+        np.testing.assert_allclose(b.assemble(pose), q, atol=1e-12)
+
+
+def test_graph_4rrr_preload_and_motion_equal_the_nrrr_form(both_forms):
+    """Same preload torques (generic family by SVD vs closed form, then the QP) and the same
+    simulated motion: with a given preload, and with the feed-forward alone (closed form in the
+    right-hand side vs Hermite interpolation of frame samples)."""
+    a, b = both_forms
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        pa, pb = solve_preload(a), solve_preload(b)
+    np.testing.assert_allclose(pb.tau, pa.tau, atol=1e-9)
+    np.testing.assert_allclose(pb.reactions, pa.reactions, atol=1e-8)
+    assert pb.joint_names == pa.joint_names
+    ra, rb = simulate(a, t_end=0.03, preload=pa), simulate(b, t_end=0.03, preload=pa)
+    np.testing.assert_allclose(rb.pose, ra.pose, atol=1e-9)
+    np.testing.assert_allclose(rb.body("following_2"), ra.body("following_2"), atol=1e-9)
+    np.testing.assert_allclose(ra.body("platform"), ra.pose)
+    fa, fb = simulate(a, t_end=0.02), simulate(b, t_end=0.02)
+    np.testing.assert_allclose(fb.tau, fa.tau, atol=1e-8)
+    np.testing.assert_allclose(fb.q, fa.q, atol=1e-9)
+
+
+def _edit(data, fn):
+    d = copy.deepcopy(data)
+    fn(d["mechanism"])
+    return d
+
+
+def _rod_too_short(m):
+    m["bodies"][1]["points"] = {"A": [-0.01, 0.0], "B": [0.01, 0.0]}
+
+
+BAD_GRAPHS = [
+    ("unknown body", lambda m: m["joints"][1].update(bodies=["crank", "conecting_rod"]),
+     ("mechanism.joints[1].bodies: unknown body 'conecting_rod'", "did you mean 'connecting_rod'?")),
+    ("body with no joint", lambda m: m["bodies"].append({"name": "flywheel", "mass": 1.0, "inertia": 1e-3}),
+     "body 'flywheel' is not allowed (it has no joint"),
+    ("cannot assemble", _rod_too_short, "mechanism: the mechanism does not assemble"),
+    ("actuator on a missing joint", lambda m: m.update(actuators=[{"joint": "Q", "limit": 1.0}]),
+     ("mechanism.actuators[0].joint: unknown joint 'Q'", "choose one of: O, A, B, P")),
+    ("driver on a zero prismatic axis", lambda m: (m["joints"][3].update(axis=[0.0, 0.0]),
+                                                  m["drivers"].append({"joint": "P", "speed": 0.1})),
+     "mechanism.joints[3].axis: [0.0, 0.0] is not allowed (a direction of non-zero length)"),
+    ("unknown point", lambda m: m["joints"][0].update(points=["O", "Q"]),
+     "mechanism.joints[0].points[1]: unknown point of crank 'Q'"),
+    ("cannot be fixed by its drivers", lambda m: m.update(drivers=[]), "degrees of freedom"),
+]
+
+
+@pytest.mark.parametrize("what,edit,expected", BAD_GRAPHS, ids=[b[0] for b in BAD_GRAPHS])
+def test_bad_graph_scenes_are_refused_in_one_line(slider_data, what, edit, expected):
+    with pytest.raises(SceneError) as err:
+        check_scene(parse_scene(_edit(slider_data, edit)))
+    msg = str(err.value)
+    assert "\n" not in msg
+    for fragment in (expected,) if isinstance(expected, str) else expected:
+        assert fragment in msg
+
+
+def test_bad_graph_scene_on_the_command_line_is_one_line(tmp_path, slider_data):
+    p = tmp_path / "bad.yaml"
+    p.write_text(yaml.safe_dump(_edit(slider_data, _rod_too_short)))
+    r = subprocess.run([sys.executable, "-m", "rrr4.cli", "check", str(p)], capture_output=True, text=True)
+    assert r.returncode != 0 and "Traceback" not in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and "does not assemble" in r.stderr
+
+
+def _five_chain_graph():
+    """The graph 4-RRR with a fifth chain below the platform: redundancy 2."""
+    d = yaml.safe_load(PAPER_GRAPH.read_text())
+    m = d["mechanism"]
+    m["ground"]["points"]["A5"] = [0.0, -0.42]
+    m["bodies"] += [{"name": "driving_5", "mass": 0.4, "inertia": 2e-3,
+                     "points": {"A": [-0.125, 0.0], "B": [0.125, 0.0]}, "pose": [-0.05, -0.31, 0.8]},
+                    {"name": "following_5", "mass": 0.3, "inertia": 1.5e-3,
+                     "points": {"B": [-0.125, 0.0], "C": [0.125, 0.0]}, "pose": [-0.03, -0.19, 1.4]}]
+    next(b for b in m["bodies"] if b["name"] == "platform")["points"]["C5"] = [0.0, -0.1]
+    m["joints"] += [{"name": "A5", "bodies": ["ground", "driving_5"], "points": ["A5", "A"]},
+                    {"name": "B5", "bodies": ["driving_5", "following_5"], "points": ["B", "B"]},
+                    {"name": "C5", "bodies": ["following_5", "platform"], "points": ["C", "C5"]}]
+    m["actuators"].append({"name": "A5", "joint": "A5", "limit": 20.0})
+    for a in m["actuators"]:
+        a["limit"] = 20.0
+    d["actuation"]["preload"]["weights"] = 1.0
+    return d
+
+
+def test_preload_methods_are_refused_where_the_redundancy_does_not_fit():
+    with pytest.raises(SceneError, match="redundancy 0 is not allowed for a preload"):
+        solve_preload(rrr4.load_scene(IDEAL_SLIDER))
+    scene = check_scene(parse_scene(_five_chain_graph()))
+    assert Model.of(scene.graph).redundancy == 2
+    with pytest.raises(SceneError, match=r"method: 'exact' handles redundancy <= 1, the scene has 2 "
+                                         r"\(choose one of: qp, nlp\)"):
+        solve_preload(scene, method="exact")
+
+
+def test_qp_preload_of_a_two_redundant_graph_meets_f_min():
+    """Redundancy 2: the generic family (two null-space directions) and the QP keep every
+    passive joint at f_min along the path, within the torque limits."""
+    scene = check_scene(parse_scene(_five_chain_graph()))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sol = solve_preload(scene, method="qp", sample_rate=100)
+    assert sol.alpha.shape == (len(sol.t), 2) and len(sol.joint_names) == 10
+    ok = sol.feasible
+    assert ok.mean() > 0.9
+    assert np.all(np.linalg.norm(sol.reactions[ok], axis=2) >= sol.f_min * (1 - 1e-6))
+    assert np.all(np.abs(sol.tau[ok]) <= 20.0 * (1 + 1e-6))
