@@ -42,7 +42,7 @@ OVERRIDES = ("step", "output_rate", "preload", "v_min", "baumgarte", "jit", "pro
 class Simulation:
     """Result of :func:`simulate`. N output instants (t = 0 included), nc clearance joints.
 
-    t (N,) [s]; q, qd (N, nq); pose, pose_ref (N, 3) [m, m, rad] of the task body (zeros
+    t (N,) [s]; q, qd, qdd (N, nq); pose, pose_ref (N, 3) [m, m, rad] of the task body (zeros
     without one); platform_error (N,) [m] (position distance to the commanded path); tau
     (N, n) [N m or N]; contact_force (N, nc, 2) [N] on the journal body, global frame (the
     reaction convention when the journal sits on the joint's second body, as in every
@@ -61,6 +61,7 @@ class Simulation:
     t: np.ndarray
     q: np.ndarray
     qd: np.ndarray
+    qdd: np.ndarray
     pose: np.ndarray
     pose_ref: np.ndarray
     platform_error: np.ndarray
@@ -323,7 +324,7 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     stats.update(getattr(method, "run_stats", {}))
     return Simulation(
         scene=scene, clearance_joints=eqs.clearance_joints, ideal_passive_joints=eqs.passive_ideal_joints,
-        terms=eqs.terms, t=t_frames, q=q, qd=qd, pose=pose, pose_ref=ref.pose,
+        terms=eqs.terms, t=t_frames, q=q, qd=qd, qdd=np.array(out["qdd"]).T, pose=pose, pose_ref=ref.pose,
         platform_error=np.linalg.norm(pose[:, :2] - ref.pose[:, :2], axis=1),
         tau=np.array(out["tau"]).T,
         contact_force=per_joint(out["contact_force"], 2) if nc else np.zeros((N, 0, 2)),

@@ -13,6 +13,15 @@ and ``actuation.preload.min_force`` > 0: a fully actuated 3-RRR has no null spac
 inverse dynamics has a single solution), and f_min = 0 makes the minimum-norm torques
 optimal, so both arms would be the same run.
 
+A scene without a task body (a driven mechanism such as Flores's slider-crank) has no
+preload question; its study compares the mechanism with its clearance joints against its
+ideal twin (every joint ideal), driven alike:
+
+- ``with_clearance``: the scene as given;
+- ``ideal``: the same scene with every joint ideal, the reference;
+- ``refinement``: ``with_clearance`` again at half the step, to show which results have
+  converged in the step (kept in ``Study.refinement``, not drawn as an arm).
+
 The simulations write every integrator step (output rate = 1/step), so the contact state
 of every step is in the result and loss events can be located in time.
 """
@@ -21,11 +30,11 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .dynamics.inverse import inverse_dynamics_function
+from .dynamics.family import effort_family
 from .mechanism import Model
 from .preload import PreloadSolution, solve_preload
 from .preload.solve import PreloadWarning
@@ -33,9 +42,11 @@ from .scene import Scene
 from .simulation import Simulation, simulate
 from .trajectory import sample_path
 
-__all__ = ["Study", "StudyArm", "run_study", "has_preload_arm", "ARMS"]
+__all__ = ["Study", "StudyArm", "run_study", "has_preload_arm", "ARMS", "PRELOAD_ARMS", "DRIVEN_ARMS"]
 
-ARMS = ("with_preload", "without_preload")
+PRELOAD_ARMS = ("with_preload", "without_preload")   # scenes with a task body
+DRIVEN_ARMS = ("with_clearance", "ideal")             # scenes moved by drivers
+ARMS = PRELOAD_ARMS + DRIVEN_ARMS
 
 
 @dataclass(frozen=True)
@@ -63,6 +74,7 @@ class Study:
     arms: dict
     t_end: float
     step: float
+    refinement: StudyArm | None = None
 
 
 def has_preload_arm(scene: Scene) -> bool:
@@ -71,10 +83,16 @@ def has_preload_arm(scene: Scene) -> bool:
 
 
 def _min_norm_torques(scene: Scene, t_path: np.ndarray) -> np.ndarray:
-    """tau_p (N, n) [N m] of the ideal inverse dynamics at the path samples."""
+    """tau_p (N, n) [N m] of the ideal inverse dynamics at the path samples (zeros without a task)."""
     s = sample_path(scene.path)
-    tp = inverse_dynamics_function(scene).map(len(t_path))(s.pose.T, s.pose_d.T, s.pose_dd.T)[0]
-    return np.array(tp).T
+    if scene.graph.task is None:
+        return np.zeros((len(t_path), len(scene.graph.actuators)))
+    return effort_family(scene, s.pose, s.pose_d, s.pose_dd).tau_p
+
+
+def ideal_twin(scene: Scene) -> Scene:
+    """`scene` with every joint ideal."""
+    return scene.with_joints(tuple(replace(j, clearance=False) for j in scene.graph.joints))
 
 
 def run_study(scene: Scene, *, t_end: float | None = None, step: float | None = None,
@@ -103,13 +121,21 @@ def run_study(scene: Scene, *, t_end: float | None = None, step: float | None = 
         if preload_warning:
             say(f"preload is infeasible at {int(np.sum(~preload.feasible))} samples; simulated anyway")
 
-    arms = {}
-    runs = [("with_preload", preload)] if preload is not None else []
-    runs.append(("without_preload", None))
-    for name, pl in runs:
-        say(f"simulate {name.replace('_', ' ')}: {t_end:g} s")
+    def arm(name, sc, pl=None, step=h):
+        say(f"simulate {name.replace('_', ' ')}: {t_end:g} s, step {step:g} s")
         wall = time.perf_counter()
-        sim = simulate(scene, integrator, t_end=t_end, step=h, output_rate=1.0 / h, preload=pl, progress=progress)
-        arms[name] = StudyArm(name, sim, time.perf_counter() - wall)
+        sim = simulate(sc, integrator, t_end=t_end, step=step, output_rate=1.0 / step, preload=pl, progress=progress)
+        return StudyArm(name, sim, time.perf_counter() - wall)
+
+    arms, refinement = {}, None
+    if scene.graph.task is None:
+        arms["with_clearance"] = arm("with_clearance", scene)
+        arms["ideal"] = arm("ideal", ideal_twin(scene))
+        if scene.clearance_joints:
+            refinement = arm("with_clearance (half step)", scene, step=h / 2)
+    else:
+        if preload is not None:
+            arms["with_preload"] = arm("with_preload", scene, preload)
+        arms["without_preload"] = arm("without_preload", scene)
     return Study(scene=scene, t_path=t_path, tau_min_norm=tau_min_norm, preload=preload,
-                 preload_warning=preload_warning, arms=arms, t_end=t_end, step=h)
+                 preload_warning=preload_warning, arms=arms, t_end=t_end, step=h, refinement=refinement)

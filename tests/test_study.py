@@ -11,7 +11,7 @@ import pytest
 from rrr4 import SceneError, load_scene
 from rrr4.cli import main
 from rrr4.results import atomic_directory, loss_times, write_results
-from rrr4.study import ARMS, run_study
+from rrr4.study import PRELOAD_ARMS, run_study
 
 ROOT = Path(__file__).resolve().parents[1]
 T_END = 0.03  # s: the first part of the path, with the unloaded arm's first impacts
@@ -36,7 +36,7 @@ def paper_summary(paper_study, tmp_path_factory):
 
 def test_summary_has_every_required_key_for_both_arms(paper_summary):
     summary, _ = paper_summary
-    for arm in ARMS:
+    for arm in PRELOAD_ARMS:
         m = summary[arm]
         assert ARM_KEYS <= set(m)
         for key in ("contact_loss_events", "free_flight_fraction", "peak_contact_force_N"):
@@ -50,7 +50,7 @@ def test_summary_has_every_required_key_for_both_arms(paper_summary):
 def test_summary_is_physically_sensible(paper_summary):
     summary, _ = paper_summary
     clearance = 1e-4
-    for arm in ARMS:
+    for arm in PRELOAD_ARMS:
         m = summary[arm]
         assert all(0.0 <= v <= 1.0 for v in m["free_flight_fraction"].values())
         # steel journals penetrate by micrometres, far less than the 0.1 mm clearance
@@ -168,7 +168,7 @@ def test_ideal_scene_has_no_contact_and_reports_pin_reactions(tmp_path):
     study = run_study(load_scene(ROOT / "problems" / "ideal_circle.yaml"), t_end=0.01)
     summary, files = write_results(study, tmp_path / "ideal")
     assert "orbits.png" not in files and "contact_force.png" not in files
-    for arm in ARMS:
+    for arm in PRELOAD_ARMS:
         m = summary[arm]
         assert sum(m["contact_loss_events"].values()) == 0 and m["max_penetration_m"] == 0.0
         assert all(v == 0.0 for v in m["free_flight_fraction"].values())

@@ -10,9 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..mechanism import Model
 from ..simulation import Simulation
 
-__all__ = ["arm_metrics", "loss_times"]
+__all__ = ["arm_metrics", "loss_times", "contact_onsets", "driven_metrics"]
 
 
 def loss_times(sim: Simulation) -> dict:
@@ -57,12 +58,46 @@ def arm_metrics(sim: Simulation, wall_time: float) -> dict:
                                          lambda k: float(np.min(reaction[:, k]))),
         "platform_error_rms_m": float(np.sqrt(np.mean(sim.platform_error**2))),
         "platform_error_max_m": float(np.max(sim.platform_error)),
-        "torque_rms_Nm": float(np.sqrt(np.mean(sim.tau**2))),
-        "torque_peak_Nm": float(np.max(np.abs(sim.tau))),
+        "torque_rms_Nm": float(np.sqrt(np.mean(sim.tau**2))) if sim.tau.size else 0.0,
+        "torque_peak_Nm": float(np.max(np.abs(sim.tau), initial=0.0)),
         "energy_audit_residual": float(sim.energy_audit_residual),
         "wall_time_s": float(wall_time),
         "simulated_time_s": float(sim.t[-1] - sim.t[0]),
         "integrator": sim.stats["method"],
         "step_s": float(sim.stats["step"]),
         "steps": int(sim.stats["steps"]),
+    }
+
+
+def contact_onsets(sim: Simulation) -> dict:
+    """clearance joint -> (k,) times [s] of free-flight -> contact transitions (impacts)."""
+    contact = sim.penetration > 0
+    return {j: sim.t[1:][~contact[:-1, k] & contact[1:, k]] for k, j in enumerate(sim.clearance_joints)}
+
+
+def driven_metrics(sim: Simulation, ideal: Simulation, t_from: float, revolution: float) -> dict:
+    """Metrics of a driven mechanism against its ideal twin (same driver), over t >= t_from
+    (after the start transient). revolution [s]: period of the first driver.
+
+    impacts_per_revolution: joint -> contact onsets per driver revolution;
+    body_acceleration_peak_m_s2: body -> max |a| of the centre of mass;
+    acceleration_deviation_rms_m_s2 / _max_: body -> RMS / max |a - a_ideal|;
+    driver_effort_peak: driver -> max |effort| [N m or N]; driver_effort_rms."""
+    model = Model.of(sim.scene.graph)
+    keep = sim.t >= t_from
+    span = max(float(sim.t[keep][-1] - sim.t[keep][0]), 1e-300) if keep.sum() > 1 else 1e-300
+    onsets = contact_onsets(sim)
+    acc = {b: sim.qdd[:, model.coordinates(b)][:, :2] for b in model.body_names}
+    acc_ideal = {b: ideal.qdd[:, model.coordinates(b)][:, :2] for b in model.body_names}
+    dev = {b: np.linalg.norm(acc[b] - acc_ideal[b], axis=1)[keep] for b in model.body_names}
+    drivers = model.driver_names
+    return {
+        "after_s": float(t_from),
+        "impacts_per_revolution": {j: float(np.sum(v >= t_from) * revolution / span) for j, v in onsets.items()},
+        "body_acceleration_peak_m_s2": {b: float(np.max(np.linalg.norm(a[keep], axis=1))) for b, a in acc.items()},
+        "acceleration_deviation_rms_m_s2": {b: float(np.sqrt(np.mean(v**2))) for b, v in dev.items()},
+        "acceleration_deviation_max_m_s2": {b: float(np.max(v)) for b, v in dev.items()},
+        "driver_effort_peak": {d: float(np.max(np.abs(sim.driver_effort[keep, k]))) for k, d in enumerate(drivers)},
+        "driver_effort_rms": {d: float(np.sqrt(np.mean(sim.driver_effort[keep, k] ** 2)))
+                              for k, d in enumerate(drivers)},
     }

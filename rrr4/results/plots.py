@@ -1,11 +1,13 @@
 """Figures of a study (matplotlib, Agg). Each function writes one PNG and returns its path.
 
-Arms are drawn in fixed colours: with preload blue, without preload orange.
+Arms are drawn in fixed colours: with preload blue, without preload orange; for a driven
+scene, with clearance red and the ideal twin black.
 """
 
 from __future__ import annotations
 
 import math
+import textwrap
 from pathlib import Path
 
 import matplotlib
@@ -17,10 +19,13 @@ import numpy as np  # noqa: E402
 from ..mechanism import Model  # noqa: E402
 from ..study import Study  # noqa: E402
 
-__all__ = ["orbits", "contact_forces", "platform_error", "torques", "preload_alpha", "all_figures"]
+__all__ = ["orbits", "contact_forces", "platform_error", "torques", "preload_alpha", "body_accelerations",
+           "driver_efforts", "all_figures"]
 
 STYLE = {"with_preload": {"color": "tab:blue", "label": "with preload"},
-         "without_preload": {"color": "tab:orange", "label": "without preload"}}
+         "without_preload": {"color": "tab:orange", "label": "without preload"},
+         "with_clearance": {"color": "tab:red", "label": "with clearance"},
+         "ideal": {"color": "k", "label": "ideal joints"}}
 DPI = 110
 
 
@@ -37,13 +42,22 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
+def _suptitle(fig, text: str) -> None:
+    """Figure title wrapped to the figure's width."""
+    fig.suptitle(textwrap.fill(text, width=max(int(fig.get_figwidth() * 13), 30)))
+
+
 def _title(study: Study, what: str) -> str:
     return f"{study.scene.name}: {what}"
 
 
+def _clearance_joints(study: Study) -> tuple[str, ...]:
+    return max((a.simulation.clearance_joints for a in study.arms.values()), key=len)
+
+
 def orbits(study: Study, path: Path) -> Path | None:
     """Journal-centre orbit (eccentricity [um]) inside the clearance circle, every clearance joint."""
-    joints = study.arms["without_preload"].simulation.clearance_joints
+    joints = _clearance_joints(study)
     if not joints:
         return None
     fig, axes = _grid(len(joints), 3.0, 3.0)
@@ -53,6 +67,8 @@ def orbits(study: Study, path: Path) -> Path | None:
         phi = np.linspace(0, 2 * np.pi, 361)
         ax.plot(c * np.cos(phi), c * np.sin(phi), color="0.3", lw=1.0, label="clearance circle")
         for arm_name, arm in reversed(study.arms.items()):  # the preloaded orbit is short: draw it last, thick
+            if name not in arm.simulation.clearance_joints:
+                continue
             e = arm.simulation.eccentricity[:, k, :] * 1e6
             ax.plot(e[:, 0], e[:, 1], lw=2.5 if arm_name == "with_preload" else 0.6, **STYLE[arm_name])
         ax.set_aspect("equal")
@@ -65,14 +81,15 @@ def orbits(study: Study, path: Path) -> Path | None:
     for ax in axes[len(joints):]:
         ax.set_visible(False)
     axes[0].legend(loc="center", fontsize=7)
-    fig.suptitle(_title(study, "journal-centre orbits inside the clearance circle (global frame)"))
+    _suptitle(fig, _title(study, "journal-centre orbits inside the clearance circle (global frame)"))
     fig.tight_layout()
     return _save(fig, path)
 
 
 def contact_forces(study: Study, path: Path) -> Path | None:
-    """Normal contact force [N] against time, every clearance joint."""
-    joints = study.arms["without_preload"].simulation.clearance_joints
+    """Normal contact force [N] against time, every clearance joint (the ideal twin: the
+    magnitude of its pin reaction)."""
+    joints = _clearance_joints(study)
     if not joints:
         return None
     fig, axes = _grid(len(joints), 3.6, 2.4)
@@ -81,7 +98,11 @@ def contact_forces(study: Study, path: Path) -> Path | None:
         ax = axes[k]
         for arm_name, arm in study.arms.items():
             sim = arm.simulation
-            ax.plot(sim.t, sim.normal_force[:, k], lw=0.5, **STYLE[arm_name])
+            if name in sim.clearance_joints:
+                ax.plot(sim.t, sim.normal_force[:, sim.clearance_joints.index(name)], lw=0.5, **STYLE[arm_name])
+            elif name in sim.ideal_passive_joints:
+                r = np.linalg.norm(sim.reaction[:, sim.ideal_passive_joints.index(name)], axis=1)
+                ax.plot(sim.t, r, lw=1.0, **STYLE[arm_name])
         if f_min:
             ax.axhline(f_min, color="k", ls="--", lw=0.8, label=f"f_min = {f_min:g} N")
         ax.set_yscale("symlog", linthresh=1.0)
@@ -92,13 +113,15 @@ def contact_forces(study: Study, path: Path) -> Path | None:
     for ax in axes[len(joints):]:
         ax.set_visible(False)
     axes[0].legend(fontsize=7)
-    fig.suptitle(_title(study, "normal contact force at each clearance joint (0 = free flight)"))
+    _suptitle(fig, _title(study, "normal contact force at each clearance joint (0 = free flight)"))
     fig.tight_layout()
     return _save(fig, path)
 
 
-def platform_error(study: Study, path: Path) -> Path:
-    """Platform position error |p - p_ref| [um] against time."""
+def platform_error(study: Study, path: Path) -> Path | None:
+    """Platform position error |p - p_ref| [um] against time (scenes with a task body)."""
+    if study.scene.graph.task is None:
+        return None
     fig, ax = plt.subplots(figsize=(8, 3.6))
     for arm_name, arm in study.arms.items():
         sim = arm.simulation
@@ -114,10 +137,12 @@ def platform_error(study: Study, path: Path) -> Path:
     return _save(fig, path)
 
 
-def torques(study: Study, path: Path) -> Path:
+def torques(study: Study, path: Path) -> Path | None:
     """Actuator torques [N m] against time, both arms, with their feed-forward references."""
     names = Model.of(study.scene.graph).actuator_names
     n = len(names)
+    if n == 0 or study.scene.graph.task is None:
+        return None
     fig, axes = _grid(n, 4.0, 2.6)
     for i in range(n):
         ax = axes[i]
@@ -134,7 +159,7 @@ def torques(study: Study, path: Path) -> Path:
     for ax in axes[n:]:
         ax.set_visible(False)
     axes[0].legend(fontsize=7)
-    fig.suptitle(_title(study, "actuator torques (feed-forward + PD)"))
+    _suptitle(fig, _title(study, "actuator torques (feed-forward + PD)"))
     fig.tight_layout()
     return _save(fig, path)
 
@@ -167,9 +192,56 @@ def preload_alpha(study: Study, path: Path) -> Path | None:
     return _save(fig, path)
 
 
+def body_accelerations(study: Study, path: Path) -> Path | None:
+    """Driven scenes: centre-of-mass acceleration components [m/s^2] of every body against
+    time, with clearance and ideal (components that stay zero in the ideal run are left out)."""
+    if "ideal" not in study.arms:
+        return None
+    model = Model.of(study.scene.graph)
+    ideal = study.arms["ideal"].simulation
+    panels = [(b, c) for b in model.body_names for c in (0, 1)
+              if np.max(np.abs(ideal.qdd[:, model.coordinates(b)][:, c])) > 1e-9]
+    fig, axes = _grid(len(panels), 4.0, 2.6)
+    for ax, (b, c) in zip(axes, panels, strict=False):
+        for arm_name, arm in study.arms.items():
+            sim = arm.simulation
+            ax.plot(sim.t, sim.qdd[:, model.coordinates(b)][:, c], lw=0.5 if arm_name != "ideal" else 1.2,
+                    **STYLE[arm_name])
+        ax.set_title(f"{b}: {'xy'[c]} acceleration")
+        ax.set_xlabel("t [s]")
+        ax.set_ylabel(f"a_{'xy'[c]} [m/s^2]")
+    for ax in axes[len(panels):]:
+        ax.set_visible(False)
+    axes[0].legend(fontsize=7)
+    _suptitle(fig, _title(study, "centre-of-mass accelerations, clearance against ideal joints"))
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def driver_efforts(study: Study, path: Path) -> Path | None:
+    """Driven scenes: the effort each driver applies [N m or N] against time."""
+    drivers = study.scene.graph.drivers
+    if "ideal" not in study.arms or not drivers:
+        return None
+    fig, axes = _grid(len(drivers), 6.0, 3.0)
+    for k, d in enumerate(drivers):
+        unit = "N m" if study.scene.graph.joint(d.joint).type == "revolute" else "N"
+        for arm_name, arm in study.arms.items():
+            sim = arm.simulation
+            axes[k].plot(sim.t, sim.driver_effort[:, k], lw=0.5 if arm_name != "ideal" else 1.2, **STYLE[arm_name])
+        axes[k].set_title(f"driver {d.name} on joint {d.joint}")
+        axes[k].set_xlabel("t [s]")
+        axes[k].set_ylabel(f"effort [{unit}]")
+        axes[k].legend(fontsize=7)
+    _suptitle(fig, _title(study, "driver effort, clearance against ideal joints"))
+    fig.tight_layout()
+    return _save(fig, path)
+
+
 def all_figures(study: Study, out: Path) -> list[Path]:
     """Write every figure that applies to the study into `out`; returns the files written."""
     made = [orbits(study, out / "orbits.png"), contact_forces(study, out / "contact_force.png"),
             platform_error(study, out / "platform_error.png"), torques(study, out / "torques.png"),
-            preload_alpha(study, out / "preload_alpha.png")]
+            preload_alpha(study, out / "preload_alpha.png"), body_accelerations(study, out / "accelerations.png"),
+            driver_efforts(study, out / "driver_effort.png")]
     return [p for p in made if p is not None]
