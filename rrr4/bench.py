@@ -21,13 +21,14 @@ solver gave up) is kept as a row with status 'unstable' instead of failing the b
 from __future__ import annotations
 
 import csv
+import itertools
 import os
 import platform
 from pathlib import Path
 
 import numpy as np
 
-from .errors import SceneError
+from .errors import SimulationError
 from .integrators import METHODS, RK4, Cvodes
 from .scene import Scene
 from .simulation import simulate
@@ -37,19 +38,9 @@ __all__ = ["work_precision", "write_work_precision", "DEFAULT_PLAN"]
 CROSS_CHECK_RTOL = 1e-10    # cvodes tolerance of the reference's cross-check
 _RATIO = 4                  # reference step = finest RK4 step / _RATIO
 
-# method -> ("step", [s]) or ("rtol", [-]); steps are rounded so whole steps fill an output interval
-DEFAULT_PLAN = {
-    "rk4": ("step", [1e-4, 1e-3 / 12, 6.25e-5, 5e-5, 4e-5, 2.5e-5, 1e-5, 5e-6, 2e-6, 1e-6]),
-    "bathe": ("step", [1e-3, 5e-4, 2.5e-4, 2e-4, 1e-4, 5e-5, 2e-5]),
-    "newmark": ("step", [1e-3, 5e-4, 2.5e-4, 2e-4, 1e-4, 5e-5, 2e-5]),
-    "generalized-alpha": ("step", [1e-3, 5e-4, 2.5e-4, 2e-4, 1e-4, 5e-5, 2e-5]),
-    "erk": ("rtol", [1e-3, 1e-5, 1e-7, 1e-9]),
-    "cvodes": ("rtol", [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-9]),
-    "idas": ("rtol", [1e-3, 1e-5, 1e-7, 1e-9]),
-    "rosenbrock": ("rtol", [1e-3, 1e-5, 1e-7]),
-    "rk45": ("rtol", [1e-3, 1e-4, 1e-5, 1e-7]),
-    "radau": ("rtol", [1e-3, 1e-5, 1e-7]),
-}
+# method -> ("step", [s]) or ("rtol", [-]) from each method's capabilities; steps are rounded
+# so whole steps fill an output interval
+DEFAULT_PLAN = {name: ("rtol" if m.adaptive else "step", list(m.ladder)) for name, m in METHODS.items()}
 
 
 def _preload(scene: Scene):
@@ -114,7 +105,7 @@ def work_precision(scene: Scene, t_end: float | None = None, plan: dict | None =
             integrator, kw = METHODS[method](rtol=v, atol=v * 1e-3), {}
         try:
             sim = run(integrator, **kw)
-        except SceneError:  # non-finite state: beyond the stability limit, or the solver gave up
+        except SimulationError:  # non-finite state: beyond the stability limit, or the solver gave up
             if bar is not None:
                 bar.update()
             rows.append(row(method, kind, _step_taken(scene, t_end, v) if kind == "step" else v, "unstable"))
@@ -155,7 +146,7 @@ def write_work_precision(rows: list[dict], scene: Scene, out_dir, t_end: float) 
         w.writeheader()
         w.writerows(rows)
     fig, ax = plt.subplots(figsize=(9, 7.8))
-    markers = dict(zip(METHODS, "osD^vP*Xhp", strict=True))
+    markers = dict(zip(METHODS, itertools.cycle("osD^vP*Xhp<>"), strict=False))
     for method in dict.fromkeys(r["method"] for r in rows if r["status"] != "cross-check"):
         rs = [r for r in rows if r["method"] == method and r["status"] == "ok" and r["error_m"] > 0]
         if not rs:

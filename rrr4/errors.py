@@ -9,5 +9,10 @@ class SceneError(Rrr4Error, ValueError):
     """A scene or argument is invalid. The message names key path, value and what is allowed."""
 
 
+class SimulationError(Rrr4Error, RuntimeError):
+    """A simulation cannot go on: the state became non-finite (a blow-up beyond the method's
+    stability limit, or its solver gave up). The message names the method and the step."""
+
+
 class KinematicsError(Rrr4Error, RuntimeError):
     """A kinematic problem has no solution (unreachable pose, FK without convergence)."""

@@ -27,7 +27,7 @@ from scipy.interpolate import CubicSpline
 
 from .dynamics.builder import Equations, build_equations, graph_size
 from .dynamics.energy import energy_audit_residual, energy_terms
-from .errors import SceneError
+from .errors import SceneError, SimulationError
 from .integrators import METHODS, FixedStepIntegrator, System
 from .mechanism import Mechanism, Model
 from .scene import Scene
@@ -293,7 +293,8 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
 
     system = _system(eqs, ref.function)
     wall = time.perf_counter()
-    X = method.run(system, x0, u, h, spf, progress=bool(overrides.get("progress", False)))
+    run = method.run(system, x0, u, h, spf, progress=bool(overrides.get("progress", False)))
+    X = run.states
     wall = time.perf_counter() - wall
     X = np.vstack([x0, X])
     nq = eqs.nq
@@ -301,8 +302,9 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     W, Dd, Df = X[:, 1 + 2 * nq], X[:, 2 + 2 * nq], X[:, 3 + 2 * nq]
     z = X[:, 4 + 2 * nq:]
     if not np.all(np.isfinite(X)):
-        raise SceneError(f"integrator.step: {h:g} s lets the state blow up (non-finite) with {method.name}; "
-                         "use a smaller step")
+        k = int(np.argmax(~np.all(np.isfinite(X), axis=1)))
+        raise SimulationError(f"integrator.step: {h:g} s lets the state blow up (non-finite by t = "
+                              f"{t_frames[k]:.6g} s) with {method.name}; use a smaller step")
 
     N = len(t_frames)
     tau_ref = (ref.tau_ff + tab).T
@@ -321,7 +323,7 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     stats = {"method": method.name, "step": h, "steps": spf * n_frames, "frames": n_frames, "wall_time": wall,
              "jit": method.jit, "graph": {f.name(): graph_size(f) for f in (eqs.acceleration, system.ode)},
              "preload": "given" if preload is not None else ("feed-forward only" if feed_forward else "none")}
-    stats.update(getattr(method, "run_stats", {}))
+    stats.update(run.stats)
     return Simulation(
         scene=scene, clearance_joints=eqs.clearance_joints, ideal_passive_joints=eqs.passive_ideal_joints,
         terms=eqs.terms, t=t_frames, q=q, qd=qd, qdd=np.array(out["qdd"]).T, pose=pose, pose_ref=ref.pose,

@@ -21,7 +21,7 @@ def oscillator(omega: float) -> System:
 def run(method, system, h, t_end, y0=(1.0, 0.0, 0.0)):
     n = max(int(round(t_end / h)), 1)
     u = np.array([[0.0, t_end]])
-    return method.run(system, np.r_[0.0, y0], u, t_end / n, n)[-1]
+    return method.run(system, np.r_[0.0, y0], u, t_end / n, n).states[-1]
 
 
 def test_bathe_weights_reduce_to_bathe_baig_and_trapezoidal():
@@ -57,9 +57,9 @@ def test_error_falls_at_the_method_order_on_a_smooth_oscillator(method):
 
 def test_implicit_methods_report_newton_iterations_and_converge():
     m = Bathe()
-    run(m, oscillator(50.0), 1e-3, 0.1)
-    assert m.run_stats["newton_failures"] == 0
-    assert 2 <= m.run_stats["newton_iterations_per_step"] <= 2 * m.max_newton
+    stats = m.run(oscillator(50.0), np.r_[0.0, 1.0, 0.0, 0.0], np.array([[0.0, 0.1]]), 1e-3, 100).stats
+    assert stats["newton_failures"] == 0
+    assert 2 <= stats["newton_iterations_per_step"] <= 2 * m.max_newton
 
 
 def test_compiled_stepping_matches_the_vm_and_is_cached_on_disk(tmp_path, monkeypatch):
@@ -79,9 +79,10 @@ def test_compiled_stepping_matches_the_vm_and_is_cached_on_disk(tmp_path, monkey
 @pytest.mark.parametrize("name", ["erk", "rosenbrock", "cvodes", "idas", "rk45", "radau"])
 def test_adaptive_methods_meet_their_tolerance_on_a_smooth_oscillator(name):
     m = METHODS[name](rtol=1e-8, atol=1e-10)
-    y = run(m, oscillator(2 * np.pi), 1e-3, 1.0)
+    r = m.run(oscillator(2 * np.pi), np.r_[0.0, 1.0, 0.0, 0.0], np.array([[0.0, 1.0]]), 1e-3, 1000)
+    y = r.states[-1]
     assert abs(y[1] - 1.0) < 1e-5 and abs(y[2]) < 1e-4
-    assert m.run_stats["steps"] > 0
+    assert r.stats["steps"] > 0
 
 
 def test_unknown_integrator_raises_scene_error(paper_scene):

@@ -14,20 +14,25 @@ from abc import ABC, abstractmethod
 import numpy as np
 
 from ..errors import Rrr4Error
-from .base import System
+from .base import Run, System
 
 
 class AdaptiveIntegrator(ABC):
-    """Base of the error-controlled methods: rtol, atol (relative and absolute local error)."""
+    """Base of the error-controlled methods: rtol, atol (relative and absolute local error).
+
+    Capabilities: adaptive = True (error control, no step); compiles = False (the stepping
+    is the solver's own); ladder: the rtol values `rrr4 bench accuracy` tries by default."""
     name = ""
     order = 0
+    adaptive = True
+    compiles = False
+    ladder: tuple[float, ...] = (1e-3, 1e-5, 1e-7, 1e-9)
 
     def __init__(self, jit: bool = False, rtol: float = 1e-8, atol: float = 1e-10):
         for key, v in (("integrator.rtol", rtol), ("integrator.atol", atol)):
             if not (np.isfinite(v) and v > 0):
                 raise Rrr4Error(f"{key}: {v!r} is not allowed (must be a finite number > 0)")
         self.jit, self.rtol, self.atol = False, float(rtol), float(atol)
-        self.run_stats: dict = {}
 
     @classmethod
     def from_settings(cls, settings, jit: bool = False):
@@ -42,8 +47,9 @@ class AdaptiveIntegrator(ABC):
         """(y at t_b, counters of this frame: steps, rejected, rhs, jacobians)."""
 
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,
-            progress: bool = False) -> np.ndarray:
-        """States at the end of each frame, (n_frames, nx); frame k spans [u[k, 0], u[k, 1]]."""
+            progress: bool = False) -> Run:
+        """States at the end of each frame, (n_frames, nx), and the solver's counters; frame k
+        spans [u[k, 0], u[k, 1]]."""
         self.prepare(system, h)
         u_frames = np.atleast_2d(np.asarray(u_frames, float))
         ny = system.ny
@@ -68,5 +74,4 @@ class AdaptiveIntegrator(ABC):
             out.append(x)
         while len(out) < u_frames.shape[0]:
             out.append(np.full_like(x, np.nan))
-        self.run_stats = {**totals, "rtol": self.rtol, "atol": self.atol}
-        return np.vstack(out)
+        return Run(np.vstack(out), {**totals, "rtol": self.rtol, "atol": self.atol})

@@ -30,6 +30,14 @@ from ..errors import Rrr4Error
 
 
 @dataclass(frozen=True)
+class Run:
+    """What an integrator's run returns: states (n_frames, nx) at the end of each frame and
+    its statistics (e.g. Newton iterations, accepted and rejected steps)."""
+    states: np.ndarray
+    stats: dict
+
+
+@dataclass(frozen=True)
 class System:
     """ode: t, y, z, u -> y_dot; discrete: t, y, z -> z_next (both CasADi Functions).
     u is constant over a frame (e.g. reference samples at the frame's two ends)."""
@@ -55,9 +63,15 @@ _FRAMES: dict[tuple, tuple[System, ca.Function]] = {}
 
 
 class FixedStepIntegrator(ABC):
-    """Base of fixed-step methods. Subclasses set `name`, `order` and implement `advance`."""
+    """Base of fixed-step methods. Subclasses set `name`, `order` and implement `advance`.
+
+    Capabilities: adaptive = False (a step, no error control); compiles = True (jit=True
+    steps in generated C); ladder: the steps [s] `rrr4 bench accuracy` tries by default."""
     name = ""
     order = 0
+    adaptive = False
+    compiles = True
+    ladder: tuple[float, ...] = (1e-3, 5e-4, 2.5e-4, 2e-4, 1e-4, 5e-5, 2e-5)
 
     def __init__(self, jit: bool = False, refine: int = 1):
         if int(refine) != refine or refine < 1:
@@ -107,9 +121,9 @@ class FixedStepIntegrator(ABC):
         return ca.Function("frame", [x, u], [xs[:, -1]], ["x", "u"], ["x_next"])
 
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,
-            progress: bool = False) -> np.ndarray:
-        """States at the end of each frame, (n_frames, nx); u_frames (n_frames, nu)."""
-        settings = tuple(sorted((k, repr(v)) for k, v in vars(self).items() if k != "run_stats"))
+            progress: bool = False) -> Run:
+        """States at the end of each frame, (n_frames, nx), and statistics; u_frames (n_frames, nu)."""
+        settings = tuple(sorted((k, repr(v)) for k, v in vars(self).items()))
         key = (id(system), type(self).__name__, settings, float(h), int(steps_per_frame))
         if key not in _FRAMES:
             frame = self.frame_function(system, h, steps_per_frame)
@@ -137,4 +151,4 @@ class FixedStepIntegrator(ABC):
                 bar.update(k)
         if bar is not None:
             bar.close()
-        return np.vstack(out)
+        return Run(np.vstack(out), {})

@@ -49,6 +49,7 @@ class CasadiPlugin(AdaptiveIntegrator):
 
 class Cvodes(CasadiPlugin):
     name = plugin = "cvodes"
+    ladder = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-9)
 
 
 class Idas(CasadiPlugin):
@@ -61,3 +62,4 @@ class Erk(CasadiPlugin):
 
 class Rosenbrock(CasadiPlugin):
     name = plugin = "rosenbrock"
+    ladder = (1e-3, 1e-5, 1e-7)

@@ -23,7 +23,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import Rrr4Error
-from .base import FixedStepIntegrator, System
+from .base import FixedStepIntegrator, Run, System
 
 __all__ = ["ImplicitIntegrator", "second_order_split"]
 
@@ -54,7 +54,6 @@ class ImplicitIntegrator(FixedStepIntegrator):
         if int(max_newton) < 1:
             raise Rrr4Error(f"integrator.max_newton: {max_newton!r} is not allowed (must be >= 1)")
         self.newton_tol, self.max_newton = float(newton_tol), int(max_newton)
-        self.run_stats: dict = {}
 
     @classmethod
     def from_settings(cls, settings, jit: bool = False):
@@ -125,16 +124,16 @@ class ImplicitIntegrator(FixedStepIntegrator):
         return ca.Function("step", [x, u], [x1], ["x", "u"], ["x_next"])
 
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,
-            progress: bool = False) -> np.ndarray:
-        """As :meth:`FixedStepIntegrator.run`; the counters land in ``run_stats``."""
+            progress: bool = False) -> Run:
+        """As :meth:`FixedStepIntegrator.run`, with the Newton counters in the statistics."""
         nq = second_order_split(system)
         ny, nz = system.ny, system.nz
         x0 = np.asarray(x0, float)
         u0 = np.atleast_2d(np.asarray(u_frames, float))[0]
         f0 = np.array(system.ode(x0[0], x0[1:1 + ny], x0[1 + ny:1 + ny + nz], u0)).ravel()
         mem0 = np.asarray(self.initial_memory(f0, nq), float).ravel()
-        X = super().run(system, np.r_[x0, mem0, 0.0, 0.0], u_frames, h, steps_per_frame, chunk, progress)
+        X = super().run(system, np.r_[x0, mem0, 0.0, 0.0], u_frames, h, steps_per_frame, chunk, progress).states
         n_steps = steps_per_frame * X.shape[0]
-        self.run_stats = {"newton_iterations": int(round(X[-1, -2])), "newton_failures": int(round(X[-1, -1])),
-                          "newton_iterations_per_step": float(X[-1, -2]) / max(n_steps, 1)}
-        return X[:, :x0.size]
+        return Run(X[:, :x0.size], {"newton_iterations": int(round(X[-1, -2])),
+                                    "newton_failures": int(round(X[-1, -1])),
+                                    "newton_iterations_per_step": float(X[-1, -2]) / max(n_steps, 1)})

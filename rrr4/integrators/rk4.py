@@ -8,6 +8,7 @@ from .base import FixedStepIntegrator
 class RK4(FixedStepIntegrator):
     name = "rk4"
     order = 4
+    ladder = (1e-4, 1e-3 / 12, 6.25e-5, 5e-5, 4e-5, 2.5e-5, 1e-5, 5e-6, 2e-6, 1e-6)  # explicit: small steps
 
     def advance(self, ode, t, y, z, u, h):
         k1 = ode(t, y, z, u)

@@ -36,7 +36,9 @@ class ScipyIVP(AdaptiveIntegrator):
 
 class RK45(ScipyIVP):
     name, scipy_method, order = "rk45", "RK45", 5
+    ladder = (1e-3, 1e-4, 1e-5, 1e-7)
 
 
 class Radau(ScipyIVP):
     name, scipy_method, order = "radau", "Radau", 5
+    ladder = (1e-3, 1e-5, 1e-7)
