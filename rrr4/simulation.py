@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import functools
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import casadi as ca
 import numpy as np
@@ -85,10 +85,16 @@ class Simulation:
         return model.body_poses(self.q, name)
 
 
-@functools.cache
 def reference_function(scene: Scene, feed_forward: bool) -> ca.Function:
     """SX Function 'references': t [s] -> pose_ref (3), theta_ref (n) [rad], theta_d_ref,
-    theta_dd_ref, tau_ff (n) [N m] (ideal inverse dynamics tau_p, or 0 without feed-forward)."""
+    theta_dd_ref, tau_ff (n) [N m] (ideal inverse dynamics tau_p, or 0 without feed-forward).
+    Built once per mechanism, gravity and path (not per integrator or initial state)."""
+    return _reference_function(replace(scene, name="", description="", source="", integrator=None, initial=None,
+                                       actuation=None), feed_forward)
+
+
+@functools.lru_cache(maxsize=16)
+def _reference_function(scene: Scene, feed_forward: bool) -> ca.Function:
     mech = Mechanism.from_scene(scene)
     t = ca.SX.sym("t")
     pose, pose_d, pose_dd = trajectory_function(scene.path)(t)
@@ -104,20 +110,17 @@ def reference_function(scene: Scene, feed_forward: bool) -> ca.Function:
                        ["t"], ["pose_ref", "theta_ref", "theta_d_ref", "theta_dd_ref", "tau_ff"])
 
 
-_SYSTEMS: dict[tuple[int, int], tuple[Equations, ca.Function, System]] = {}
-
-
 def _system(eqs: Equations, refs: ca.Function | None) -> System:
     """The ODE y = [q, qd, W_in, D_damping, D_friction] with discrete z = [delta_dot0,
     in_contact, losses] (nc each) and frame input u = [t_a, t_b, tau_a (n), tau_b (n)]
     (given efforts, linear in t), followed, for sampled references (refs None), by theta,
     theta_d, theta_dd, the feed-forward tau_ff and its rate at both frame ends (n each;
-    cubic Hermite in theta, theta_d and tau_ff). Built once per (equations, references) pair (the entry keeps both
-    alive, so their ids stay unique keys)."""
-    key = (id(eqs), id(refs))
-    if key not in _SYSTEMS:
-        _SYSTEMS[key] = (eqs, refs, _build_system(eqs, refs))
-    return _SYSTEMS[key][2]
+    cubic Hermite in theta, theta_d and tau_ff). Built once per (equations, references) pair
+    and kept by the equations (the entry holds the references, so its id stays unique)."""
+    key = id(refs)
+    if key not in eqs.systems:
+        eqs.systems[key] = (refs, _build_system(eqs, refs))
+    return eqs.systems[key][1]
 
 
 def _hermite(s, h, a, b, da, db):

@@ -133,3 +133,16 @@ def test_clearance_model_converges_to_the_ideal_model(paper_scene):
     assert pos_err[0] > pos_err[1] > pos_err[2] and pos_err[2] < 1e-7
     assert force_err[0] > force_err[1] > force_err[2]
     assert force_err[2] < 0.05 * np.linalg.norm(r_ideal, axis=1).min()
+
+
+def test_changing_only_the_integrator_or_path_rate_does_not_rebuild_the_equations(paper_scene):
+    """The equations are keyed by the scene's physics; the ODE system and its frame Functions
+    are owned by the equations and the system (no module-level caches keyed by id)."""
+    a = build_equations(paper_scene)
+    other = dataclasses.replace(paper_scene, name="renamed",
+                                integrator=dataclasses.replace(paper_scene.integrator, step=2e-5),
+                                path=dataclasses.replace(paper_scene.path, sample_rate=500.0))
+    assert build_equations(other) is a
+    simulate(other, t_end=2e-3)
+    assert any(k[2] == 2e-5 for _, system in a.systems.values() for k in system.frames)
+    assert build_equations(_with(paper_scene, friction="none")) is not a

@@ -55,7 +55,7 @@ the same convention when the journal sits on the second body (always in an n-RRR
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import casadi as ca
 import numpy as np
@@ -99,6 +99,9 @@ class Equations:
     v_min: float
     baumgarte: float
     mass: np.ndarray = field(repr=False)
+    # references Function (or None) -> the ODE System built on these equations: owned here,
+    # freed with them
+    systems: dict = field(default_factory=dict, compare=False, repr=False)
 
 
 def joint_stiffness(scene: Scene, name: str) -> float:
@@ -126,10 +129,18 @@ def build_equations(scene: Scene, v_min: float = V_MIN, baumgarte: float = BAUMG
         raise SceneError(f"v_min: {v_min!r} is not allowed (must be > 0 m/s)")
     if not baumgarte >= 0:
         raise SceneError(f"baumgarte: {baumgarte!r} is not allowed (must be >= 0 rad/s)")
-    return _build(scene, float(v_min), float(baumgarte))
+    return _build(physics(scene), float(v_min), float(baumgarte))
 
 
-@functools.cache
+def physics(scene: Scene) -> Scene:
+    """The part of `scene` the equations depend on (graph, effects, actuation mode, limits and
+    gains): the key under which they are built once. Changing the path, the integrator, the
+    initial state, the preload settings or the names does not rebuild them."""
+    return replace(scene, name="", description="", source="", path=None, integrator=None, initial=None,
+                   actuation=replace(scene.actuation, preload=None))
+
+
+@functools.lru_cache(maxsize=16)
 def _build(scene: Scene, v_min: float, omega: float) -> Equations:
     model = Model.of(scene.graph)
     graph = scene.graph

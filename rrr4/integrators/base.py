@@ -14,14 +14,15 @@ z <- g(t, y, z) after each step (contact onset/loss). A method only implements
 - rolls ``steps_per_frame`` steps with ``mapaccum`` into ``frame``, which returns the
   state at the frame end, and rolls frames with ``mapaccum`` again (optionally JIT-compiled),
 - runs frames in chunks so that long runs show a progress bar,
-- keeps the built (and compiled) frame Function in memory per system, method settings,
-  step and steps per frame, so a second run of the same scene builds nothing.
+- keeps the built (and compiled) frame Function on the system (per method settings, step
+  and steps per frame), so a second run of the same scene builds nothing, and dropping the
+  system frees them.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
@@ -43,6 +44,9 @@ class System:
     u is constant over a frame (e.g. reference samples at the frame's two ends)."""
     ode: ca.Function
     discrete: ca.Function
+    # (method, settings, h, steps per frame) -> the built (and compiled) frame Function: the
+    # system owns them, so they live exactly as long as it does
+    frames: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def ny(self) -> int:
@@ -55,11 +59,6 @@ class System:
     @property
     def nu(self) -> int:
         return self.ode.size1_in(3)
-
-
-# (id(system), method settings, h, steps_per_frame) -> (system, frame Function); the system is
-# kept in the value so that its id stays unique while the entry lives.
-_FRAMES: dict[tuple, tuple[System, ca.Function]] = {}
 
 
 class FixedStepIntegrator(ABC):
@@ -124,14 +123,14 @@ class FixedStepIntegrator(ABC):
             progress: bool = False) -> Run:
         """States at the end of each frame, (n_frames, nx), and statistics; u_frames (n_frames, nu)."""
         settings = tuple(sorted((k, repr(v)) for k, v in vars(self).items()))
-        key = (id(system), type(self).__name__, settings, float(h), int(steps_per_frame))
-        if key not in _FRAMES:
+        key = (type(self).__name__, settings, float(h), int(steps_per_frame))
+        if key not in system.frames:
             frame = self.frame_function(system, h, steps_per_frame)
             if self.jit:  # generated C of the whole frame loop, cached on disk (see .compiled)
                 from .compiled import compiled
                 frame = compiled(frame)
-            _FRAMES[key] = (system, frame)
-        frame = _FRAMES[key][1]
+            system.frames[key] = frame
+        frame = system.frames[key]
         u_frames = np.atleast_2d(np.asarray(u_frames, float))
         n_frames = u_frames.shape[0]
         rolls: dict[int, ca.Function] = {}
