@@ -76,7 +76,7 @@ def main():
         for v in settings:
             try:
                 sim = run(make(v), t_run, **({"step": v} if kind == "step" else {}))
-            except rrr4.SceneError as e:      # the step is beyond the method's stability limit
+            except rrr4.SimulationError as e:  # the step is beyond the method's stability limit
                 print(f"  {label:12s} {kind} {v:8.2e}: {e}")
                 continue
             err = error(sim, ref)
