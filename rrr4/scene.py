@@ -187,12 +187,15 @@ class DriverSpec:
 @dataclass(frozen=True)
 class Graph:
     """The planar body/joint graph of a scene: every mechanism is one (an n-RRR expands
-    into it). task: the body whose pose follows the path, or None (drivers set the motion)."""
+    into it). task: the body whose pose follows the path, or None (drivers set the motion);
+    task_point: None (the task is the body's pose [x, y, theta], 3 DOF) or a point (x, y) [m]
+    in its frame (the task is that point's position, 2 DOF: the path's x and y)."""
     bodies: tuple[Body, ...]
     joints: tuple[JointSpec, ...]
     actuators: tuple[ActuatorSpec, ...]
     drivers: tuple[DriverSpec, ...]
     task: str | None
+    task_point: tuple[float, float] | None = None
 
     @property
     def passive_joints(self) -> tuple[str, ...]:
@@ -714,13 +717,26 @@ def _graph(sec: _Section) -> Graph:
         if j.clearance and j.name in busy:
             raise SceneError(f"{sec.key('joints')}: joint {j.name!r} has clearance and an actuator or driver "
                              "(clearance is allowed on passive joints only)")
-    task = sec.raw("task")
-    if task in (None, "none"):
+    task, task_point = sec.raw("task"), None
+    if isinstance(task, dict):  # a point of a body: {body: name, point: name or [x, y]}
+        t = _Section(task, sec.key("task"))
+        body, pt = t.raw("body"), t.raw("point")
+        if body not in names[1:]:
+            raise _unknown(t.key("body"), "body", body, names[1:])
+        if isinstance(pt, str):
+            if pt not in points[body]:
+                raise _unknown(t.key("point"), f"point of {body}", pt, list(points[body]) or ["(none)"])
+            task_point = points[body][pt]
+        else:
+            task_point = t.vector("point", 2)
+        t.done()
+        task = body
+    elif task in (None, "none"):
         task = None
     elif task not in names[1:]:
         raise _unknown(sec.key("task"), "body", task, names[1:] + ["none"])
     sec.done()
-    return Graph(tuple(bodies), tuple(joints), tuple(actuators), tuple(drivers), task)
+    return Graph(tuple(bodies), tuple(joints), tuple(actuators), tuple(drivers), task, task_point)
 
 
 def expand_nrrr(m: Mechanism_, joints: tuple[JointSpec, ...], torque_limit) -> Graph:

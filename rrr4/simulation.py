@@ -183,8 +183,9 @@ def _references(scene: Scene, mech: Mechanism, t_frames: np.ndarray, feed_forwar
         z = np.zeros((N, n))
         return _References(np.zeros((N, 3)), z, z, z, z, None, z)
     pose, pose_d, pose_dd = (np.array(v).T for v in trajectory_function(scene.path).map(N)(t_frames[None, :]))
-    q = mech.path_coordinates(pose)
-    _, qdd, th_d, th_dd = mech.motion(q, pose_d, pose_dd)
+    k = mech.n_task
+    q = mech.path_coordinates(pose[:, :k])
+    _, qdd, th_d, th_dd = mech.motion(q, pose_d[:, :k], pose_dd[:, :k])
     th = np.array(mech.model.actuator_coordinates_function.map(N)(q.T)[0]).T
     tau_ff = np.zeros((N, n))
     if feed_forward:
@@ -272,7 +273,9 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     model = mech.model
     if model.task is not None:
         pose0, pose_d0, pose_dd0 = (np.array(v).ravel() for v in trajectory_function(scene.path)(0.0))
-        target, target_d, target_dd = pose0, pose_d0 + np.asarray(scene.initial.platform_velocity), pose_dd0
+        k = mech.n_task
+        target, target_d, target_dd = (pose0[:k], (pose_d0 + np.asarray(scene.initial.platform_velocity))[:k],
+                                       pose_dd0[:k])
     else:
         target = mech.driver_targets(0.0)[0]
         target_d = np.array([d.speed for d in scene.graph.drivers])
@@ -319,7 +322,7 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     def per_joint(a, rows):
         return np.array(a).reshape(rows, N, -1).transpose(1, 2, 0) if rows == 2 else np.array(a).T
 
-    pose = model.body_poses(q, model.task) if model.task else np.zeros((N, 3))
+    pose = np.array(model.task_pose_function.map(N)(q.T)).T if model.task else np.zeros((N, 3))
     losses = {j.name: 0 for j in scene.joints}
     losses.update({j: int(round(v)) for j, v in zip(eqs.clearance_joints, z[-1, 2 * nc:], strict=True)})
     energy = energy_terms(eqs.energy, q, qd, W, Dd, Df)

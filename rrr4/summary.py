@@ -29,7 +29,8 @@ def scene_summary(scene: Scene) -> str:
             pts = ", ".join(p for p, _ in b.points)
             lines.append(f"  {b.name}: {b.mass:.4g} kg, {b.inertia:.4g} kg m^2; points {pts or 'none'}")
     acts = [f"{a.name} on {a.joint}" for a in scene.graph.actuators]
-    task = f"task body {model.task}" if model.task else "no task body"
+    task = ("no task body" if model.task is None else f"task body {model.task}" if model.task_dof == 3
+            else f"task point of {model.task} (2 DOF)")
     lines.append(f"actuators ({len(acts)}): {', '.join(acts) or 'none'}; {task} "
                  f"(degree of redundancy {model.redundancy})")
     for d in scene.graph.drivers:
@@ -86,8 +87,10 @@ def scene_summary(scene: Scene) -> str:
     speed = np.linalg.norm(s.pose_d[:, :2], axis=1).max()
     lines.append(f"path: {scene.path.type}, {scene.path.duration:g} s, {scene.path.time_law} time law, "
                  f"{len(s.t)} samples")
+    turn = (f"theta_o in [{np.degrees(lo[2]):.2f}, {np.degrees(hi[2]):.2f}] deg" if model.task_dof == 3
+            else f"task point of {model.task} (its angle is free)")
     lines.append(f"  x in [{lo[0] * 1e3:.2f}, {hi[0] * 1e3:.2f}] mm, y in [{lo[1] * 1e3:.2f}, {hi[1] * 1e3:.2f}] mm, "
-                 f"theta_o in [{np.degrees(lo[2]):.2f}, {np.degrees(hi[2]):.2f}] deg; peak speed {speed:.4g} m/s")
+                 f"{turn}; peak speed {speed:.4g} m/s")
     cond, t = pk.worst_condition
     lines.append(f"  worst Jacobian condition number {cond:.4g} at t = {t:.4g} s "
                  f"(allowed <= {scene.path.max_condition_number:g})")

@@ -260,3 +260,30 @@ def test_study_of_a_driven_scene_compares_clearance_with_the_ideal_twin(tmp_path
     assert summary["step_convergence"]["steps_s"] == [2e-6, 1e-6]
     header = (tmp_path / "out" / "timeseries.csv").read_text().splitlines()[0]
     assert "with_clearance_slider_ax_m_s2" in header and "ideal_crank_drive_effort" in header
+
+
+FIVE_BAR = ROOT / "problems" / "redundant_five_bar.yaml"
+
+
+def test_point_task_five_bar_ik_equals_the_closed_form_of_each_chain():
+    """Task = a point of a body (2 DOF): Newton IK of the graph against the closed-form
+    two-link IK of each chain (circle intersection, the elbow side of the pose guesses)."""
+    scene = rrr4.load_scene(FIVE_BAR)
+    mech = Mechanism.from_scene(scene)
+    assert mech.n_task == 2 and Model.of(scene.graph).redundancy == 1
+    bases = [np.array(scene.graph.joint(f"A{i}").points[0]) for i in (1, 2, 3)]
+    for p in ([0.02, 0.0], [-0.01, 0.015], [0.0, -0.02]):
+        d = [np.asarray(p) - a for a in bases]
+        # l1 = l2 = 0.25 m: cos of the angle at the base = (l1^2 + r^2 - l2^2) / (2 l1 r) = r / (2 l1)
+        want = [np.arctan2(v[1], v[0]) + np.arccos(np.linalg.norm(v) / (2 * 0.25)) for v in d]
+        np.testing.assert_allclose(np.angle(np.exp(1j * (mech.ik(p) - want))), 0.0, atol=1e-10)
+        J = mech.jacobian(p)
+        assert J.shape == (3, 2) and np.linalg.norm(J.T @ mech.null_space(p)) < 1e-12
+
+
+def test_point_task_five_bar_preload_holds_every_passive_joint():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sol = solve_preload(rrr4.load_scene(FIVE_BAR), sample_rate=100)
+    assert sol.all_feasible and sol.joint_names == ("B1", "B2", "B3", "C1", "C2")
+    assert np.min(np.linalg.norm(sol.reactions, axis=2)) >= sol.f_min * (1 - 1e-6)

@@ -65,8 +65,9 @@ def effort_family(scene: Scene, pose, pose_d, pose_dd) -> EffortFamily:
         N = pose.shape[0]
         return EffortFamily.from_raw(inverse_dynamics_function(scene).map(N)(pose.T, pose_d.T, pose_dd.T))
     mech = Mechanism.from_scene(scene)
-    q = mech.path_coordinates(pose)
-    _, qdd, _, _ = mech.motion(q, pose_d, pose_dd)
+    k = mech.n_task
+    q = mech.path_coordinates(pose[:, :k])
+    _, qdd, _, _ = mech.motion(q, pose_d[:, :k], pose_dd[:, :k])
     return graph_family(mech, q, qdd, scene.effects.gravity)
 
 

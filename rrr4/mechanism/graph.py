@@ -70,6 +70,9 @@ class Model:
         # passive revolute joints: the ones a preload must keep loaded, B1..Bn, C1..Cn for an n-RRR
         self.preload_joints = tuple(j for j in self.passive_joints if graph.joint(j).type == "revolute")
         self.task = graph.task
+        self.task_point = graph.task_point
+        # task degrees of freedom: a body's pose (3) or a point's position (2); 0 without a task
+        self.task_dof = 0 if graph.task is None else (3 if graph.task_point is None else 2)
         self.mass_diagonal = np.array([v for b in graph.bodies for v in (b.mass, b.mass, b.inertia)])
         self.pose_guess = np.array([v for b in graph.bodies for v in b.pose], float)
 
@@ -79,6 +82,8 @@ class Model:
             else ca.SX(0, 1)
         self.actuator_coordinates_function = ca.Function(
             "actuator_coordinates", [q], [s, ca.jacobian(s, q)], ["q"], ["s", "S"])
+        self.task_pose_function = ca.Function("task_pose", [q], [self.task_pose(q) if self.task else ca.SX.zeros(3)],
+                                              ["q"], ["pose"])
 
     @staticmethod
     def of(graph: Graph) -> Model:
@@ -102,7 +107,17 @@ class Model:
     @property
     def redundancy(self) -> int:
         """Degree of actuation redundancy: actuators minus task degrees of freedom (>= 0)."""
-        return max(self.n_actuators - 3, 0) if self.task else 0
+        return max(self.n_actuators - self.task_dof, 0) if self.task else 0
+
+    def task_pose(self, q):
+        """[x, y, theta] of the task: the task body's centre of mass, or its task point, with
+        the body's angle (SX/MX q; None without a task)."""
+        if self.task is None:
+            return None
+        r, th = self.body_pose(q, self.task)
+        if self.task_point is None:
+            return ca.vertcat(r, th)
+        return ca.vertcat(self.point(q, self.task, self.task_point), th)
 
     # ------------------------------------------------------------------ symbolic kinematics
 

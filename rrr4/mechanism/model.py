@@ -47,15 +47,16 @@ class Mechanism:
         g = model.graph
         rows = ca.vertcat(*[model.joint_equations(q, j) for j in self.joint_names])
         if model.task is not None:
-            task = q[model.coordinates(model.task)]
+            task = model.task_pose(q)[:model.task_dof]
         else:
             task = ca.vertcat(*[model.joint_coordinate(q, d.joint) for d in g.drivers]) if g.drivers else ca.SX(0, 1)
         self.n_task = task.numel()
         if rows.numel() + self.n_task != self.nq:
             dof = self.nq - rows.numel()
-            need = "a task body (3 rows)" if model.task is not None else f"{self.n_task} driver(s)"
+            need = (f"a task of {self.n_task} coordinates" if model.task is not None else f"{self.n_task} driver(s)")
             raise SceneError(f"mechanism: the graph has {dof} degrees of freedom with every joint closed, and "
-                             f"{need} cannot fix them (a task body needs 3 DOF; otherwise give one driver per DOF)")
+                             f"{need} cannot fix them (a task body needs 3 DOF, a task point 2; otherwise give one "
+                             "driver per DOF)")
         target = ca.SX.sym("target", self.n_task)
         offset = ca.SX.sym("offset", rows.numel())
         residual = ca.vertcat(rows - offset, task - target)
@@ -131,11 +132,11 @@ class Mechanism:
         return np.column_stack([d.initial + d.speed * t for d in self.model.graph.drivers] or [np.zeros((len(t), 0))])
 
     def path_jacobians(self, q) -> np.ndarray:
-        """J (N, n, 3) at states q (N, nq) of a task-driven graph: d theta = J d pose."""
+        """J (N, n, n_task) at states q (N, nq) of a task-driven graph: d theta = J d task."""
         N = q.shape[0]
         Jf, _, _, S = (np.array(v).reshape(v.shape[0], N, v.shape[1] // N).transpose(1, 0, 2)
                        for v in self.constraint_jacobian_function.map(N)(q.T, np.zeros((self.nq, N))))
-        rhs = np.vstack([np.zeros((self._n_rows, 3)), np.eye(3)])
+        rhs = np.vstack([np.zeros((self._n_rows, self.n_task)), np.eye(self.n_task)])
         return S @ np.linalg.solve(Jf, np.broadcast_to(rhs, (N, *rhs.shape)))
 
     def motion(self, q, target_d, target_dd):
@@ -148,10 +149,13 @@ class Mechanism:
     # ------------------------------------------------------------------ public kinematics
 
     def body_motion(self, pose, pose_d=None, pose_dd=None):
-        """q, qd, qdd (each (nq,)) of all bodies for a task pose and its rates."""
-        z = np.zeros(self.n_task)
-        q = self.assemble(pose)
-        qd, qdd, _, _ = self.motion(q, z if pose_d is None else pose_d, z if pose_dd is None else pose_dd)
+        """q, qd, qdd (each (nq,)) of all bodies for a task pose and its rates (a point task
+        uses their first two entries)."""
+        k = self.n_task
+        z = np.zeros(k)
+        q = self.assemble(np.asarray(pose, float)[:k])
+        qd, qdd, _, _ = self.motion(q, z if pose_d is None else np.asarray(pose_d, float)[:k],
+                                    z if pose_dd is None else np.asarray(pose_dd, float)[:k])
         return q, qd.ravel(), qdd.ravel()
 
     def seated_coordinates(self, pose, eccentricity) -> np.ndarray:
@@ -163,20 +167,21 @@ class Mechanism:
         return np.array(self.model.actuator_coordinates_function(np.asarray(q, float))[0]).ravel()
 
     def ik(self, pose, modes=None) -> np.ndarray:
-        """Actuator coordinates theta (n,) for a task pose (3,), by Newton on the constraints
-        from the bodies' pose guesses (modes: not used by a general graph)."""
-        return self.actuator_coordinates(self.assemble(pose))
+        """Actuator coordinates theta (n,) for a task pose (3,) (a point task: its x, y), by
+        Newton on the constraints from the bodies' pose guesses (modes: not used by a general graph)."""
+        return self.actuator_coordinates(self.assemble(np.asarray(pose, float)[:self.n_task]))
 
     def jacobian(self, pose) -> np.ndarray:
-        """J (n x 3) with d theta = J d pose."""
-        q = self.assemble(pose)
+        """J (n x n_task) with d theta = J d task (n_task = 3 for a body, 2 for a point)."""
+        q = self.assemble(np.asarray(pose, float)[:self.n_task])
         Jf, _, _, S = (np.array(v) for v in self.constraint_jacobian_function(q, np.zeros(self.nq)))
-        return S @ np.linalg.solve(Jf, np.vstack([np.zeros((self._n_rows, 3)), np.eye(3)]))
+        k = self.n_task
+        return S @ np.linalg.solve(Jf, np.vstack([np.zeros((self._n_rows, k)), np.eye(k)]))
 
     def null_space(self, pose) -> np.ndarray:
-        """Unit null-space basis of J^T: (n,) for one degree of redundancy, else (n, n - 3)."""
+        """Unit null-space basis of J^T: (n,) for one degree of redundancy, else (n, m)."""
         u, _, _ = np.linalg.svd(self.jacobian(pose))
-        ns = u[:, 3:]
+        ns = u[:, self.n_task:]
         return ns[:, 0] if ns.shape[1] == 1 else ns
 
     def fk(self, theta, guess=None, tol: float = 1e-9) -> np.ndarray:
@@ -202,9 +207,9 @@ class Mechanism:
         if not (np.all(np.isfinite(q)) and res.max() <= tol):
             raise KinematicsError(f"forward kinematics did not converge for theta {list(np.round(theta, 6))} "
                                   f"(residual {res.max():.3g} > {tol:g}); try another guess")
-        pose = q[self.model.coordinates(self.model.task)].copy()
+        pose = np.array(self.model.task_pose_function(q)).ravel()
         pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
-        return pose
+        return pose[:self.n_task]
 
 
 class NRRRMechanism(Mechanism):

@@ -49,7 +49,7 @@ def path_kinematics(scene: Scene, samples=None) -> PathKinematics:
     if scene.graph.task is None:
         mech.path_coordinates(mech.driver_targets(s.t))
         return PathKinematics(s.t, np.ones(N), None, None)
-    J = mech.path_jacobians(mech.path_coordinates(s.pose))
+    J = mech.path_jacobians(mech.path_coordinates(s.pose[:, :mech.n_task]))
     return PathKinematics(s.t, _condition(J), None, None)
 
 
