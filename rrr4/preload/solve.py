@@ -169,7 +169,7 @@ def solve_preload(scene: Scene, method: str | None = None, *, qp_solver: str | N
             issues.append(Infeasibility(tk, names[j], f"|r| = {norms[k, j]:.4g} N < f_min = {f_min:g} N "
                                                       f"(no preload within the torque limits reaches it)"))
         for i in np.flatnonzero(~torque_ok[k]):
-            issues.append(Infeasibility(tk, f"actuator {i + 1}",
+            issues.append(Infeasibility(tk, f"actuator {model.actuator_names[i]}",
                                         f"|tau| = {abs(tau[k, i]):.4g} N m > limit {limits[i]:g} N m"))
         if not issues or issues[-1].t != tk:
             reason = ("the fixed-sign axial force constraints cannot all hold within the torque limits"

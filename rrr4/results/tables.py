@@ -18,7 +18,8 @@ def write_timeseries_csv(study: Study, path: Path, rate: float | None = None) ->
 
     Columns: t_s, x_ref_m, y_ref_m, theta_ref_rad, alpha_Nm (preload, if any), then per arm
     (prefix ``with_preload_`` / ``without_preload_``): x_m, y_m, theta_rad, error_m,
-    tau<i>_Nm, and per clearance joint Fn_<J>_N, penetration_<J>_m, ex_<J>_m, ey_<J>_m.
+    tau_<actuator>_Nm (or _N for a prismatic actuator), and per clearance joint Fn_<J>_N,
+    penetration_<J>_m, ex_<J>_m, ey_<J>_m.
     A driven scene (no task; arms ``with_clearance_`` / ``ideal_``) has instead, per body B,
     B_x_m, B_y_m, B_theta_rad, B_ax_m_s2, B_ay_m_s2 and per driver D, D_effort (N m or N).
     """
@@ -47,8 +48,9 @@ def write_timeseries_csv(study: Study, path: Path, rate: float | None = None) ->
             for k, key in enumerate(("x_m", "y_m", "theta_rad")):
                 cols[f"{name}_{key}"] = sim.pose[rows, k]
             cols[f"{name}_error_m"] = sim.platform_error[rows]
-        for i in range(sim.tau.shape[1]):
-            cols[f"{name}_tau{i + 1}_Nm"] = sim.tau[rows, i]
+        for i, a in enumerate(model.actuator_names):
+            unit = "Nm" if study.scene.graph.joint(model.actuated_joints[i]).type == "revolute" else "N"
+            cols[f"{name}_tau_{a}_{unit}"] = sim.tau[rows, i]
         for k, j in enumerate(sim.clearance_joints):
             cols[f"{name}_Fn_{j}_N"] = sim.normal_force[rows, k]
             cols[f"{name}_penetration_{j}_m"] = sim.penetration[rows, k]
