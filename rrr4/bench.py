@@ -21,6 +21,7 @@ solver gave up) is kept as a row with status 'unstable' instead of failing the b
 from __future__ import annotations
 
 import csv
+import io
 import itertools
 import os
 import platform
@@ -29,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import SimulationError
+from .files import write_atomic
 from .integrators import METHODS, RK4, Cvodes
 from .scene import Scene
 from .simulation import simulate
@@ -141,10 +143,11 @@ def write_work_precision(rows: list[dict], scene: Scene, out_dir, t_end: float) 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     csv_path, png_path = out / f"{scene.name}.csv", out / f"{scene.name}.png"
-    with csv_path.open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    text = io.StringIO(newline="")
+    w = csv.DictWriter(text, fieldnames=list(rows[0]))
+    w.writeheader()
+    w.writerows(rows)
+    write_atomic(csv_path, text.getvalue())
     fig, ax = plt.subplots(figsize=(9, 7.8))
     markers = dict(zip(METHODS, itertools.cycle("osD^vP*Xhp<>"), strict=False))
     for method in dict.fromkeys(r["method"] for r in rows if r["status"] != "cross-check"):
@@ -172,6 +175,8 @@ def write_work_precision(rows: list[dict], scene: Scene, out_dir, t_end: float) 
     ax.set_title(f"Work-precision on {scene.name}: the first {t_end:g} s of the path simulated, with preload")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.11), ncol=2)
-    fig.savefig(png_path, dpi=130, bbox_inches="tight")
+    tmp_png = png_path.with_name(f".{png_path.name}.tmp.png")
+    fig.savefig(tmp_png, dpi=130, bbox_inches="tight")
+    os.replace(tmp_png, png_path)  # never a half-written figure in place of an earlier one
     plt.close(fig)
     return [png_path, csv_path]

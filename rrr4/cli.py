@@ -11,7 +11,7 @@ from .errors import Rrr4Error
 
 def _check(args) -> int:
     from .mechanism import load_scene
-    from .summary import scene_summary
+    from .results.summary import scene_summary
     print(scene_summary(load_scene(args.scene)))
     return 0
 

@@ -24,9 +24,6 @@ from __future__ import annotations
 
 import functools
 import os
-import shutil
-import subprocess
-import tempfile
 import textwrap
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,7 +31,8 @@ from pathlib import Path
 import casadi as ca
 
 from .dynamics.inverse import actuator_motion_function, inverse_dynamics_function
-from .errors import Rrr4Error, SceneError
+from .errors import SceneError
+from .files import BuildError, atomic_directory, run_c_compiler
 from .mechanism import Mechanism
 from .preload.exact import exact_preload_function
 from .preload.qp import qp_preload_function
@@ -94,9 +92,6 @@ _KERNEL_DOC = {
                   "outputs undefined, when qrqp stops without a solution (an infeasible QP).",
 }
 
-
-class BuildError(Rrr4Error, RuntimeError):
-    """gcc failed or is missing; the message holds the command and the compiler's output."""
 
 
 @dataclass(frozen=True)
@@ -366,24 +361,6 @@ clean:
 
 # ----------------------------------------------------------------------------- files
 
-def _write_atomic(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
 def _out_dir(out_dir) -> Path:
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
@@ -411,8 +388,9 @@ def codegen(scene: Scene, out_dir, branch="auto") -> list[Path]:
     """Write the scene's controller C into out_dir (created if needed); return the files.
 
     Files: rrr4_raw.c, rrr4_raw.h (CasADi), rrr4.h, rrr4.c (wrappers), main.c, Makefile.
-    Each file is written to a temporary name and moved into place, so an interrupted run
-    leaves the earlier files intact. branch: the exact-preload branch
+    The directory is written atomically (:func:`rrr4.files.atomic_directory`): out_dir must
+    be new, empty or an earlier codegen output (holds rrr4.h), which is replaced whole, so an
+    interrupted run leaves the earlier files intact. branch: the exact-preload branch
     (:func:`preload_branch`); a fixed one keeps the torques continuous along a path.
     """
     branch = preload_branch(scene, branch)
@@ -421,32 +399,18 @@ def codegen(scene: Scene, out_dir, branch="auto") -> list[Path]:
     cg = ca.CodeGenerator(f"{RAW}.c", {"with_header": True})
     for k in ks:
         cg.add(k.function)
-    texts = {}
-    with tempfile.TemporaryDirectory(dir=out, prefix=".rrr4-codegen-") as tmp:
+
+    def fill(tmp: Path) -> None:
         cg.generate(str(tmp) + os.sep)
-        for name in (f"{RAW}.c", f"{RAW}.h"):
-            texts[name] = (Path(tmp) / name).read_text()
-    texts[f"{WRAPPER}.h"] = _header(scene, ks, branch)
-    texts[f"{WRAPPER}.c"] = _source(scene, ks)
-    texts["main.c"] = _main_c(scene)
-    texts["Makefile"] = _MAKEFILE
-    files = []
-    for name, text in texts.items():
-        _write_atomic(out / name, text)
-        files.append(out / name)
-    return files
+        for name, text in ((f"{WRAPPER}.h", _header(scene, ks, branch)), (f"{WRAPPER}.c", _source(scene, ks)),
+                           ("main.c", _main_c(scene)), ("Makefile", _MAKEFILE)):
+            (tmp / name).write_text(text)
+
+    atomic_directory(out, fill, marker=f"{WRAPPER}.h")
+    return [out / name for name in (f"{RAW}.c", f"{RAW}.h", f"{WRAPPER}.h", f"{WRAPPER}.c", "main.c", "Makefile")]
 
 
 # ----------------------------------------------------------------------------- build and load
-
-def _gcc(args: list[str], cwd: Path) -> None:
-    cc = shutil.which("gcc")
-    if cc is None:
-        raise BuildError("gcc: not found on PATH (install gcc to build the generated C)")
-    p = subprocess.run([cc, *args], cwd=cwd, capture_output=True, text=True)
-    if p.returncode != 0 or p.stderr.strip():
-        raise BuildError(f"gcc {' '.join(args)} failed in {cwd}:\n{p.stderr.strip()}")
-
 
 def compile_library(src_dir, lib_path, flags=("-O2", "-Wall", "-Werror")) -> Path:
     """Compile rrr4_raw.c and rrr4.c of src_dir into the shared library lib_path; return it.
@@ -454,14 +418,16 @@ def compile_library(src_dir, lib_path, flags=("-O2", "-Wall", "-Werror")) -> Pat
     Raises BuildError on any compiler error or warning.
     """
     src, lib = Path(src_dir).resolve(), Path(lib_path).resolve()
-    _gcc([*flags, "-fPIC", "-shared", f"{RAW}.c", f"{WRAPPER}.c", "-lm", "-o", str(lib)], src)
+    run_c_compiler([*flags, "-fPIC", "-shared", f"{RAW}.c", f"{WRAPPER}.c", "-lm", "-o", str(lib)], src,
+                   warnings_are_errors=True)
     return lib
 
 
 def build_example(src_dir, exe_path, flags=("-O2", "-Wall", "-Werror")) -> Path:
     """Compile every .c of src_dir (the example) into exe_path; return it."""
     src, exe = Path(src_dir).resolve(), Path(exe_path).resolve()
-    _gcc([*flags, *sorted(p.name for p in src.glob("*.c")), "-lm", "-o", str(exe)], src)
+    run_c_compiler([*flags, *sorted(p.name for p in src.glob("*.c")), "-lm", "-o", str(exe)], src,
+                   warnings_are_errors=True)
     return exe
 
 

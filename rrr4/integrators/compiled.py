@@ -11,14 +11,12 @@ from __future__ import annotations
 
 import hashlib
 import os
-import shutil
-import subprocess
 import tempfile
 from pathlib import Path
 
 import casadi as ca
 
-from ..errors import Rrr4Error
+from ..files import run_c_compiler
 
 __all__ = ["compiled", "cache_dir", "COMPILE_FLAGS"]
 
@@ -36,27 +34,22 @@ def cache_dir() -> Path:
 def compiled(f: ca.Function) -> ca.Function:
     """`f` as a compiled external Function with the same name and I/O (cached on disk and in memory).
 
-    Raises Rrr4Error if no C compiler ('cc' or $CC) is available or compilation fails.
+    Raises BuildError (an Rrr4Error) if no C compiler ($CC, cc or gcc) is available or
+    compilation fails.
     """
     cg = ca.CodeGenerator(f"{f.name()}.c", {"with_header": False})
     cg.add(f)
     src = cg.dump()
-    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
     key = hashlib.sha256((src + " ".join(COMPILE_FLAGS)).encode()).hexdigest()[:24]
     if key in _loaded:
         return _loaded[key]
     lib = cache_dir() / f"{f.name()}_{key}.so"
     if not lib.exists():
-        if cc is None:
-            raise Rrr4Error("jit: no C compiler found (set CC or install gcc), or run without jit")
         with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
             c_file = Path(tmp) / f"{f.name()}.c"
             c_file.write_text(src)
             tmp_lib = Path(tmp) / lib.name
-            r = subprocess.run([cc, *COMPILE_FLAGS, str(c_file), "-o", str(tmp_lib), "-lm"],
-                               capture_output=True, text=True)
-            if r.returncode != 0:
-                raise Rrr4Error(f"jit: compiling {f.name()} failed: {r.stderr.strip().splitlines()[-1:]}")
+            run_c_compiler([*COMPILE_FLAGS, str(c_file), "-o", str(tmp_lib), "-lm"], tmp)
             os.replace(tmp_lib, lib)  # atomic: never a half-written cache entry
     ext = ca.external(f.name(), str(lib))
     _loaded[key] = ext

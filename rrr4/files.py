@@ -1,0 +1,103 @@
+"""Files rrr4 writes and the C compiler it runs: one place for each.
+
+- :func:`write_atomic`: one file, written to a temporary name and moved into place;
+- :func:`atomic_directory`: a whole directory, filled in a temporary sibling that replaces
+  the target only when complete (an interrupted or failed run leaves an earlier result as
+  it was);
+- :func:`run_c_compiler`: the system C compiler (``$CC``, else ``cc`` or ``gcc``), for the
+  compiled stepping and for the generated controller alike.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+from .errors import Rrr4Error, SceneError
+
+__all__ = ["write_atomic", "atomic_directory", "check_target", "run_c_compiler", "c_compiler", "BuildError"]
+
+
+class BuildError(Rrr4Error, RuntimeError):
+    """The C compiler failed or is missing; the message holds the command and its output."""
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def write_atomic(path, text: str) -> Path:
+    """Write `text` to `path` through a temporary file in the same directory (mode as for a
+    new file under the umask)."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as fh:
+            fh.write(text)
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def check_target(out: Path, marker: str) -> None:
+    """`out` must be absent, an empty directory, or an earlier rrr4 output (it holds `marker`)."""
+    if out.exists() and not out.is_dir():
+        raise SceneError(f"out: '{out}' is a file (a directory is required)")
+    if out.is_dir() and any(out.iterdir()) and not (out / marker).is_file():
+        raise SceneError(f"out: '{out}' is not empty and holds no {marker} (give a new directory or an "
+                         "earlier rrr4 output directory, which is then replaced)")
+
+
+def atomic_directory(out, fill, marker: str) -> Path:
+    """Call fill(tmp_dir) to write files, then put tmp_dir in place of `out`.
+
+    `out` must pass :func:`check_target` (absent, empty, or an earlier output holding
+    `marker`). If fill raises (or is interrupted), the temporary directory is removed and
+    `out` is untouched.
+    """
+    out = Path(out)
+    check_target(out, marker)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    try:
+        fill(tmp)
+        os.chmod(tmp, 0o777 & ~_umask())
+        if out.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
+            os.replace(out, old / out.name)
+            try:
+                os.replace(tmp, out)
+            except BaseException:
+                os.replace(old / out.name, out)
+                raise
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out
+
+
+def c_compiler() -> str | None:
+    """Path of the C compiler: $CC, else cc, else gcc (None if there is none)."""
+    return os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+
+
+def run_c_compiler(args: list[str], cwd, warnings_are_errors: bool = False) -> None:
+    """Run the C compiler with `args` in `cwd`. Raises BuildError if it is missing, fails,
+    or (with warnings_are_errors) prints anything."""
+    cc = c_compiler()
+    if cc is None:
+        raise BuildError("cc: no C compiler found (set CC or install gcc)")
+    p = subprocess.run([cc, *args], cwd=cwd, capture_output=True, text=True)
+    if p.returncode != 0 or (warnings_are_errors and p.stderr.strip()):
+        raise BuildError(f"{Path(cc).name} {' '.join(args)} failed in {cwd}:\n{p.stderr.strip()}")
