@@ -2,9 +2,8 @@
 
 The reference scene (problems/paper_circle.yaml): all 8 clearance joints, Lankarani-Nikravesh
 contact, Ambrosio friction, the scene's QP preload, journals seated at t = 0, the full 1 s
-circle. One common reference solution: compiled RK4 at h = 1e-6 s, checked against RK4 at
-2e-6 s (Richardson: their difference bounds the reference error by about 1/15 of it) and
-against cvodes at rtol = 1e-10.
+circle. The runs, the common reference solution and its cross-checks are those of
+``rrr4 bench accuracy`` (:func:`rrr4.bench.work_precision`), on the ladders below.
 
 For each method the settings ladder runs from the cheapest (largest step, loosest tolerance)
 to the most expensive; the first setting whose max platform-position error against the
@@ -13,99 +12,63 @@ time (build and compilation excluded: compiled methods get a warm-up run first),
 factor (simulated / wall) and the ratio scipy time / method time at the same accuracy, all in
 one process on one core (BLAS threads limited to 1).
 
-    .venv/bin/python benchmarks/bench_performance.py [T_END] [--scipy-window S]
+    .venv/bin/python benchmarks/bench_performance.py [T_END]
 
-T_END defaults to 1 s (the full path). --scipy-window S times the scipy baselines on the
-first S seconds only and scales their time by T_END / S (say so when quoting the numbers);
-their error is then measured on that window.
+T_END defaults to 1 s (the full path).
 """
 
 import argparse
 import os
-import platform
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
 import rrr4  # noqa: E402
-from rrr4.integrators import RK4, RK45, Bathe, Cvodes, Radau  # noqa: E402
+from rrr4.bench import machine, work_precision  # noqa: E402
 
 TARGET = 1e-6   # m, max platform-position error
-LADDERS = {     # label -> (factory of the method for a setting, settings cheapest first, 'step' | 'rtol')
-    "rk4 (C)": (lambda h: RK4(jit=True), [1e-4, 8e-5, 6.25e-5, 5e-5, 4e-5, 2.5e-5, 1e-5], "step"),
-    "bathe (C)": (lambda h: Bathe(jit=True), [1e-3, 5e-4, 2.5e-4, 2e-4, 1e-4, 5e-5, 2.5e-5], "step"),
-    "cvodes": (lambda r: Cvodes(rtol=r, atol=r * 1e-3), [1e-4, 1e-5, 1e-6, 1e-7, 1e-8], "rtol"),
-    "scipy RK45": (lambda r: RK45(rtol=r, atol=r * 1e-3), [1e-3, 1e-4, 1e-5, 1e-6, 1e-7], "rtol"),
-    "scipy Radau": (lambda r: Radau(rtol=r, atol=r * 1e-3), [1e-3, 1e-4, 1e-5, 1e-6, 1e-7], "rtol"),
+LADDERS = {     # method -> ('step' | 'rtol', settings cheapest first)
+    "rk4": ("step", [1e-4, 8e-5, 6.25e-5, 5e-5, 4e-5, 2.5e-5, 1e-5]),
+    "bathe": ("step", [1e-3, 5e-4, 2.5e-4, 2e-4, 1e-4, 5e-5, 2.5e-5]),
+    "cvodes": ("rtol", [1e-4, 1e-5, 1e-6, 1e-7, 1e-8]),
+    "rk45": ("rtol", [1e-3, 1e-4, 1e-5, 1e-6, 1e-7]),
+    "radau": ("rtol", [1e-3, 1e-4, 1e-5, 1e-6, 1e-7]),
 }
+SCIPY = ("rk45", "radau")
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("t_end", nargs="?", type=float, default=1.0)
-    ap.add_argument("--scipy-window", type=float, default=None)
-    args = ap.parse_args()
-    T = args.t_end
-    T_scipy = min(args.scipy_window or T, T)
+    T = ap.parse_args().t_end
     scene = rrr4.load_scene("problems/paper_circle.yaml")
-    pre = rrr4.solve_preload(scene)
-    print(f"machine: {platform.machine()} {platform.system()}, {os.cpu_count()} cores, one used; "
-          f"{T:g} s simulated (scipy on {T_scipy:g} s{', time scaled' if T_scipy < T else ''})")
-
-    def run(method, t_end, **kw):
-        if getattr(method, "jit", False):
-            rrr4.simulate(scene, method, t_end=0.002, preload=pre, **kw)   # warm-up: build and compile once
-        return rrr4.simulate(scene, method, t_end=t_end, preload=pre, **kw)
-
-    def error(sim, ref):
-        k = len(sim.t)
-        return float(np.max(np.linalg.norm(sim.pose[:, :2] - ref.pose[:k, :2], axis=1)))
-
-    ref = run(RK4(jit=True), T, step=1e-6)
-    half = run(RK4(jit=True), T, step=2e-6)
-    cv = run(Cvodes(rtol=1e-10, atol=1e-13), T)
-    print(f"reference: rk4 (C) h = 1e-6 s, {ref.stats['wall_time']:.2f} s; "
-          f"|rk4 h=2e-6 - ref| = {error(half, ref):.1e} m, "
-          f"|cvodes rtol=1e-10 - ref| = {error(cv, ref):.1e} m; contact losses in the reference: "
-          f"{sum(ref.contact_loss_events.values())}")
-
+    print(f"machine: {machine()}, one used; {T:g} s simulated")
+    rows = work_precision(scene, t_end=T, plan=LADDERS, progress=True)
+    for r in rows:
+        if r["status"] == "cross-check":
+            print(f"reference {r['reference']}: distance to {r['method']} = {r['error_m']:.1e} m")
     best = {}
-    for label, (make, settings, kind) in LADDERS.items():
-        t_run = T_scipy if label.startswith("scipy") else T
-        for v in settings:
-            try:
-                sim = run(make(v), t_run, **({"step": v} if kind == "step" else {}))
-            except rrr4.SimulationError as e:  # the step is beyond the method's stability limit
-                print(f"  {label:12s} {kind} {v:8.2e}: {e}")
-                continue
-            err = error(sim, ref)
-            wall = sim.stats["wall_time"] * T / t_run
-            ok = err <= TARGET
-            extra = ""
-            if kind == "step":
-                extra = f" {sim.stats['steps']} steps"
-                if label.startswith("rk4"):
-                    extra += f", {sim.stats['wall_time'] / (4 * sim.stats['steps']) * 1e9:.0f} ns per RHS"
-                if "newton_iterations_per_step" in sim.stats:
-                    extra += f", {sim.stats['newton_iterations_per_step']:.2f} Newton iterations/step"
-            else:
-                extra = f" {sim.stats.get('steps', 0)} steps, {sim.stats.get('rhs_evaluations', 0)} RHS"
-            print(f"  {label:12s} {kind} {v:8.2e}: error {err:8.2e} m, wall {wall:8.3f} s, "
-                  f"real-time factor {T / wall:7.2f}{extra}{'  <= 1 um' if ok else ''}", flush=True)
+    for method in LADDERS:
+        for r in (r for r in rows if r["method"] == method and r["status"] != "cross-check"):
+            wall = r["cpu_s"]
+            ok = r["status"] == "ok" and r["error_m"] <= TARGET
+            print(f"  {method:8s} {r['kind']} {r['setting']:8.2e}: {r['status']:8s} error {r['error_m']:8.2e} m, "
+                  f"wall {wall:8.3f} s, {r['steps']} steps{'  <= 1 um' if ok else ''}")
             if ok:
-                best[label] = (v, kind, err, wall)
+                best[method] = r
                 break
         else:
-            print(f"  {label}: no setting of the ladder reaches {TARGET:g} m")
+            print(f"  {method}: no setting of the ladder reaches {TARGET:g} m")
 
     print(f"\ncheapest setting with max platform error <= {TARGET:g} m over {T:g} s:")
-    scipy = {k: v[3] for k, v in best.items() if k.startswith("scipy")}
-    base_label = min(scipy, key=scipy.get) if scipy else None
-    for label, (v, kind, err, wall) in best.items():
-        ratio = f"{scipy[base_label] / wall:8.1f}x" if base_label else "     n/a"
-        print(f"  {label:12s} {kind} {v:8.2e}  error {err:8.2e} m  wall {wall:8.3f} s  real-time factor "
-              f"{T / wall:7.2f}  {base_label} / method {ratio}")
+    scipy = {k: v["cpu_s"] for k, v in best.items() if k in SCIPY}
+    base = min(scipy, key=scipy.get) if scipy else None
+    for method, r in best.items():
+        ratio = f"{scipy[base] / r['cpu_s']:8.1f}x" if base else "     n/a"
+        print(f"  {method:8s} {r['kind']} {r['setting']:8.2e}  error {r['error_m']:8.2e} m  wall {r['cpu_s']:8.3f} s  "
+              f"real-time factor {T / r['cpu_s']:7.2f}  {base} / method {ratio}")
+    return 0 if np.isfinite([r["cpu_s"] for r in best.values()]).all() else 1
 
 
 if __name__ == "__main__":
