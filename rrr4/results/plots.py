@@ -47,6 +47,16 @@ def _suptitle(fig, text: str) -> None:
     fig.suptitle(textwrap.fill(text, width=max(int(fig.get_figwidth() * 13), 30)))
 
 
+def _finish(fig, axes, used: int, title: str, path: Path, legend_kw: dict | None = None) -> Path:
+    """Hide the unused panels of a grid, legend on the first, title, layout, save."""
+    for ax in axes[used:]:
+        ax.set_visible(False)
+    axes[0].legend(**(legend_kw or {"fontsize": 7}))
+    _suptitle(fig, title)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
 def _title(study: Study, what: str) -> str:
     return f"{study.scene.name}: {what}"
 
@@ -78,12 +88,8 @@ def orbits(study: Study, path: Path) -> Path | None:
         ax.set_title(name)
         ax.set_xlabel("e_x [um]")
         ax.set_ylabel("e_y [um]")
-    for ax in axes[len(joints):]:
-        ax.set_visible(False)
-    axes[0].legend(loc="center", fontsize=7)
-    _suptitle(fig, _title(study, "journal-centre orbits inside the clearance circle (global frame)"))
-    fig.tight_layout()
-    return _save(fig, path)
+    return _finish(fig, axes, len(joints), _title(study, "journal-centre orbits inside the clearance circle "
+                                                         "(global frame)"), path, {"loc": "center", "fontsize": 7})
 
 
 def contact_forces(study: Study, path: Path) -> Path | None:
@@ -110,12 +116,8 @@ def contact_forces(study: Study, path: Path) -> Path | None:
         ax.set_title(name)
         ax.set_xlabel("t [s]")
         ax.set_ylabel("normal force [N]")
-    for ax in axes[len(joints):]:
-        ax.set_visible(False)
-    axes[0].legend(fontsize=7)
-    _suptitle(fig, _title(study, "normal contact force at each clearance joint (0 = free flight)"))
-    fig.tight_layout()
-    return _save(fig, path)
+    return _finish(fig, axes, len(joints),
+                   _title(study, "normal contact force at each clearance joint (0 = free flight)"), path)
 
 
 def platform_error(study: Study, path: Path) -> Path | None:
@@ -156,12 +158,7 @@ def torques(study: Study, path: Path) -> Path | None:
         ax.set_xlabel("t [s]")
         ax.set_ylabel("torque [N m]")
         ax.set_xlim(0, study.t_end)
-    for ax in axes[n:]:
-        ax.set_visible(False)
-    axes[0].legend(fontsize=7)
-    _suptitle(fig, _title(study, "actuator torques (feed-forward + PD)"))
-    fig.tight_layout()
-    return _save(fig, path)
+    return _finish(fig, axes, n, _title(study, "actuator torques (feed-forward + PD)"), path)
 
 
 def preload_alpha(study: Study, path: Path) -> Path | None:
@@ -210,12 +207,8 @@ def body_accelerations(study: Study, path: Path) -> Path | None:
         ax.set_title(f"{b}: {'xy'[c]} acceleration")
         ax.set_xlabel("t [s]")
         ax.set_ylabel(f"a_{'xy'[c]} [m/s^2]")
-    for ax in axes[len(panels):]:
-        ax.set_visible(False)
-    axes[0].legend(fontsize=7)
-    _suptitle(fig, _title(study, "centre-of-mass accelerations, clearance against ideal joints"))
-    fig.tight_layout()
-    return _save(fig, path)
+    return _finish(fig, axes, len(panels),
+                   _title(study, "centre-of-mass accelerations, clearance against ideal joints"), path)
 
 
 def driver_efforts(study: Study, path: Path) -> Path | None:
