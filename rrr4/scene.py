@@ -709,6 +709,13 @@ def _graph(sec: _Section) -> Graph:
         initial = math.radians(e.number("initial_deg", 0.0)) if jt.type == "revolute" else e.number("initial", 0.0)
         drivers.append(DriverSpec(_name(e, default=joint), joint, initial, speed))
         e.done()
+    seen: dict[str, str] = {}
+    for key, items in (("actuators", actuators), ("drivers", drivers)):
+        for i, x in enumerate(items):
+            if x.name in seen:
+                raise SceneError(f"{sec.key(key)}[{i}].name: {x.name!r} is not allowed (already the name of "
+                                 f"{seen[x.name]}; actuator and driver names must be unique)")
+            seen[x.name] = f"{sec.key(key)}[{i}]"
     busy = [a.joint for a in actuators] + [d.joint for d in drivers]
     for j in joints:
         if busy.count(j.name) > 1:
@@ -813,6 +820,11 @@ def _actuation(sec: _Section, n: int, graph: Graph | None = None) -> Actuation:
             raise SceneError(f"{sec.key('mode')}: {mode!r} is not allowed without "
                              f"{'a task (mechanism.task)' if graph.task is None else 'actuators'} to track the "
                              "path (choose 'free'; drivers prescribe their joints in every mode)")
+        dof = 3 if graph.task_point is None else 2
+        if mode != "free" and n < dof:
+            raise SceneError(f"{sec.key('mode')}: {mode!r} is not allowed with {n} actuator(s) for a task of {dof} "
+                             f"degrees of freedom (the path cannot be tracked: give at least {dof} actuators, or "
+                             "choose 'free')")
         limits = tuple(a.limit for a in graph.actuators)
     p = sec.section("preload")
     method = p.choice("method", choices("preload method"), "exact")

@@ -286,7 +286,7 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
         q0 = mech.assemble(target)
         qd0, qdd0, _, _ = (v.ravel() for v in mech.motion(q0, target_d, target_dd))
     seated = np.zeros(nc)
-    if scene.initial.journals == "seated" and nc and eqs.mode != "free":
+    if scene.initial.journals == "seated" and nc and (eqs.mode != "free" or scene.graph.drivers):
         offsets = _seated_offsets(scene, eqs, mech, q0, qd0, qdd0, tab[0] + ref.tau_ff[0])
         if scene.mechanism is not None:  # closed form; eccentricities of all passive joints
             ecc = np.zeros((len(scene.joints), 2))

@@ -287,3 +287,39 @@ def test_point_task_five_bar_preload_holds_every_passive_joint():
         sol = solve_preload(rrr4.load_scene(FIVE_BAR), sample_rate=100)
     assert sol.all_feasible and sol.joint_names == ("B1", "B2", "B3", "C1", "C2")
     assert np.min(np.linalg.norm(sol.reactions, axis=2)) >= sol.f_min * (1 - 1e-6)
+
+
+def test_two_redundant_effort_basis_is_continuous_along_the_path():
+    """Redundancy 2: the null-space basis of each sample is rotated onto the previous one, so
+    alpha means the same along the path (the subspace turns slowly; the basis must too)."""
+    from rrr4.dynamics.family import effort_family
+    from rrr4.trajectory import sample_path
+    scene = check_scene(parse_scene(_five_chain_graph()))
+    s = sample_path(scene.path, 100)
+    fam = effort_family(scene, s.pose, s.pose_d, s.pose_dd)
+    N = fam.tau_n
+    turn = np.linalg.norm(np.einsum("kim,kil->kml", N[1:], N[:-1]) - np.eye(2), axis=(1, 2))
+    assert turn.max() < 0.1
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sol = solve_preload(scene, method="qp", sample_rate=100)
+    assert np.max(np.abs(np.diff(sol.tau, axis=0))) < 10.0
+
+
+def test_duplicate_names_and_too_few_actuators_are_refused(slider_data):
+    d = yaml.safe_load(FIVE_BAR.read_text())
+    d["mechanism"]["actuators"][1]["name"] = "A1"
+    with pytest.raises(SceneError, match=r"actuators\[1\]\.name: 'A1' is not allowed \(already the name of"):
+        parse_scene(d)
+    d = yaml.safe_load(FIVE_BAR.read_text())
+    d["mechanism"]["actuators"] = d["mechanism"]["actuators"][:1]
+    with pytest.raises(SceneError, match=r"actuation.mode: 'torque' is not allowed with 1 actuator\(s\) for a task "
+                                         r"of 2 degrees of freedom"):
+        parse_scene(d)
+
+
+def test_seated_journal_on_a_driven_scene_starts_on_the_wall(slider_data):
+    d = copy.deepcopy(slider_data)
+    d["initial"] = {"journals": "seated"}
+    sim = simulate(check_scene(parse_scene(d)), step=1e-6, t_end=1e-4)
+    assert sim.penetration[0, 0] > 0 and np.linalg.norm(sim.eccentricity[0, 0]) > 0.5e-3

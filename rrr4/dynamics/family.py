@@ -10,7 +10,8 @@ with u_p orthogonal to the columns of N (the minimum-norm efforts) and N orthono
 preload layer only ever sees this family (:class:`EffortFamily`). An n-RRR scene uses its
 closed form (:mod:`rrr4.dynamics.inverse`); any other graph gets it here from one batched
 SVD per path (numpy), with the sign of a one-dimensional null space kept continuous along
-the path. Reactions are those of the passive revolute joints (``Model.preload_joints``),
+the path (for m >= 2 the basis of every sample is rotated onto the previous one's, so
+alpha means the same along the path). Reactions are those of the passive revolute joints (``Model.preload_joints``),
 force of the inboard on the outboard body [N], global frame.
 """
 
@@ -93,10 +94,11 @@ def graph_family(mech: Mechanism, q: np.ndarray, qdd: np.ndarray, gravity) -> Ef
         x0 = x0 + np.einsum("kij,kj->ki", Nsp, a0)
         Qm, R = np.linalg.qr(Nu)
         Nsp = np.einsum("kij,kjl->kil", Nsp, np.linalg.inv(R))
-        if m == 1:  # keep the direction continuous along the path
-            s = np.sign(np.einsum("ki,ki->k", Nsp[1:, rows:, 0], Nsp[:-1, rows:, 0]))
-            flip = np.cumprod(np.r_[1.0, np.where(s == 0, 1.0, s)])
-            Nsp = Nsp * flip[:, None, None]
+        # keep the basis continuous along the path: rotate each sample's orthonormal effort
+        # directions onto the previous sample's (orthogonal Procrustes; a sign for m = 1)
+        for k in range(1, N):
+            u, _, vt = np.linalg.svd(Nsp[k, rows:, :].T @ Nsp[k - 1, rows:, :])
+            Nsp[k] = Nsp[k] @ (u @ vt)
     idx = [2 * model.joint_names.index(j) + c for j in model.preload_joints for c in (0, 1)]
     nj = len(model.preload_joints)
     r_p = -x0[:, idx].reshape(N, nj, 2)

@@ -93,8 +93,9 @@ class Mechanism:
     # ------------------------------------------------------------------ position analysis
 
     def assemble(self, target, offsets=None, guess=None) -> np.ndarray:
-        """q (nq,) closing every joint (clearance joint k opened by offsets (nc, 2) [m],
-        outboard - inboard point) with the task rows at `target`; Newton from `guess`
+        """q (nq,) closing every joint (clearance joint k opened by offsets (nc, 2) [m], its
+        second point minus its first: the eccentricity when the journal sits on the second
+        body, minus it otherwise) with the task rows at `target`; Newton from `guess`
         (default: the bodies' pose guesses). Raises KinematicsError if it does not close."""
         target = np.atleast_1d(np.asarray(target, float))
         off = np.zeros(self._n_rows)
@@ -105,7 +106,7 @@ class Mechanism:
         q = np.array(self.assemble_function(guess, p)).ravel()
         res = np.array(self.closure_function(q, p)).ravel()
         if not (np.all(np.isfinite(q)) and np.max(np.abs(res), initial=0.0) <= 1e-9):
-            raise KinematicsError(f"the mechanism does not assemble at target {list(np.round(target, 6))} "
+            raise KinematicsError(f"the mechanism does not assemble at target {np.round(target, 6).tolist()} "
                                   f"(constraint residual {np.max(np.abs(res)):.3g} after Newton from the pose "
                                   "guesses; check the geometry, or give bodies[].pose closer to an assembly)")
         return q
@@ -123,7 +124,7 @@ class Mechanism:
         bad = np.flatnonzero(~(np.max(np.abs(res), axis=0) <= 1e-9))
         if bad.size:
             raise KinematicsError(f"the mechanism does not assemble along the path from sample {bad[0]} "
-                                  f"(target {list(np.round(targets[bad[0]], 6))})")
+                                  f"(target {np.round(targets[bad[0]], 6).tolist()})")
         return Q
 
     def driver_targets(self, t) -> np.ndarray:
@@ -158,10 +159,10 @@ class Mechanism:
                                     z if pose_dd is None else np.asarray(pose_dd, float)[:k])
         return q, qd.ravel(), qdd.ravel()
 
-    def seated_coordinates(self, pose, eccentricity) -> np.ndarray:
-        """q (nq,) with the task at pose and every clearance joint opened by its
-        eccentricity (nc, 2) [m] (outboard - inboard point), by Newton."""
-        return self.assemble(pose, eccentricity, guess=self.assemble(pose))
+    def seated_coordinates(self, pose, offsets) -> np.ndarray:
+        """q (nq,) with the task at pose and every clearance joint opened by its offset
+        (nc, 2) [m] (second point minus first, see :meth:`assemble`), by Newton."""
+        return self.assemble(pose, offsets, guess=self.assemble(pose))
 
     def actuator_coordinates(self, q) -> np.ndarray:
         return np.array(self.model.actuator_coordinates_function(np.asarray(q, float))[0]).ravel()

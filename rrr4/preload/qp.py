@@ -117,7 +117,7 @@ def qp_preload_function(scene: Scene, solver: str = "qrqp", signs=1.0, f_min: fl
     m, nj = model.redundancy, len(model.preload_joints)
     if m < 1:
         raise SceneError(f"mechanism: a preload is not allowed without actuation redundancy ({model.n_actuators} "
-                         "actuators for a 3-DOF task)")
+                         f"actuators for a {model.task_dof}-DOF task)")
     s = [float(signs)] * nj if isinstance(signs, (int, float)) else [float(v) for v in signs]
     if len(s) != nj or any(v not in (1.0, -1.0) for v in s):
         raise SceneError(f"signs: {signs!r} is not allowed (+1 or -1, or a list of {nj} of them)")

@@ -92,7 +92,7 @@ def solve_preload(scene: Scene, method: str | None = None, *, qp_solver: str | N
     m = model.redundancy
     if m < 1:
         raise SceneError(f"mechanism: redundancy {m} is not allowed for a preload (needs more actuators than "
-                         "the task's 3 degrees of freedom)")
+                         f"the task's {model.task_dof} degrees of freedom)")
     if PRELOAD_METHODS[method] is not None and m > PRELOAD_METHODS[method]:
         raise SceneError(f"method: {method!r} handles redundancy <= {PRELOAD_METHODS[method]}, the scene has {m} "
                          f"(choose one of: {', '.join(k for k, v in PRELOAD_METHODS.items() if v is None or v >= m)})")

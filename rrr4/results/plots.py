@@ -93,28 +93,37 @@ def orbits(study: Study, path: Path) -> Path | None:
 
 
 def contact_forces(study: Study, path: Path) -> Path | None:
-    """Normal contact force [N] against time, every clearance joint (the ideal twin: the
-    magnitude of its pin reaction)."""
+    """Normal contact force [N] at every clearance joint (the ideal twin: the magnitude of its
+    pin reaction), against time, or for a driven scene against the driver angle over two
+    revolutions after the start transient."""
     joints = _clearance_joints(study)
     if not joints:
         return None
-    fig, axes = _grid(len(joints), 3.6, 2.4)
+    if "ideal" in study.arms:
+        x_of, x_label, x_lim = _driver_window(study)
+    else:
+        x_of, x_label, x_lim = (lambda sim: sim.t), "t [s]", (0.0, study.t_end)
+    fig, axes = _grid(len(joints), 3.6 if len(joints) > 1 else 8.0, 2.4 if len(joints) > 1 else 3.6)
     f_min = study.preload.f_min if study.preload is not None else None
     for k, name in enumerate(joints):
         ax = axes[k]
         for arm_name, arm in study.arms.items():
             sim = arm.simulation
+            x = x_of(sim)
+            keep = (x >= x_lim[0]) & (x <= x_lim[1])
             if name in sim.clearance_joints:
-                ax.plot(sim.t, sim.normal_force[:, sim.clearance_joints.index(name)], lw=0.5, **STYLE[arm_name])
+                f = sim.normal_force[:, sim.clearance_joints.index(name)]
+                ax.plot(x[keep], f[keep], lw=0.5, **STYLE[arm_name])
             elif name in sim.ideal_passive_joints:
                 r = np.linalg.norm(sim.reaction[:, sim.ideal_passive_joints.index(name)], axis=1)
-                ax.plot(sim.t, r, lw=1.0, **STYLE[arm_name])
+                ax.plot(x[keep], r[keep], lw=1.0, **STYLE[arm_name])
         if f_min:
             ax.axhline(f_min, color="k", ls="--", lw=0.8, label=f"f_min = {f_min:g} N")
         ax.set_yscale("symlog", linthresh=1.0)
         ax.set_ylim(bottom=0.0)
+        ax.set_xlim(*x_lim)
         ax.set_title(name)
-        ax.set_xlabel("t [s]")
+        ax.set_xlabel(x_label)
         ax.set_ylabel("normal force [N]")
     return _finish(fig, axes, len(joints),
                    _title(study, "normal contact force at each clearance joint (0 = free flight)"), path)
@@ -189,23 +198,38 @@ def preload_alpha(study: Study, path: Path) -> Path | None:
     return _save(fig, path)
 
 
+def _driver_window(study: Study) -> tuple:
+    """(x values for a simulation, x label, x limits): the first driver's angle [deg] over two
+    revolutions after the first (the start transient), or time when there is no revolute driver."""
+    d = study.scene.graph.drivers[0] if study.scene.graph.drivers else None
+    if d is None or study.scene.graph.joint(d.joint).type != "revolute" or d.speed == 0:
+        return (lambda sim: sim.t), "t [s]", (0.0, study.t_end)
+    start = 360.0 if 3 * 2 * np.pi / abs(d.speed) <= study.t_end else 0.0
+    return (lambda sim: np.degrees(d.initial + abs(d.speed) * sim.t)), f"{d.name} angle [deg]", (start, start + 720.0)
+
+
 def body_accelerations(study: Study, path: Path) -> Path | None:
-    """Driven scenes: centre-of-mass acceleration components [m/s^2] of every body against
-    time, with clearance and ideal (components that stay zero in the ideal run are left out)."""
+    """Driven scenes: centre-of-mass acceleration components [m/s^2] of every body, with
+    clearance and ideal, over two driver revolutions after the start transient (components
+    that stay zero in the ideal run are left out)."""
     if "ideal" not in study.arms:
         return None
     model = Model.of(study.scene.graph)
     ideal = study.arms["ideal"].simulation
+    x_of, x_label, x_lim = _driver_window(study)
     panels = [(b, c) for b in model.body_names for c in (0, 1)
               if np.max(np.abs(ideal.qdd[:, model.coordinates(b)][:, c])) > 1e-9]
     fig, axes = _grid(len(panels), 4.0, 2.6)
     for ax, (b, c) in zip(axes, panels, strict=False):
         for arm_name, arm in study.arms.items():
             sim = arm.simulation
-            ax.plot(sim.t, sim.qdd[:, model.coordinates(b)][:, c], lw=0.5 if arm_name != "ideal" else 1.2,
+            x = x_of(sim)
+            keep = (x >= x_lim[0]) & (x <= x_lim[1])
+            ax.plot(x[keep], sim.qdd[keep][:, model.coordinates(b)][:, c], lw=0.5 if arm_name != "ideal" else 1.2,
                     **STYLE[arm_name])
+        ax.set_xlim(*x_lim)
         ax.set_title(f"{b}: {'xy'[c]} acceleration")
-        ax.set_xlabel("t [s]")
+        ax.set_xlabel(x_label)
         ax.set_ylabel(f"a_{'xy'[c]} [m/s^2]")
     return _finish(fig, axes, len(panels),
                    _title(study, "centre-of-mass accelerations, clearance against ideal joints"), path)
