@@ -62,8 +62,9 @@ def _bench(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="rrr4",
-        description="Planar redundantly actuated 4-RRR with revolute joint clearance: "
-                    "kinematics, preload, contact dynamics and C code generation.")
+        description="Planar redundantly actuated parallel mechanisms (any planar body/joint graph; the 4-RRR is "
+                    "the reference scene) with revolute joint clearance: kinematics, preload, contact dynamics and "
+                    "C code generation.")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
     c = sub.add_parser("check", help="validate a scene and print what it would simulate")
     c.add_argument("scene", help="scene YAML file, e.g. problems/paper_circle.yaml")
@@ -77,7 +78,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "or the one rrr4 solve_preload picks on the scene's path (auto, default)")
     g.set_defaults(func=_codegen)
     r = sub.add_parser("run", help="run the study of a scene: inverse dynamics, preload, clearance simulation "
-                                    "with and without preload; writes figures, CSV, summary.json, report.md")
+                                    "with and without preload (a driven scene: with clearance and with ideal "
+                                    "joints); writes figures, CSV, summary.json, report.md")
     r.add_argument("scene", help="scene YAML file, e.g. problems/paper_circle.yaml")
     r.add_argument("--out", help="result directory (default results/<scene name>/); replaced atomically")
     r.add_argument("--t-end", type=float, default=None, help="simulated time [s] (default: the path duration)")
