@@ -38,9 +38,15 @@ def _run(args) -> int:
     out = Path(args.out) if args.out else Path("results") / scene.name
     check_target(out)
     study = run_study(scene, t_end=args.t_end, progress=True, log=lambda m: tqdm.write(f"rrr4 run: {m}"))
-    _, files = write_results(study, out)
+    _, files = write_results(study, out, progress=True)
     print(f"wrote {len(files)} files to {out}/: {', '.join(files)}")
     print((out / "report.md").read_text())
+    return 0
+
+
+def _animate(args) -> int:
+    from .results.animation import render
+    print(render(args.result_dir, args.out, progress=True))
     return 0
 
 
@@ -84,6 +90,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", help="result directory (default results/<scene name>/); replaced atomically")
     r.add_argument("--t-end", type=float, default=None, help="simulated time [s] (default: the path duration)")
     r.set_defaults(func=_run)
+    an = sub.add_parser("animate", help="remake the animation (motion.gif) of a saved result without simulating")
+    an.add_argument("result_dir", help="a result directory of rrr4 run, e.g. results/paper_circle")
+    an.add_argument("--out", help="GIF file to write (default RESULT_DIR/motion.gif)")
+    an.set_defaults(func=_animate)
     b = sub.add_parser("bench", help="what accuracy costs in time")
     bsub = b.add_subparsers(dest="bench", metavar="BENCH", required=True)
     a = bsub.add_parser("accuracy", help="work-precision diagram (error vs CPU time per integrator) and CSV")

@@ -251,7 +251,7 @@ def test_study_of_a_driven_scene_compares_clearance_with_the_ideal_twin(tmp_path
     from rrr4.study import run_study
     study = run_study(rrr4.load_scene(SLIDER), t_end=0.004, step=2e-6)
     assert set(study.arms) == {"with_clearance", "ideal"} and study.refinement.simulation.stats["step"] == 1e-6
-    summary, files = write_results(study, tmp_path / "out")
+    summary, files = write_results(study, tmp_path / "out", animate=False)
     assert {"orbits.png", "contact_force.png", "accelerations.png", "driver_effort.png", "summary.json",
             "report.md", "timeseries.csv"} <= set(files)
     c, ideal = summary["with_clearance"], summary["ideal"]

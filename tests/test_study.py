@@ -98,9 +98,9 @@ def test_results_hold_figures_csv_and_report(paper_summary, paper_study):
 
 def test_rewriting_a_result_directory_replaces_it_and_leaves_no_temporaries(paper_study, tmp_path):
     out = tmp_path / "r"
-    write_results(paper_study, out)
+    write_results(paper_study, out, animate=False)
     (out / "summary.json").write_text('{"earlier": true}')
-    write_results(paper_study, out)
+    write_results(paper_study, out, animate=False)
     assert "with_preload" in json.loads((out / "summary.json").read_text())
     assert [p.name for p in tmp_path.iterdir()] == ["r"]
 
@@ -166,7 +166,7 @@ def test_three_chain_study_has_only_the_without_preload_arm(tmp_path, capsys):
 
 def test_ideal_scene_has_no_contact_and_reports_pin_reactions(tmp_path):
     study = run_study(load_scene(ROOT / "problems" / "ideal_circle.yaml"), t_end=0.01)
-    summary, files = write_results(study, tmp_path / "ideal")
+    summary, files = write_results(study, tmp_path / "ideal", animate=False)
     assert "orbits.png" not in files and "contact_force.png" not in files
     for arm in PRELOAD_ARMS:
         m = summary[arm]

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from .. import files
 from ..study import Study
+from .animation import MOTION, render, save_motion
 from .plots import all_figures
 from .summary import study_summary
 from .tables import report_markdown, write_timeseries_csv
@@ -29,9 +30,10 @@ def atomic_directory(out, fill) -> Path:
     return files.atomic_directory(out, fill, MARKER)
 
 
-def write_results(study: Study, out) -> tuple[dict, list[str]]:
+def write_results(study: Study, out, animate: bool = True, progress: bool = False) -> tuple[dict, list[str]]:
     """Write figures, timeseries.csv, summary.json and report.md of `study` into `out`
-    atomically. Returns (summary, file names written)."""
+    atomically, and with `animate` the motion data and motion.gif (when the scene came from a
+    file). Returns (summary, file names written)."""
     summary = study_summary(study)
     names: list[str] = []
 
@@ -41,6 +43,8 @@ def write_results(study: Study, out) -> tuple[dict, list[str]]:
         (tmp / "report.md").write_text(report_markdown(summary))
         (tmp / MARKER).write_text(json.dumps(summary, indent=2) + "\n")
         files += [tmp / "report.md", tmp / MARKER]
+        if animate and save_motion(study, tmp / MOTION) is not None:
+            files += [tmp / MOTION, render(tmp, tmp / "motion.gif", progress=progress)]
         names.extend(p.name for p in files)
 
     atomic_directory(out, fill)

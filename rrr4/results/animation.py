@@ -1,0 +1,222 @@
+"""`motion.gif`: the mechanism moving, every arm of a study side by side.
+
+A study saves what the animation needs in its result directory (:func:`save_motion`):
+``motion.npz`` with the output instants, every arm's body coordinates q, the eccentricity
+and normal force of every clearance joint, the commanded task path, and the scene's YAML
+text (the geometry). :func:`render` draws from that file alone, so ``rrr4 animate
+RESULT_DIR`` remakes the animation without simulating again.
+
+Drawn to scale [m]: every body as the polygon through its named points, the ground points,
+the joints, the commanded path (dashed) and the task point's actual trace. Every clearance
+joint carries a circle drawn at its bearing point, the clearance magnified by a factor M
+(in the legend) so the journal centre's eccentricity is visible; the journal centre is
+coloured by its contact force. A time stamp in the title.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import yaml  # noqa: E402
+from matplotlib.animation import FuncAnimation, PillowWriter  # noqa: E402
+
+from ..errors import Rrr4Error  # noqa: E402
+from ..mechanism import Model  # noqa: E402
+from ..scene import GROUND, Scene, parse_scene  # noqa: E402
+
+__all__ = ["save_motion", "load_motion", "render", "MOTION", "FRAMES", "FPS"]
+
+MOTION = "motion.npz"
+FRAMES = 60         # frames of the animation (fewer if the result has fewer samples); ~0.25 s each to draw
+FPS = 10            # frames per second of the GIF
+LABELS = {"with_preload": "with preload", "without_preload": "without preload",
+          "with_clearance": "with clearance", "ideal": "ideal joints"}
+
+
+def save_motion(study, path: Path, rate: float | None = None) -> Path | None:
+    """Write ``motion.npz`` of `study` at `rate` [Hz] (default the path's sample rate); None
+    (nothing written) when the scene's YAML text is not available (a scene built in Python)."""
+    scene: Scene = study.scene
+    if not scene.source or not Path(scene.source).is_file():
+        return None
+    text = Path(scene.source).read_text()
+    if parse_scene(yaml.safe_load(text), name=Path(scene.source).stem, source=scene.source) != scene:
+        return None     # the file changed since the study read it
+    base = next(iter(study.arms.values())).simulation
+    rate = scene.path.sample_rate if rate is None else rate
+    every = max(int(round(1.0 / (rate * (base.t[1] - base.t[0])))), 1)
+    rows = np.arange(0, len(base.t), every)
+    data = {"t": base.t[rows], "pose_ref": base.pose_ref[rows], "arms": np.array(list(study.arms)),
+            "scene_yaml": np.array(text), "scene_name": np.array(scene.name)}
+    for name, arm in study.arms.items():
+        sim = arm.simulation
+        data[f"q_{name}"] = sim.q[rows]
+        data[f"eccentricity_{name}"] = sim.eccentricity[rows]
+        data[f"normal_force_{name}"] = sim.normal_force[rows]
+        data[f"clearance_joints_{name}"] = np.array(sim.clearance_joints, dtype=str)
+    np.savez_compressed(path, **data)
+    return path
+
+
+def load_motion(result_dir) -> tuple[dict, Scene]:
+    """The saved motion of a result directory and its scene. Raises Rrr4Error in one line
+    when the directory is not an rrr4 result or holds no motion data."""
+    d = Path(result_dir)
+    if not d.is_dir() or not (d / "summary.json").is_file():
+        raise Rrr4Error(f"result_dir: '{result_dir}' is not an rrr4 result directory (it holds no summary.json; "
+                        "make one with rrr4 run SCENE)")
+    f = d / MOTION
+    if not f.is_file():
+        raise Rrr4Error(f"result_dir: '{result_dir}' holds no motion data ({MOTION}); rerun rrr4 run on its scene "
+                        "to save it")
+    try:
+        with np.load(f, allow_pickle=False) as z:
+            data = {k: z[k] for k in z.files}
+        scene = parse_scene(yaml.safe_load(str(data["scene_yaml"])), name=str(data["scene_name"]))
+    except Exception as e:  # noqa: BLE001 - a damaged file is one line for the user
+        raise Rrr4Error(f"result_dir: '{f}' cannot be read ({type(e).__name__}: {e})") from None
+    return data, scene
+
+
+def body_points(model: Model, q: np.ndarray) -> dict[str, np.ndarray]:
+    """Global positions (k, 2) [m] of every body's named points at coordinates q (nq,)."""
+    out = {}
+    for b in model.graph.bodies:
+        x, y, th = q[model.coordinates(b.name)]
+        c, s = np.cos(th), np.sin(th)
+        local = np.array([p for _, p in b.points]).reshape(-1, 2)
+        out[b.name] = np.c_[x + c * local[:, 0] - s * local[:, 1], y + s * local[:, 0] + c * local[:, 1]]
+    return out
+
+
+def joint_positions(model: Model, q: np.ndarray) -> np.ndarray:
+    """(n_joints, 2) [m]: each joint's point on its first body (the bearing side as drawn)."""
+    pts = []
+    for j in model.graph.joints:
+        body, local = j.bodies[0], np.asarray(j.points[0], float)
+        if body == GROUND:
+            pts.append(local)
+            continue
+        x, y, th = q[model.coordinates(body)]
+        c, s = np.cos(th), np.sin(th)
+        pts.append([x + c * local[0] - s * local[1], y + s * local[0] + c * local[1]])
+    return np.array(pts)
+
+
+def _task_points(model: Model, q: np.ndarray) -> np.ndarray:
+    return np.array(model.task_pose_function.map(q.shape[0])(q.T)).T[:, :2]
+
+
+def render(result_dir, out_file=None, frames: int = FRAMES, progress: bool = True):
+    """Write the animation of a saved result (default RESULT_DIR/motion.gif); return its path.
+    The figure and its per-frame update function are built by :func:`build`."""
+    data, scene = load_motion(result_dir)
+    out = Path(out_file) if out_file else Path(result_dir) / "motion.gif"
+    if out.suffix.lower() != ".gif":
+        raise Rrr4Error(f"--out: '{out}' is not allowed (a .gif file; the GIF writer is the one installed)")
+    fig, update, n = build(data, scene, frames)
+    anim = FuncAnimation(fig, update, frames=n, blit=False)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=n, desc="animate", unit="frame")
+    tmp = out.with_name(f".{out.name}.tmp.gif")
+    try:
+        anim.save(tmp, writer=PillowWriter(fps=FPS), dpi=72,
+                  progress_callback=(lambda i, total: bar.update(1)) if bar is not None else None)
+        tmp.replace(out)    # never a half-written animation in place of an earlier one
+    finally:
+        tmp.unlink(missing_ok=True)
+        if bar is not None:
+            bar.close()
+        plt.close(fig)
+    return out
+
+
+def build(data: dict, scene: Scene, frames: int = FRAMES):
+    """(figure, update(k), frame count): the animation of saved motion `data` of `scene`."""
+    model = Model.of(scene.graph)
+    arms = [str(a) for a in data["arms"]]
+    t = data["t"]
+    idx = np.unique(np.linspace(0, len(t) - 1, min(frames, len(t))).round().astype(int))
+    fig, axes = plt.subplots(1, len(arms), figsize=(5.2 * len(arms), 6.2), squeeze=False)
+    axes = axes.ravel()
+    # common limits: every body point of every arm at every frame
+    ground = np.array([j.points[0] for j in scene.graph.joints if j.bodies[0] == GROUND]).reshape(-1, 2)
+    allp = np.vstack([np.vstack(list(body_points(model, data[f"q_{a}"][k]).values())) for a in arms for k in idx]
+                     + [ground])
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    span = max(hi - lo)
+    pad = 0.08 * span
+    # magnified clearance circles: drawn radius 4 % of the drawing, the same factor for every joint
+    clear = [j for j in scene.graph.joints if j.clearance]
+    c_max = max((j.radial_clearance for j in clear), default=1.0)
+    R = 0.04 * span
+    mag = R / c_max
+    fmax = max((float(np.max(data[f"normal_force_{a}"], initial=0.0)) for a in arms), default=1.0) or 1.0
+    cmap = plt.get_cmap("viridis")
+    tasks = {a: _task_points(model, data[f"q_{a}"]) for a in arms} if model.task else {}
+    artists = []
+    for ax, a in zip(axes, arms, strict=True):
+        ax.set_aspect("equal")
+        ax.set_xlim(lo[0] - pad, hi[0] + pad)
+        ax.set_ylim(lo[1] - pad, hi[1] + pad)
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+        ax.set_title(LABELS.get(a, a))
+        ax.plot(ground[:, 0], ground[:, 1], "k^", ms=9, label="ground joints")
+        if model.task:
+            ax.plot(data["pose_ref"][:, 0], data["pose_ref"][:, 1], "--", color="0.5", lw=1.0, label="commanded path")
+        lines = {b.name: ax.plot([], [], "-", color="tab:blue", lw=3, solid_capstyle="round")[0]
+                 for b in scene.graph.bodies}
+        joints_art = ax.plot([], [], "o", mfc="white", mec="k", ms=5, label="joints")[0]
+        trace = ax.plot([], [], "-", color="tab:red", lw=1.0, label="task point, actual")[0] if model.task else None
+        circles, dots = [], []
+        names = [str(x) for x in data[f"clearance_joints_{a}"]]
+        for j in clear:
+            circ = plt.Circle((0, 0), j.radial_clearance * mag, fill=False, color="k", lw=0.8)
+            ax.add_patch(circ)
+            circles.append(circ)
+            dots.append(ax.plot([], [], "o", ms=5)[0])
+        lines[scene.graph.bodies[0].name].set_label("bodies")
+        artists.append((lines, joints_art, trace, circles, dots, names))
+    handles = [plt.Line2D([], [], color="k", lw=0.8, label=f"clearance circles x{mag:.0f}, journal centre "
+                          f"(colour: contact force, 0 to {fmax:.3g} N)")] if clear else []
+    fig.legend(handles=axes[0].get_legend_handles_labels()[0] + handles, loc="lower center", ncol=3, fontsize=7,
+               frameon=False)
+    stamp = fig.suptitle("")
+
+    def update(i: int):
+        k = idx[i]
+        for a, (lines, joints_art, trace, circles, dots, names) in zip(arms, artists, strict=True):
+            q = data[f"q_{a}"][k]
+            for b, pts in body_points(model, q).items():
+                closed = np.vstack([pts, pts[:1]]) if len(pts) > 2 else pts
+                lines[b].set_data(closed[:, 0], closed[:, 1])
+            jp = joint_positions(model, q)
+            joints_art.set_data(jp[:, 0], jp[:, 1])
+            if trace is not None:
+                trace.set_data(tasks[a][:k + 1, 0], tasks[a][:k + 1, 1])
+            for j, circ, dot in zip(clear, circles, dots, strict=True):
+                centre = jp[model.joint_names.index(j.name)]
+                circ.center = tuple(centre)
+                if j.name in names:
+                    m = names.index(j.name)
+                    e = data[f"eccentricity_{a}"][k, m]
+                    # the bearing is on the body that does not carry the journal; drawn at the joint
+                    dot.set_data([centre[0] + mag * e[0]], [centre[1] + mag * e[1]])
+                    dot.set_color(cmap(min(float(data[f"normal_force_{a}"][k, m]) / fmax, 1.0)))
+                else:
+                    dot.set_data([centre[0]], [centre[1]])
+                    dot.set_color("k")
+        stamp.set_text(f"{scene.name}: t = {t[k]:.3f} s")
+        return []
+
+    update(0)
+    fig.tight_layout(rect=(0, 0.09, 1, 1))
+    return fig, update, len(idx)

@@ -1,0 +1,73 @@
+"""The animation of a study: saved motion, frame count, drawn geometry, bad result directories."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import rrr4
+from rrr4 import Model, Rrr4Error
+from rrr4.results import write_results
+from rrr4.results.animation import MOTION, build, load_motion, render
+from rrr4.study import run_study
+from tests.conftest import PAPER, ROOT
+
+
+@pytest.fixture(scope="module")
+def paper_result(tmp_path_factory):
+    out = tmp_path_factory.mktemp("anim") / "paper"
+    study = run_study(rrr4.load_scene(PAPER), t_end=0.01)
+    _, files = write_results(study, out)
+    assert {"motion.npz", "motion.gif"} <= set(files)
+    return out, study
+
+
+def test_frame_count_matches_the_settings(paper_result, tmp_path):
+    out, _ = paper_result
+    data, scene = load_motion(out)
+    assert len(data["t"]) == 11                              # 10 ms at the path's 1 kHz
+    gif = render(out, tmp_path / "six.gif", frames=6, progress=False)
+    assert Image.open(gif).n_frames == 6
+    assert Image.open(out / "motion.gif").n_frames == 11     # default: every sample up to 60
+
+
+def test_drawn_joint_positions_equal_the_simulated_ones(paper_result):
+    """In a chosen frame, the joint markers sit where the simulation put the joints (CasADi
+    joint equations of the model at the simulated q), for both arms."""
+    out, study = paper_result
+    data, scene = load_motion(out)
+    fig, update, n = build(data, scene, frames=11)
+    model = Model.of(scene.graph)
+    k = 7
+    update(k)
+    for ax, arm in zip(fig.axes, data["arms"], strict=False):
+        drawn = next(line for line in ax.lines if line.get_label() == "joints")
+        xy = np.c_[drawn.get_xdata(), drawn.get_ydata()]
+        sim = study.arms[str(arm)].simulation
+        row = int(np.argmin(np.abs(sim.t - data["t"][k])))
+        want = np.array([np.array(model.joint_points(sim.q[row], j)[0]).ravel() for j in scene.graph.joints])
+        np.testing.assert_allclose(xy, want, atol=1e-12)
+    assert f"t = {data['t'][k]:.3f} s" in fig._suptitle.get_text()
+
+
+def test_animation_of_a_driven_graph_scene(tmp_path):
+    study = run_study(rrr4.load_scene(ROOT / "problems" / "flores_slider_crank.yaml"), t_end=0.001, step=2e-6)
+    _, files = write_results(study, tmp_path / "slider")
+    assert "motion.gif" in files
+    data, _ = load_motion(tmp_path / "slider")
+    assert list(data["arms"]) == ["with_clearance", "ideal"] and data["eccentricity_with_clearance"].shape[1:] == (1, 2)
+
+
+def test_animate_refuses_a_directory_that_is_not_a_result_or_has_no_motion(paper_result, tmp_path):
+    with pytest.raises(Rrr4Error, match="is not an rrr4 result directory"):
+        load_motion(tmp_path)
+    out, _ = paper_result
+    bare = tmp_path / "bare"
+    bare.mkdir()
+    (bare / "summary.json").write_text((out / "summary.json").read_text())
+    with pytest.raises(Rrr4Error, match=f"holds no motion data \\({MOTION}\\)"):
+        load_motion(bare)
+    r = subprocess.run([sys.executable, "-m", "rrr4.cli", "animate", str(bare)], capture_output=True, text=True)
+    assert r.returncode != 0 and "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1
