@@ -6,11 +6,12 @@ and normal force of every clearance joint, the commanded task path, and the scen
 text (the geometry). :func:`render` draws from that file alone, so ``rrr4 animate
 RESULT_DIR`` remakes the animation without simulating again.
 
-Drawn to scale [m]: every body as the polygon through its named points, the ground points,
-the joints, the commanded path (dashed) and the task point's actual trace. Every clearance
-joint carries a circle drawn at its bearing point, the clearance magnified by a factor M
-(in the legend) so the journal centre's eccentricity is visible; the journal centre is
-coloured by its contact force. A time stamp in the title.
+A driven scene (no task, a revolute driver) is shown over two driver revolutions after the
+first, so that a fast crank is not aliased by the frame rate. Drawn to scale [m]: every body
+as the polygon through its named points, the ground points, the joints, the commanded path
+(dashed) and the task point's actual trace. Every clearance joint carries a circle drawn at
+its bearing point, the clearance magnified by a factor M (in the legend) so the journal
+centre's eccentricity is visible; the journal centre is coloured by its contact force. A time stamp in the title.
 """
 
 from __future__ import annotations
@@ -143,7 +144,13 @@ def build(data: dict, scene: Scene, frames: int = FRAMES):
     model = Model.of(scene.graph)
     arms = [str(a) for a in data["arms"]]
     t = data["t"]
-    idx = np.unique(np.linspace(0, len(t) - 1, min(frames, len(t))).round().astype(int))
+    lo_t, hi_t = 0.0, float(t[-1])
+    d = scene.graph.drivers[0] if scene.graph.drivers and model.task is None else None
+    if d is not None and d.speed != 0 and scene.graph.joint(d.joint).type == "revolute":
+        rev = 2 * np.pi / abs(d.speed)     # a fast driver: two revolutions after the first, not aliased
+        lo_t, hi_t = (rev, 3 * rev) if 3 * rev <= t[-1] else (0.0, min(2 * rev, hi_t))
+    window = np.flatnonzero((t >= lo_t - 1e-12) & (t <= hi_t + 1e-12))
+    idx = window[np.unique(np.linspace(0, len(window) - 1, min(frames, len(window))).round().astype(int))]
     fig, axes = plt.subplots(1, len(arms), figsize=(5.2 * len(arms), 6.2), squeeze=False)
     axes = axes.ravel()
     # common limits: every body point of every arm at every frame
@@ -172,8 +179,9 @@ def build(data: dict, scene: Scene, frames: int = FRAMES):
         ax.plot(ground[:, 0], ground[:, 1], "k^", ms=9, label="ground joints")
         if model.task:
             ax.plot(data["pose_ref"][:, 0], data["pose_ref"][:, 1], "--", color="0.5", lw=1.0, label="commanded path")
-        lines = {b.name: ax.plot([], [], "-", color="tab:blue", lw=3, solid_capstyle="round")[0]
-                 for b in scene.graph.bodies}
+        # a body with a single point (a slider block) is drawn as a square
+        lines = {b.name: ax.plot([], [], "-s" if len(b.points) == 1 else "-", color="tab:blue", lw=3, ms=14,
+                                 solid_capstyle="round")[0] for b in scene.graph.bodies}
         joints_art = ax.plot([], [], "o", mfc="white", mec="k", ms=5, label="joints")[0]
         trace = ax.plot([], [], "-", color="tab:red", lw=1.0, label="task point, actual")[0] if model.task else None
         circles, dots = [], []
