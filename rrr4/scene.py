@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import reprlib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -348,8 +349,20 @@ PASSIVE_JOINTS = ("B1", "B2", "B3", "B4", "C1", "C2", "C3", "C4")
 
 # ----------------------------------------------------------------------------- reader
 
+_REPR = reprlib.Repr()
+_REPR.maxlevel, _REPR.maxlist, _REPR.maxdict, _REPR.maxstring, _REPR.maxother = 2, 4, 4, 50, 50
+
+# largest magnitude a scene number may have (SI units); larger is a unit mistake or an
+# overflow waiting to happen. Material and contact stiffnesses may go up to BIG.
+MAX_MAGNITUDE, BIG = 1e6, 1e15
+# most path samples / output frames a scene may ask for (each frame holds the full state)
+MAX_SAMPLES = 5_000_000
+
+
 def _describe(v) -> str:
-    s = repr(v)
+    """A bounded rendering of a scene value for messages (never expands a huge or shared
+    structure, such as a YAML alias bomb)."""
+    s = _REPR.repr(v)
     return s if len(s) <= 60 else s[:57] + "..."
 
 
@@ -377,16 +390,22 @@ class _Section:
         return _Section(self.raw(k), self.key(k))
 
     def number(self, k, default=None, *, positive=False, nonneg=False, lo=None, hi=None,
-               lo_open=False, hi_open=False):
+               lo_open=False, hi_open=False, big=False):
         v = self.raw(k, default)
         key = self.key(k)
         if v is None:
             raise SceneError(f"{key}: missing (a number is required)")
+        if isinstance(v, str) and _looks_numeric(v):
+            raise SceneError(f"{key}: {_describe(v)} is text, not a number (YAML reads a number in exponent "
+                             f"form only with a dot: write {_with_dot(v)})")
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise SceneError(f"{key}: {_describe(v)} is not a number")
         v = float(v)
         if not math.isfinite(v):
             raise SceneError(f"{key}: {v} is not finite (a finite number is required)")
+        cap = BIG if big else MAX_MAGNITUDE
+        if abs(v) > cap:
+            raise SceneError(f"{key}: {v:g} is not allowed (|value| <= {cap:g} in SI units)")
         if positive and v <= 0:
             raise SceneError(f"{key}: {v:g} is not allowed (must be > 0)")
         if nonneg and v < 0:
@@ -416,6 +435,8 @@ class _Section:
         for i, x in enumerate(v):
             if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
                 raise SceneError(f"{key}[{i}]: {_describe(x)} is not a finite number")
+            if abs(x) > MAX_MAGNITUDE:
+                raise SceneError(f"{key}[{i}]: {x:g} is not allowed (|value| <= {MAX_MAGNITUDE:g} in SI units)")
             out.append(float(x))
         return tuple(out)
 
@@ -428,11 +449,10 @@ class _Section:
     def choice(self, k, allowed, default=None):
         v = self.raw(k, default)
         v = v.lower() if isinstance(v, str) else v
+        if v is None:
+            raise SceneError(f"{self.key(k)}: missing (choose one of: {', '.join(allowed)})")
         if v not in allowed:
-            near = difflib.get_close_matches(str(v), allowed, n=1)
-            hint = f"; did you mean '{near[0]}'?" if near else ""
-            raise SceneError(f"{self.key(k)}: unknown value {_describe(v)} "
-                             f"(choose one of: {', '.join(allowed)}){hint}")
+            raise unknown_value(self.key(k), "value", v, allowed)
         return v
 
     def done(self, allowed=None):
@@ -512,7 +532,7 @@ def _material(v, key) -> Material:
                              f"(choose one of: {', '.join(MATERIALS)}, or give youngs_modulus and poisson_ratio){hint}")
         return Material(name, *MATERIALS[name])
     s = _Section(v, key)
-    m = Material(s.string("name", "custom"), s.number("youngs_modulus", positive=True),
+    m = Material(s.string("name", "custom"), s.number("youngs_modulus", positive=True, big=True),
                  s.number("poisson_ratio", lo=0.0, hi=0.5, hi_open=True))
     s.done()
     return m
@@ -530,10 +550,7 @@ def _joints(sec: _Section, n_chains: int) -> tuple[JointSpec, ...]:
                          f"(a list of joint names from {', '.join(names)}, 'all' or 'none')")
     for j in cl:
         if j not in names:
-            near = difflib.get_close_matches(str(j), names, n=1)
-            hint = f"; did you mean '{near[0]}'?" if near else ""
-            raise SceneError(f"{sec.key('clearance')}: unknown joint {_describe(j)} "
-                             f"(choose from: {', '.join(names)}){hint}")
+            raise unknown_value(sec.key("clearance"), "joint", j, names)
     if len(set(cl)) != len(cl):
         raise SceneError(f"{sec.key('clearance')}: {_describe(cl)} names a joint twice")
     base = {
@@ -547,9 +564,7 @@ def _joints(sec: _Section, n_chains: int) -> tuple[JointSpec, ...]:
         raise SceneError(f"{sec.key('per_joint')}: expected a mapping of joint name to settings")
     for j in per:
         if j not in names:
-            near = difflib.get_close_matches(str(j), names, n=1)
-            hint = f"; did you mean '{near[0]}'?" if near else ""
-            raise SceneError(f"{sec.key('per_joint')}.{j}: unknown joint (choose from: {', '.join(names)}){hint}")
+            raise unknown_value(f"{sec.key('per_joint')}.{j}", "joint", j, names)
     out = []
     for name in names:
         has_own = name in per
@@ -572,10 +587,31 @@ def _joints(sec: _Section, n_chains: int) -> tuple[JointSpec, ...]:
 
 # ----------------------------------------------------------------------------- the graph
 
-def _unknown(key: str, what: str, v, allowed) -> SceneError:
-    near = difflib.get_close_matches(str(v), list(allowed), n=1)
+def unknown_value(key: str, what: str, v, allowed) -> SceneError:
+    """The one-line error for a value outside `allowed`, with the nearest choice (ignoring
+    case first, then by spelling) as a did-you-mean."""
+    allowed = [str(a) for a in allowed]
+    same = [a for a in allowed if a.lower() == str(v).lower()]
+    near = same or difflib.get_close_matches(str(v), allowed, n=1) or \
+        difflib.get_close_matches(str(v).lower(), [a.lower() for a in allowed], n=1)
     hint = f"; did you mean '{near[0]}'?" if near else ""
-    return SceneError(f"{key}: unknown {what} {_describe(v)} (choose one of: {', '.join(map(str, allowed))}){hint}")
+    return SceneError(f"{key}: unknown {what} {_describe(v)} (choose one of: {', '.join(allowed)}){hint}")
+
+
+_unknown = unknown_value
+
+
+def argument(key: str, v, *, positive: bool = True, allow_zero: bool = False) -> float:
+    """An API argument as a finite float (> 0 by default; >= 0 with allow_zero), or a
+    one-line SceneError naming it."""
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        raise SceneError(f"{key}: {_describe(v)} is not allowed (a number is required)") from None
+    if not math.isfinite(x) or (positive and not (x > 0 or (allow_zero and x == 0))):
+        rule = ">= 0" if allow_zero else "> 0"
+        raise SceneError(f"{key}: {_describe(v)} is not allowed (must be a finite number {rule})")
+    return x
 
 
 def _name(sec: _Section, k: str = "name", default=None) -> str:
@@ -786,7 +822,7 @@ def _effects(sec: _Section) -> Effects:
     if k == "auto" or k is None:
         stiffness = None
     else:
-        stiffness = c.number("stiffness", positive=True)
+        stiffness = c.number("stiffness", positive=True, big=True)
     damping = c.number("damping", 0.0, nonneg=True)
     c.done()
     f = sec.section("friction")
@@ -924,7 +960,7 @@ def parse_scene(data, name: str = "scene", source: str = "") -> Scene:
                              "mechanism.joints)")
         actuation = _actuation(top.section("actuation"), len(graph.actuators), graph)
     scene = Scene(
-        name=top.string("name", name),
+        name=_name(top, "name", name),
         description=top.string("description", ""),
         mechanism=mech,
         graph=graph,
@@ -936,18 +972,73 @@ def parse_scene(data, name: str = "scene", source: str = "") -> Scene:
         source=source,
     )
     top.done()
+    p = scene.path
+    if p.duration * p.sample_rate > MAX_SAMPLES:
+        raise SceneError(f"path.sample_rate: {p.sample_rate:g} Hz over {p.duration:g} s is not allowed (at most "
+                         f"{MAX_SAMPLES:g} samples)")
+    if scene.integrator.step > p.duration:
+        raise SceneError(f"integrator.step: {scene.integrator.step:g} s is not allowed (must not exceed "
+                         f"path.duration = {p.duration:g} s)")
     return scene
+
+
+def _looks_numeric(v: str) -> bool:
+    try:
+        float(v)
+    except ValueError:
+        return False
+    return v.strip().lower() not in ("nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity")
+
+
+def _with_dot(v: str) -> str:
+    m, _, e = v.strip().lower().partition("e")
+    return f"{m if '.' in m else m + '.0'}e{e}" if e else v
+
+
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """SafeLoader that refuses a mapping with a key given twice (PyYAML keeps the last)."""
+
+    def construct_mapping(self, node, deep=False):
+        seen = {}
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)
+            try:
+                hash(key)
+            except TypeError:
+                continue  # PyYAML reports unhashable keys itself
+            if key in seen:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"key {_describe(key)} appears twice (first at line {seen[key] + 1})",
+                    key_node.start_mark)
+            seen[key] = key_node.start_mark.line
+        return super().construct_mapping(node, deep=deep)
 
 
 def read_scene(path) -> Scene:
     """Read and validate a YAML scene file (data only, see :func:`parse_scene`). Raises :class:`SceneError`."""
     p = Path(path)
-    if not p.is_file():
+    if not p.exists():
         raise SceneError(f"scene file '{path}' does not exist")
+    if p.is_dir():
+        raise SceneError(f"scene file '{path}' is a directory (a YAML scene file is required)")
+    if not p.is_file():
+        raise SceneError(f"scene file '{path}' is not a regular file (a YAML scene file is required)")
     try:
-        data = yaml.safe_load(p.read_text())
+        raw = p.read_bytes()
+    except OSError as e:
+        raise SceneError(f"scene file '{path}' cannot be read ({e.strerror})") from None
+    if b"\0" in raw:
+        raise SceneError(f"scene file '{path}' is binary (a YAML text file is required)")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise SceneError(f"scene file '{path}' is not UTF-8 text (invalid byte at offset {e.start})") from None
+    try:
+        data = yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 - a SafeLoader subclass
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
         raise SceneError(f"{path}: not valid YAML{where} ({getattr(e, 'problem', e)})") from None
+    if data is None:
+        raise SceneError(f"scene file '{path}' is empty (a scene mapping is required: mechanism, path, ...)")
     return parse_scene(data, name=p.stem, source=str(p))

@@ -30,12 +30,13 @@ from .dynamics.energy import energy_audit_residual, energy_terms
 from .errors import SceneError, SimulationError
 from .integrators import METHODS, FixedStepIntegrator, System
 from .mechanism import Mechanism, Model
-from .scene import Scene
+from .scene import MAX_SAMPLES, Scene, argument, unknown_value
 from .trajectory import trajectory_function
 
 __all__ = ["Simulation", "simulate", "OVERRIDES"]
 
 OVERRIDES = ("step", "output_rate", "preload", "v_min", "baumgarte", "jit", "progress")
+MAX_STEPS = 1e10  # integrator steps one simulate call may take
 
 
 @dataclass(frozen=True)
@@ -213,8 +214,7 @@ def _integrator(scene: Scene, integrator, jit: bool) -> FixedStepIntegrator:
         return integrator
     name = scene.integrator.method if integrator is None else integrator
     if name not in METHODS:
-        key = "integrator.method" if integrator is None else "integrator"
-        raise SceneError(f"{key}: {name!r} is not available (available now: {', '.join(METHODS)})")
+        raise unknown_value("integrator.method" if integrator is None else "integrator", "integrator", name, METHODS)
     return METHODS[name].from_settings(scene.integrator, jit=jit)
 
 
@@ -252,26 +252,30 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     """
     bad = sorted(set(overrides) - set(OVERRIDES))
     if bad:
-        raise SceneError(f"{bad[0]}: unknown override (allowed: {', '.join(OVERRIDES)})")
-    t_end = scene.path.duration if t_end is None else float(t_end)
-    rate = float(overrides.get("output_rate") or scene.path.sample_rate)
-    h_req = float(overrides.get("step") or scene.integrator.step)
-    for key, v in (("t_end", t_end), ("output_rate", rate), ("step", h_req)):
-        if not (np.isfinite(v) and v > 0):
-            raise SceneError(f"{key}: {v!r} is not allowed (must be a finite number > 0)")
+        raise unknown_value(bad[0], "override", bad[0], OVERRIDES)
+    t_end = scene.path.duration if t_end is None else argument("t_end", t_end)
+    rate = scene.path.sample_rate if overrides.get("output_rate") is None else argument("output_rate",
+                                                                                          overrides["output_rate"])
+    h_req = scene.integrator.step if overrides.get("step") is None else argument("step", overrides["step"])
+    n_frames = max(int(round(t_end * rate)), 1)
+    if n_frames > MAX_SAMPLES or t_end / h_req > MAX_STEPS:
+        raise SceneError(f"t_end: {t_end:g} s is not allowed at output rate {rate:g} Hz and step {h_req:g} s "
+                         f"(at most {MAX_SAMPLES:g} output frames and {MAX_STEPS:g} steps)")
+    preload = overrides.get("preload")
+    if preload is not None and not (hasattr(preload, "t") and hasattr(preload, "tau")):
+        raise SceneError(f"preload: {preload!r:.60} is not allowed (a PreloadSolution from rrr4.solve_preload, or "
+                         "an object with t (N,) [s] and tau (N, n))")
     kw = {k: overrides[k] for k in ("v_min", "baumgarte") if k in overrides}
     eqs = build_equations(scene, **kw)
     method = _integrator(scene, integrator, bool(overrides.get("jit", False)))
     mech = Mechanism.from_scene(scene)
     n, nc = mech.n, len(eqs.clearance_joints)
 
-    n_frames = max(int(round(t_end * rate)), 1)
     dt_out = t_end / n_frames
     spf = max(int(round(dt_out / h_req)), 1)
     h = dt_out / spf
     t_frames = np.linspace(0.0, t_end, n_frames + 1)
 
-    preload = overrides.get("preload")
     feed_forward = eqs.mode == "torque" and preload is None
     ref = _references(scene, mech, t_frames, feed_forward)
     tab = np.zeros((n_frames + 1, n))

@@ -26,7 +26,7 @@ from ..dynamics.family import effort_family
 from ..errors import Rrr4Error, SceneError
 from ..mechanism.graph import Model
 from ..mechanism.workspace import near_singular, path_kinematics
-from ..scene import Scene
+from ..scene import MAX_SAMPLES, Scene, argument, unknown_value
 from ..trajectory import sample_path
 from .exact import exact_preload_function
 from .nlp import solve_trajectory_nlp
@@ -84,10 +84,17 @@ def solve_preload(scene: Scene, method: str | None = None, *, qp_solver: str | N
     pre = scene.actuation.preload
     method = pre.method if method is None else method
     if method not in PRELOAD_METHODS:
-        raise SceneError(f"method: unknown value {method!r} (choose one of: {', '.join(PRELOAD_METHODS)})")
+        raise unknown_value("method", "value", method, PRELOAD_METHODS)
     solver = pre.qp_solver if qp_solver is None else qp_solver
     if solver not in QP_OPTIONS:
-        raise SceneError(f"qp_solver: unknown value {solver!r} (choose one of: {', '.join(QP_OPTIONS)})")
+        raise unknown_value("qp_solver", "value", solver, QP_OPTIONS)
+    if sample_rate is not None:
+        sample_rate = argument("sample_rate", sample_rate)
+        if scene.path.duration * sample_rate > MAX_SAMPLES:
+            raise SceneError(f"sample_rate: {sample_rate:g} Hz is not allowed (at most {MAX_SAMPLES:g} samples over "
+                             f"{scene.path.duration:g} s)")
+    if nlp_rate is not None:
+        nlp_rate = argument("nlp_rate", nlp_rate)
     model = Model.of(scene.graph)
     m = model.redundancy
     if m < 1:

@@ -1,0 +1,158 @@
+"""Bad input, tried as a careless or hostile user would: every way in ends in one clear line
+that names the key, with no traceback, before anything is allocated or computed."""
+
+import copy
+import itertools
+import os
+import subprocess
+import sys
+
+import pytest
+import yaml
+
+import rrr4
+from rrr4 import SceneError, check_scene
+from rrr4.scene import parse_scene, read_scene
+from tests.conftest import PAPER
+
+LEAF_KEYS = [
+    "mechanism.platform.mass", "mechanism.platform.inertia", "mechanism.chain_defaults.driving_link.length",
+    "mechanism.chain_defaults.driving_link.mass", "mechanism.chain_defaults.following_link.length",
+    "mechanism.chain_defaults.attachment_radius", "joints.journal_radius", "joints.radial_clearance",
+    "effects.contact.restitution", "effects.contact.exponent", "effects.friction.coefficient", "effects.friction.v0",
+    "effects.gravity", "actuation.torque_limit", "actuation.preload.min_force", "actuation.gains.kp",
+    "actuation.gains.kd", "path.center", "path.radius", "path.duration", "path.sample_rate", "integrator.step",
+]
+BAD_VALUES = ["abc", "1e-4", 1e308, float("nan"), True, {"a": 1}, -1.0]
+
+
+def _set(data, dotted, value):
+    keys = dotted.split(".")
+    d = data
+    for k in keys[:-1]:
+        d = d.setdefault(k, {})
+    d[keys[-1]] = value
+
+
+@pytest.mark.parametrize("key,value", list(itertools.product(LEAF_KEYS, BAD_VALUES)),
+                         ids=[f"{k}={v!r}" for k, v in itertools.product(LEAF_KEYS, BAD_VALUES)])
+def test_corpus_of_bad_scenes_is_refused_in_one_line_naming_the_key(paper_data, key, value):
+    """154 scenes, each with one bad value: refused with a SceneError of one line that starts
+    with the key (for the path keys, possibly after the scene check)."""
+    data = copy.deepcopy(paper_data)
+    _set(data, key, value)
+    with pytest.raises(SceneError) as err:
+        check_scene(parse_scene(data))
+    msg = str(err.value)
+    assert "\n" not in msg and len(msg) < 400
+    assert msg.startswith(key.split(".chain_defaults")[0].split(".")[0]) and key.split(".")[-1] in msg
+
+
+def _write(tmp_path, name, content: bytes):
+    p = tmp_path / name
+    p.write_bytes(content)
+    return p
+
+
+@pytest.mark.parametrize("content,expected", [
+    (b"\xff\xfe\x00m\x00e", "is binary"),
+    ("name: caf\u00e9\n".encode("latin-1"), "is not UTF-8 text"),
+    (b"", "is empty"),
+    (b"# only a comment\n", "is empty"),
+    (b"name: a\nname: b\n", r"key 'name' appears twice \(first at line 1\)"),
+])
+def test_unreadable_file_contents_are_one_line(tmp_path, content, expected):
+    with pytest.raises(SceneError, match=expected):
+        read_scene(_write(tmp_path, "s.yaml", content))
+
+
+def test_directories_and_devices_are_not_scene_files(tmp_path):
+    with pytest.raises(SceneError, match="is a directory"):
+        read_scene(tmp_path)
+    if os.path.exists("/dev/null"):
+        with pytest.raises(SceneError, match="is not a regular file"):
+            read_scene("/dev/null")
+    with pytest.raises(SceneError, match="does not exist"):
+        read_scene(tmp_path / "nope.yaml")
+
+
+def test_yaml_alias_bomb_is_refused_quickly_with_a_bounded_message(tmp_path):
+    """A billion-laughs scene: the message echoes a bounded rendering, not the expansion."""
+    lines = ['a0: &a0 ["x", "x", "x", "x", "x", "x", "x", "x", "x", "x"]']
+    lines += [f"a{i}: &a{i} [{', '.join(['*a' + str(i - 1)] * 10)}]" for i in range(1, 9)]
+    lines += ["name: bomb", "mechanism: *a8"]
+    with pytest.raises(SceneError) as err:
+        read_scene(_write(tmp_path, "bomb.yaml", "\n".join(lines).encode()))
+    assert len(str(err.value)) < 300
+
+
+def test_a_number_yaml_reads_as_text_gets_a_hint(paper_data):
+    paper_data["joints"]["radial_clearance"] = "1e-4"
+    with pytest.raises(SceneError, match=r"joints.radial_clearance: '1e-4' is text, not a number .* write 1.0e-4"):
+        parse_scene(paper_data)
+
+
+@pytest.mark.parametrize("name", ["../x", "a/b", ".", "", "x y"])
+def test_a_scene_name_must_be_a_plain_name(paper_data, name):
+    paper_data["name"] = name
+    with pytest.raises(SceneError, match="name: .* is not allowed"):
+        parse_scene(paper_data)
+
+
+def test_sizes_that_cannot_be_computed_are_refused_before_allocating(paper_data):
+    d = copy.deepcopy(paper_data)
+    d["path"]["sample_rate"] = 1e6
+    d["path"]["duration"] = 100.0
+    with pytest.raises(SceneError, match=r"path.sample_rate: .* \(at most 5e\+06 samples\)"):
+        parse_scene(d)
+    d = copy.deepcopy(paper_data)
+    d["integrator"]["step"] = 2.0
+    with pytest.raises(SceneError, match=r"integrator.step: 2 s is not allowed \(must not exceed path.duration"):
+        parse_scene(d)
+
+
+@pytest.mark.parametrize("kwargs,expected", [
+    ({"step": 0}, r"step: 0 is not allowed"),
+    ({"output_rate": 0}, r"output_rate: 0 is not allowed"),
+    ({"t_end": "abc"}, r"t_end: 'abc' is not allowed \(a number is required\)"),
+    ({"t_end": 1e9}, r"t_end: 1e\+09 s is not allowed .* \(at most"),
+    ({"preload": "qp"}, r"preload: 'qp' is not allowed"),
+    ({"stp": 1e-5}, r"stp: unknown override 'stp' .* did you mean 'step'\?"),
+    ({"integrator": "rk44"}, r"integrator: unknown integrator 'rk44' .* did you mean 'rk4'\?"),
+])
+def test_simulate_arguments_are_checked_in_one_line(paper_scene, kwargs, expected):
+    with pytest.raises(SceneError, match=expected):
+        rrr4.simulate(paper_scene, **kwargs)
+
+
+@pytest.mark.parametrize("kwargs,expected", [
+    ({"sample_rate": 0}, r"sample_rate: 0 is not allowed"),
+    ({"nlp_rate": -1}, r"nlp_rate: -1 is not allowed"),
+    ({"method": "qpp"}, r"method: unknown value 'qpp' .* did you mean 'qp'\?"),
+    ({"qp_solver": "osq"}, r"qp_solver: unknown value 'osq' .* did you mean 'osqp'\?"),
+])
+def test_solve_preload_arguments_are_checked_in_one_line(paper_scene, kwargs, expected):
+    with pytest.raises(SceneError, match=expected):
+        rrr4.solve_preload(paper_scene, **kwargs)
+
+
+def test_bad_scene_file_on_the_command_line_is_one_line(tmp_path):
+    p = _write(tmp_path, "dup.yaml", PAPER.read_bytes() + b"\nname: again\n")
+    r = subprocess.run([sys.executable, "-m", "rrr4.cli", "check", str(p)], capture_output=True, text=True)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.stderr.strip().count("\n") == 0 and "appears twice" in r.stderr
+
+
+def test_lower_case_joint_name_gets_a_suggestion(paper_data):
+    paper_data["joints"]["clearance"] = ["b1"]
+    with pytest.raises(SceneError, match="did you mean 'B1'"):
+        parse_scene(paper_data)
+
+
+def test_missing_path_says_missing(paper_data):
+    d = copy.deepcopy(paper_data)
+    del d["path"]["type"]
+    with pytest.raises(SceneError) as err:
+        parse_scene(d)
+    assert str(err.value).startswith("path.type: missing (choose one of:")
+    assert yaml.safe_dump(paper_data)  # the fixture stays intact
