@@ -18,7 +18,9 @@ drivers (prescribed joint coordinates, constraint rows in time).
 from __future__ import annotations
 
 import functools
+import os
 import time
+import warnings
 from dataclasses import dataclass, field, replace
 
 import casadi as ca
@@ -28,12 +30,13 @@ from scipy.interpolate import CubicHermiteSpline, CubicSpline
 from .dynamics.builder import Equations, build_equations, graph_size
 from .dynamics.energy import energy_audit_residual, energy_terms
 from .errors import SceneError, SimulationError
+from .files import c_compiler
 from .integrators import METHODS, FixedStepIntegrator, System
 from .mechanism import Mechanism, Model
 from .scene import MAX_SAMPLES, Scene, argument, unknown_value
 from .trajectory import trajectory_function
 
-__all__ = ["Simulation", "simulate", "OVERRIDES"]
+__all__ = ["Simulation", "simulate", "OVERRIDES", "default_jit"]
 
 OVERRIDES = ("step", "output_rate", "preload", "v_min", "baumgarte", "jit", "progress")
 MAX_STEPS = 1e10  # integrator steps one simulate call may take
@@ -209,6 +212,25 @@ def _references(scene: Scene, mech: Mechanism, t_frames: np.ndarray, feed_forwar
                        CubicSpline(t_s, th_dd, axis=0)(t_frames), ff(t_frames), None, ff(t_frames, 1))
 
 
+_NO_COMPILER_WARNED = False
+
+
+def default_jit() -> bool:
+    """Whether simulate compiles its stepping by default: when a C compiler exists (cached on
+    disk, so a scene compiles once), unless the environment sets RRR4_JIT=0. Without a
+    compiler it warns once and steps in CasADi's virtual machine, 5 to 10 times slower."""
+    global _NO_COMPILER_WARNED
+    if os.environ.get("RRR4_JIT", "1").strip() == "0":
+        return False
+    if c_compiler() is None:
+        if not _NO_COMPILER_WARNED:
+            warnings.warn("no C compiler found (set CC or install gcc): simulate steps in CasADi's virtual "
+                          "machine, several times slower", RuntimeWarning, stacklevel=3)
+            _NO_COMPILER_WARNED = True
+        return False
+    return True
+
+
 def _integrator(scene: Scene, integrator, jit: bool) -> FixedStepIntegrator:
     if hasattr(integrator, "run"):  # an integrator instance (fixed-step or adaptive)
         return integrator
@@ -248,7 +270,8 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     :data:`rrr4.integrators.METHODS`, or an integrator instance. t_end [s] defaults to the
     path duration. overrides: step [s] (rounded so a whole number of steps fits one output
     interval), output_rate [Hz] (default: path.sample_rate), preload (object with t, tau),
-    v_min [m/s], baumgarte [rad/s], jit (compile the stepping loop), progress (bar).
+    v_min [m/s], baumgarte [rad/s], jit (step in compiled C; default: yes when a C compiler
+    exists and RRR4_JIT is not 0, see :func:`default_jit`), progress (bar).
     """
     bad = sorted(set(overrides) - set(OVERRIDES))
     if bad:
@@ -267,7 +290,8 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
                          "an object with t (N,) [s] and tau (N, n))")
     kw = {k: overrides[k] for k in ("v_min", "baumgarte") if k in overrides}
     eqs = build_equations(scene, **kw)
-    method = _integrator(scene, integrator, bool(overrides.get("jit", False)))
+    jit = overrides.get("jit")
+    method = _integrator(scene, integrator, default_jit() if jit is None else bool(jit))
     mech = Mechanism.from_scene(scene)
     n, nc = mech.n, len(eqs.clearance_joints)
 

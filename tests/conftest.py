@@ -1,9 +1,15 @@
+import os
 from pathlib import Path
 
-import pytest
-import yaml
+# The suite steps in CasADi's virtual machine unless a test asks for compiled C (jit=True):
+# compiling every scene and step of the suite would cost minutes. simulate() itself compiles
+# by default (tests/test_bad_input.py checks the default).
+os.environ.setdefault("RRR4_JIT", "0")
 
-from rrr4 import load_scene
+import pytest  # noqa: E402
+import yaml  # noqa: E402
+
+from rrr4 import load_scene  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "problems" / "paper_circle.yaml"

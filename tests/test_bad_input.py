@@ -156,3 +156,19 @@ def test_missing_path_says_missing(paper_data):
         parse_scene(d)
     assert str(err.value).startswith("path.type: missing (choose one of:")
     assert yaml.safe_dump(paper_data)  # the fixture stays intact
+
+
+def test_simulate_compiles_by_default_and_falls_back_with_one_warning(monkeypatch):
+    import warnings
+
+    import rrr4.simulation as simulation
+    monkeypatch.delenv("RRR4_JIT", raising=False)
+    assert simulation.default_jit() is (simulation.c_compiler() is not None)
+    monkeypatch.setattr(simulation, "c_compiler", lambda: None)
+    monkeypatch.setattr(simulation, "_NO_COMPILER_WARNED", False)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert simulation.default_jit() is False and simulation.default_jit() is False
+    assert len([w for w in caught if "no C compiler found" in str(w.message)]) == 1
+    monkeypatch.setenv("RRR4_JIT", "0")
+    assert simulation.default_jit() is False
