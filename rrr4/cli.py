@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 
 from .errors import Rrr4Error
@@ -33,10 +34,14 @@ def _run(args) -> int:
 
     from .mechanism import load_scene
     from .results import check_target, write_results
+    from .scene import argument
     from .study import run_study
+    if args.t_end is not None:
+        argument("--t-end", args.t_end)
     scene = load_scene(args.scene)
     out = Path(args.out) if args.out else Path("results") / scene.name
     check_target(out)
+    _check_writable(out)
     study = run_study(scene, t_end=args.t_end, progress=True, log=lambda m: tqdm.write(f"rrr4 run: {m}"))
     _, files = write_results(study, out, progress=True)
     print(f"wrote {len(files)} files to {out}/: {', '.join(files)}")
@@ -48,6 +53,14 @@ def _animate(args) -> int:
     from .results.animation import render
     print(render(args.result_dir, args.out, progress=True))
     return 0
+
+
+def _check_writable(out) -> None:
+    """Refuse an output directory that cannot be written, before any work is done."""
+    from .errors import SceneError
+    parent = next((p for p in (out, *out.parents) if p.exists()), None)
+    if parent is None or not os.access(parent, os.W_OK | os.X_OK):
+        raise SceneError(f"--out: '{out}' is not allowed (cannot write into '{parent}')")
 
 
 def _bench(args) -> int:
@@ -108,17 +121,43 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    interrupted = []
+
+    def on_signal(signum, frame):
+        interrupted.append(signum)
+        raise KeyboardInterrupt
+
+    # SIGTERM unwinds like Ctrl-C, so temporary files are removed; the handlers are restored after
+    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGTERM, signal.SIGINT)}
     try:
         return args.func(args)
     except Rrr4Error as e:
-        print(f"rrr4: error: {type(e).__name__}: {e}", file=sys.stderr)
+        _say(f"rrr4: error: {type(e).__name__}: {e}")
         return 2
     except KeyboardInterrupt:
-        print("rrr4: interrupted; earlier results are left as they were", file=sys.stderr)
-        return 130
+        return _interrupted(interrupted)
+    except (NotImplementedError, SystemError):
+        if interrupted:  # a signal that landed inside a CasADi call comes back as one of these
+            return _interrupted(interrupted)
+        raise
     except BrokenPipeError:  # e.g. `rrr4 check SCENE | head`: the reader left, nothing to report
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+def _say(line: str) -> None:
+    """One line on stderr, above any progress bar still drawn."""
+    from tqdm import tqdm
+    tqdm.write(line, file=sys.stderr)
+
+
+def _interrupted(signals: list) -> int:
+    term = signal.SIGTERM in signals
+    _say(f"rrr4: {'terminated' if term else 'interrupted'}; earlier results are left as they were")
+    return 143 if term else 130
 
 
 if __name__ == "__main__":

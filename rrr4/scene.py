@@ -389,12 +389,19 @@ class _Section:
     def section(self, k: str) -> _Section:
         return _Section(self.raw(k), self.key(k))
 
+    def missing(self, k: str, what: str) -> SceneError:
+        """The error for a required key that is absent, with the section's nearest key when
+        that looks like a misspelling of it."""
+        near = difflib.get_close_matches(k, [str(x) for x in self.data if x != k], n=1, cutoff=0.6)
+        hint = f"; this section has '{near[0]}': a misspelling of '{k}'?" if near else ""
+        return SceneError(f"{self.key(k)}: missing ({what} is required){hint}")
+
     def number(self, k, default=None, *, positive=False, nonneg=False, lo=None, hi=None,
                lo_open=False, hi_open=False, big=False):
         v = self.raw(k, default)
         key = self.key(k)
         if v is None:
-            raise SceneError(f"{key}: missing (a number is required)")
+            raise self.missing(k, "a number")
         if isinstance(v, str) and _looks_numeric(v):
             raise SceneError(f"{key}: {_describe(v)} is text, not a number (YAML reads a number in exponent "
                              f"form only with a dot: write {_with_dot(v)})")
@@ -427,6 +434,8 @@ class _Section:
     def vector(self, k, n, default=None, *, scalar_ok=False):
         v = self.raw(k, default)
         key = self.key(k)
+        if v is None:
+            raise self.missing(k, f"a list of {n} numbers")
         if scalar_ok and isinstance(v, (int, float)) and not isinstance(v, bool):
             v = [v] * n
         if not isinstance(v, (list, tuple)) or len(v) != n:

@@ -38,7 +38,7 @@ from .dynamics.family import effort_family
 from .mechanism import Model
 from .preload import PreloadSolution, solve_preload
 from .preload.solve import PreloadWarning
-from .scene import Scene
+from .scene import Scene, argument
 from .simulation import Simulation, simulate
 from .trajectory import sample_path
 
@@ -104,7 +104,7 @@ def run_study(scene: Scene, *, t_end: float | None = None, step: float | None = 
     the simulations' progress bars; log: callable taking one line of text per stage.
     """
     say = log or (lambda _msg: None)
-    t_end = scene.path.duration if t_end is None else float(t_end)
+    t_end = scene.path.duration if t_end is None else argument("t_end", t_end)
     h = scene.integrator.step if step is None else float(step)
     t_path = sample_path(scene.path).t
     say(f"inverse dynamics of the ideal mechanism at {len(t_path)} path samples")

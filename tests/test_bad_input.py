@@ -172,3 +172,55 @@ def test_simulate_compiles_by_default_and_falls_back_with_one_warning(monkeypatc
     assert len([w for w in caught if "no C compiler found" in str(w.message)]) == 1
     monkeypatch.setenv("RRR4_JIT", "0")
     assert simulation.default_jit() is False
+
+
+def test_v_min_of_the_equations_floors_the_approach_velocity():
+    """The force scales the hysteresis by the scene's v_min, not by a constant: with v_min =
+    1e-5 m/s and a captured approach of 2e-5 m/s the damping term is 50x that at 1e-3."""
+    import numpy as np
+
+    from rrr4.dynamics.builder import build_equations
+    from rrr4.mechanism import Mechanism
+    s = rrr4.load_scene(PAPER)    # Lankarani-Nikravesh, c_r = 0.9: a hysteresis term
+    forces = {}
+    for v_min in (1e-5, 1e-3):
+        eqs = build_equations(s, v_min=v_min)
+        mech = Mechanism.from_scene(s)
+        _, qd, _ = mech.body_motion([0.0, 0.0, 0.0], [0.05, 0.0, 0.0])
+        qd = qd + np.random.default_rng(0).normal(0.0, 1e-3, qd.size)   # journals approach their walls
+        nc = len(eqs.clearance_joints)
+        ecc = np.zeros((len(s.joints), 2))
+        ecc[:, 0] = s.joints[0].radial_clearance + 1e-6
+        q = mech.seated_coordinates([0.0, 0.0, 0.0], ecc)
+        out = eqs.acceleration(q=q, qd=qd, delta_dot0=np.full(nc, 2e-5), in_contact=np.ones(nc))
+        forces[v_min] = np.array(out["normal_force"]).ravel()
+    assert not np.allclose(forces[1e-5], forces[1e-3])
+
+
+def test_cli_refuses_a_bad_t_end_and_an_unwritable_out_before_any_work(tmp_path):
+    r = subprocess.run([sys.executable, "-m", "rrr4.cli", "run", str(PAPER), "--t-end", "-1"],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and "--t-end: -1.0 is not allowed" in r.stderr and "preload" not in r.stdout
+    blocker = tmp_path / "a_file"
+    blocker.write_text("x")
+    r = subprocess.run([sys.executable, "-m", "rrr4.cli", "run", str(PAPER), "--out", str(blocker / "sub")],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "--out:" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_sigterm_while_writing_results_leaves_no_temporary_directory(tmp_path):
+    """SIGTERM lands while the result directory is being written (the animation renders):
+    one line, exit 143, the temporary directory removed, no result half-written."""
+    import signal
+    import time
+    out = tmp_path / "res"
+    p = subprocess.Popen([sys.executable, "-m", "rrr4.cli", "run", str(PAPER), "--t-end", "0.06", "--out", str(out)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 240
+    while time.time() < deadline and p.poll() is None and not list(tmp_path.glob(".res.tmp-*/*.png")):
+        time.sleep(0.05)
+    assert p.poll() is None, "the run ended before it wrote anything"
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 143 and "terminated; earlier results are left as they were" in err
+    assert "Traceback" not in err and not list(tmp_path.glob(".res.*")) and not out.exists()

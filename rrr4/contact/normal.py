@@ -50,18 +50,18 @@ def elastic_force(delta, stiffness, exponent):
     return stiffness * _pos(delta) ** exponent
 
 
-def _hertz(delta, delta_dot, delta_dot0, K, n, c_r, damping):
+def _hertz(delta, delta_dot, delta_dot0, K, n, c_r, damping, v_min):
     return elastic_force(delta, K, n)
 
 
-def _kelvin_voigt(delta, delta_dot, delta_dot0, K, n, c_r, damping):
+def _kelvin_voigt(delta, delta_dot, delta_dot0, K, n, c_r, damping, v_min):
     return ca.if_else(delta > 0, _pos(elastic_force(delta, K, n) + damping * delta_dot), 0.0)
 
 
 def _hysteresis(law):
-    def f(delta, delta_dot, delta_dot0, K, n, c_r, damping):
+    def f(delta, delta_dot, delta_dot0, K, n, c_r, damping, v_min):
         chi = hysteresis_factor(law, c_r)
-        return _pos(elastic_force(delta, K, n) * (1.0 + chi * delta_dot / ca.fmax(delta_dot0, V_MIN)))
+        return _pos(elastic_force(delta, K, n) * (1.0 + chi * delta_dot / ca.fmax(delta_dot0, v_min)))
     f.__name__ = law.replace("-", "_")
     return f
 
@@ -76,9 +76,11 @@ NORMAL_LAWS = {
 }
 
 
-def normal_force(law: str, delta, delta_dot, delta_dot0, stiffness, exponent, restitution, damping=0.0):
-    """F_N >= 0 [N] of the named law (keys of :data:`NORMAL_LAWS`)."""
-    return NORMAL_LAWS[law](delta, delta_dot, delta_dot0, stiffness, exponent, restitution, damping)
+def normal_force(law: str, delta, delta_dot, delta_dot0, stiffness, exponent, restitution, damping=0.0,
+                 v_min: float = V_MIN):
+    """F_N >= 0 [N] of the named law (keys of :data:`NORMAL_LAWS`); the approach velocity
+    delta_dot0 is floored at v_min [m/s] (the equations' own floor, default V_MIN)."""
+    return NORMAL_LAWS[law](delta, delta_dot, delta_dot0, stiffness, exponent, restitution, damping, v_min)
 
 
 def stiffness_internal_cylinder(journal_radius: float, bearing_radius: float, e_journal: float, nu_journal: float,

@@ -203,7 +203,7 @@ def _build(scene: Scene, v_min: float, omega: float) -> Equations:
         K = stiff[j]
         dd0_eff = ca.if_else(inc[j] > 0.5, dd0[j], ca.fmax(kin.delta_dot, v_min))
         fn = normal_force(ce.law, kin.penetration, kin.delta_dot, dd0_eff, K, ce.exponent, ce.restitution,
-                          ce.damping)
+                          ce.damping, v_min)
         f_el = elastic_force(kin.penetration, K, ce.exponent)
         ft = friction_force(fe, kin.v_t, fn) if fe.law != "none" else ca.SX(0)
         Qc, f = contact_generalized_forces(kin, fn, ft, g_b, g_j, i_b, i_j, spec.journal_radius,

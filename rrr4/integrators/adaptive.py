@@ -59,19 +59,23 @@ class AdaptiveIntegrator(ABC):
         if progress:
             from tqdm import tqdm
             frames = tqdm(frames, desc=f"simulate ({self.name})", unit="frame")
-        for k in frames:
-            u = u_frames[k]
-            t_a, t_b = u[0], u[1]
-            y, z = x[1:1 + ny], x[1 + ny:]
-            y1, counts = self.integrate_frame(t_a, t_b, y, z, u)
-            for key in totals:
-                totals[key] += int(counts.get(key, 0))
-            if not np.all(np.isfinite(y1)):
-                out.append(np.full_like(x, np.nan))
-                break
-            z1 = np.array(system.discrete(t_b, y1, z)).ravel()
-            x = np.r_[t_b, y1, z1]
-            out.append(x)
+        try:
+            for k in frames:
+                u = u_frames[k]
+                t_a, t_b = u[0], u[1]
+                y, z = x[1:1 + ny], x[1 + ny:]
+                y1, counts = self.integrate_frame(t_a, t_b, y, z, u)
+                for key in totals:
+                    totals[key] += int(counts.get(key, 0))
+                if not np.all(np.isfinite(y1)):
+                    out.append(np.full_like(x, np.nan))
+                    break
+                z1 = np.array(system.discrete(t_b, y1, z)).ravel()
+                x = np.r_[t_b, y1, z1]
+                out.append(x)
+        finally:
+            if progress:
+                frames.close()
         while len(out) < u_frames.shape[0]:
             out.append(np.full_like(x, np.nan))
         return Run(np.vstack(out), {**totals, "rtol": self.rtol, "atol": self.atol})

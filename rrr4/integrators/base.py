@@ -139,15 +139,17 @@ class FixedStepIntegrator(ABC):
         if progress:
             from tqdm import tqdm
             bar = tqdm(total=n_frames, desc=f"simulate ({self.name})", unit="frame")
-        for k0 in range(0, n_frames, chunk):
-            k = min(chunk, n_frames - k0)
-            if k not in rolls:
-                rolls[k] = frame.mapaccum("frames", k)
-            xs = np.array(rolls[k](x, u_frames[k0:k0 + k].T))
-            out.append(xs.T)
-            x = xs[:, -1]
+        try:
+            for k0 in range(0, n_frames, chunk):
+                k = min(chunk, n_frames - k0)
+                if k not in rolls:
+                    rolls[k] = frame.mapaccum("frames", k)
+                xs = np.array(rolls[k](x, u_frames[k0:k0 + k].T))
+                out.append(xs.T)
+                x = xs[:, -1]
+                if bar is not None:
+                    bar.update(k)
+        finally:  # an error or interrupt must not leave a half-drawn bar under its message
             if bar is not None:
-                bar.update(k)
-        if bar is not None:
-            bar.close()
+                bar.close()
         return Run(np.vstack(out), {})

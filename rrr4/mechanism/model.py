@@ -317,7 +317,7 @@ class NRRRMechanism(Mechanism):
         bad = np.flatnonzero(~(np.abs(cos_arg) <= 1.0))
         if bad.size:
             raise KinematicsError(f"pose {list(np.round(pose, 6))} is out of reach of chain {bad[0] + 1} "
-                                  f"(cos argument {cos_arg[bad[0]]:.6g}, allowed [-1, 1])")
+                                  f"(cos argument {cos_arg[bad[0]]:.12g}, allowed [-1, 1])")
         return np.array(theta).ravel()
 
     def jacobian(self, pose) -> np.ndarray:

@@ -82,7 +82,7 @@ def check_scene(scene: Scene) -> Scene:
         if reach.any():
             k, i = np.argwhere(reach)[0]
             raise SceneError(f"path: leaves the workspace at t = {pk.t[k]:.4g} s: chain {i + 1} cannot reach the "
-                             f"platform (IK cos argument {pk.cos_arg[k, i]:.4g}, allowed [-1, 1])")
+                             f"platform (IK cos argument {pk.cos_arg[k, i]:.12g}, allowed [-1, 1])")
         sign = np.sign(pk.sin_transmission) * np.array([c.working_mode for c in scene.mechanism.chains])
         flip = sign != sign[0]
         if flip.any():
