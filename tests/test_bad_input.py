@@ -13,7 +13,7 @@ import yaml
 import rrr4
 from rrr4 import SceneError, check_scene
 from rrr4.scene import parse_scene, read_scene
-from tests.conftest import PAPER
+from tests.conftest import PAPER, ROOT
 
 LEAF_KEYS = [
     "mechanism.platform.mass", "mechanism.platform.inertia", "mechanism.chain_defaults.driving_link.length",
@@ -224,3 +224,85 @@ def test_sigterm_while_writing_results_leaves_no_temporary_directory(tmp_path):
     _, err = p.communicate(timeout=60)
     assert p.returncode == 143 and "terminated; earlier results are left as they were" in err
     assert "Traceback" not in err and not list(tmp_path.glob(".res.*")) and not out.exists()
+
+
+def test_sigint_during_a_simulation_ends_in_the_interrupt_line(tmp_path):
+    """Ctrl-C while CasADi steps the simulation (the signal usually lands inside a CasADi
+    call): one line, exit 130, nothing written."""
+    import signal
+    import time
+    out = tmp_path / "res"
+    p = subprocess.Popen([sys.executable, "-m", "rrr4.cli", "run", str(PAPER), "--out", str(out)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env={**os.environ, "RRR4_JIT": "0"})
+    time.sleep(8.0)   # past loading and the preload: the first simulation runs for tens of seconds in the VM
+    assert p.poll() is None
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == 130 and "interrupted; earlier results are left as they were" in err
+    assert "Traceback" not in err and not out.exists()
+
+
+GRAPH_KEYS = ["mechanism.bodies.0.mass", "mechanism.bodies.1.inertia", "mechanism.bodies.2.pose",
+              "mechanism.joints.2.clearance.radial_clearance", "mechanism.joints.3.axis",
+              "mechanism.bodies.0.points", "path.duration", "integrator.step"]
+
+
+def _set_path(data, dotted, value):
+    keys = dotted.split(".")
+    d = data
+    for k in keys[:-1]:
+        d = d[int(k)] if isinstance(d, list) else d[k]
+    if isinstance(d, list):
+        d[int(keys[-1])] = value
+    else:
+        d[keys[-1]] = value
+
+
+@pytest.mark.parametrize("key,value", list(itertools.product(GRAPH_KEYS, BAD_VALUES)),
+                         ids=[f"{k}={v!r}" for k, v in itertools.product(GRAPH_KEYS, BAD_VALUES)])
+def test_corpus_of_bad_graph_scenes_is_refused_in_one_line(key, value):
+    data = yaml.safe_load((ROOT / "problems" / "flores_slider_crank.yaml").read_text())
+    _set_path(data, key, value)
+    with pytest.raises(SceneError) as err:
+        check_scene(parse_scene(data))
+    msg = str(err.value)
+    leaf = key.split(".")[-1]
+    assert "\n" not in msg and leaf in msg
+
+
+@pytest.mark.filterwarnings("ignore")
+def test_any_value_anywhere_is_a_scene_or_one_line(paper_data):
+    """Property: whatever value lands on whatever key, parsing and checking the scene ends in
+    a Scene or in a one-line SceneError, never another exception."""
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
+    values = st.one_of(st.none(), st.booleans(), st.integers(-10**20, 10**20), st.floats(allow_nan=True),
+                       st.text(max_size=12), st.lists(st.floats(-1e3, 1e3), max_size=5),
+                       st.dictionaries(st.text(max_size=5), st.integers(), max_size=3))
+
+    @settings(max_examples=150, deadline=None, suppress_health_check=list(HealthCheck))
+    @given(key=st.sampled_from(LEAF_KEYS + ["name", "mechanism.chains.0.base", "path.type", "effects.contact.law"]),
+           value=values)
+    def check(key, value):
+        data = copy.deepcopy(paper_data)
+        if key == "mechanism.chains.0.base":
+            data["mechanism"]["chains"][0]["base"] = value
+        else:
+            _set(data, key, value)
+        try:
+            check_scene(parse_scene(data))
+        except SceneError as e:
+            assert "\n" not in str(e)
+
+    check()
+
+
+def test_result_directories_get_the_umask_mode(tmp_path):
+    from rrr4.files import atomic_directory
+    old = os.umask(0o022)
+    try:
+        out = atomic_directory(tmp_path / "r", lambda d: (d / "summary.json").write_text("{}"), "summary.json")
+    finally:
+        os.umask(old)
+    assert (out.stat().st_mode & 0o777) == 0o755
