@@ -35,10 +35,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .dynamics.family import effort_family
+from .errors import SceneError
 from .mechanism import Model
 from .preload import PreloadSolution, solve_preload
 from .preload.solve import PreloadWarning
-from .scene import Scene, argument
+from .scene import MAX_SAMPLES, Scene, argument
 from .simulation import Simulation, simulate
 from .trajectory import sample_path
 
@@ -105,7 +106,10 @@ def run_study(scene: Scene, *, t_end: float | None = None, step: float | None = 
     """
     say = log or (lambda _msg: None)
     t_end = scene.path.duration if t_end is None else argument("t_end", t_end)
-    h = scene.integrator.step if step is None else float(step)
+    h = scene.integrator.step if step is None else argument("step", step)
+    if t_end / h > MAX_SAMPLES:  # the study keeps every step: refuse before the preload is computed
+        raise SceneError(f"t_end: {t_end:g} s is not allowed at step {h:g} s (the study keeps every step: at most "
+                         f"{MAX_SAMPLES:g} steps)")
     t_path = sample_path(scene.path).t
     say(f"inverse dynamics of the ideal mechanism at {len(t_path)} path samples")
     tau_min_norm = _min_norm_torques(scene, t_path)
