@@ -359,11 +359,14 @@ MAX_MAGNITUDE, BIG = 1e6, 1e15
 MAX_SAMPLES = 5_000_000
 
 
-def _describe(v) -> str:
+def describe(v) -> str:
     """A bounded rendering of a scene value for messages (never expands a huge or shared
     structure, such as a YAML alias bomb)."""
     s = _REPR.repr(v)
     return s if len(s) <= 60 else s[:57] + "..."
+
+
+_describe = describe
 
 
 class _Section:

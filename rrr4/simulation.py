@@ -33,7 +33,7 @@ from .errors import SceneError, SimulationError
 from .files import c_compiler
 from .integrators import METHODS, FixedStepIntegrator, System
 from .mechanism import Mechanism, Model
-from .scene import MAX_SAMPLES, Scene, argument, unknown_value
+from .scene import MAX_SAMPLES, Scene, argument, describe, unknown_value
 from .trajectory import trajectory_function
 
 __all__ = ["Simulation", "simulate", "OVERRIDES", "default_jit"]
@@ -85,7 +85,7 @@ class Simulation:
         """(N, 3) pose [x, y, theta] [m, m, rad] of the centre of mass of the body `name`."""
         model = Model.of(self.scene.graph)
         if name not in model.body_names:
-            raise SceneError(f"body: unknown value {name!r} (choose one of: {', '.join(model.body_names)})")
+            raise unknown_value("body", "body", name, model.body_names)
         return model.body_poses(self.q, name)
 
 
@@ -286,7 +286,7 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
                          f"(at most {MAX_SAMPLES:g} output frames and {MAX_STEPS:g} steps)")
     preload = overrides.get("preload")
     if preload is not None and not (hasattr(preload, "t") and hasattr(preload, "tau")):
-        raise SceneError(f"preload: {preload!r:.60} is not allowed (a PreloadSolution from rrr4.solve_preload, or "
+        raise SceneError(f"preload: {describe(preload)} is not allowed (a PreloadSolution from rrr4.solve_preload, or "
                          "an object with t (N,) [s] and tau (N, n))")
     kw = {k: overrides[k] for k in ("v_min", "baumgarte") if k in overrides}
     eqs = build_equations(scene, **kw)

@@ -71,7 +71,7 @@ from ..contact import (
 from ..contact.normal import V_MIN
 from ..errors import SceneError
 from ..mechanism.graph import Model
-from ..scene import Scene
+from ..scene import Scene, argument
 
 __all__ = ["Equations", "build_equations", "joint_stiffness", "graph_size", "BAUMGARTE_OMEGA"]
 
@@ -125,10 +125,8 @@ def build_equations(scene: Scene, v_min: float = V_MIN, baumgarte: float = BAUMG
     v_min [m/s] floors the approach velocity delta_dot0; baumgarte = omega_b [rad/s].
     Raises SceneError if the actuation mode over-constrains the mechanism.
     """
-    if not v_min > 0:
-        raise SceneError(f"v_min: {v_min!r} is not allowed (must be > 0 m/s)")
-    if not baumgarte >= 0:
-        raise SceneError(f"baumgarte: {baumgarte!r} is not allowed (must be >= 0 rad/s)")
+    v_min = argument("v_min", v_min)
+    baumgarte = argument("baumgarte", baumgarte, allow_zero=True)
     return _build(physics(scene), float(v_min), float(baumgarte))
 
 
