@@ -13,7 +13,7 @@ import yaml
 import rrr4
 from rrr4 import SceneError, check_scene
 from rrr4.scene import parse_scene, read_scene
-from tests.conftest import PAPER, ROOT
+from tests.conftest import PAPER, ROOT, set_key
 
 LEAF_KEYS = [
     "mechanism.platform.mass", "mechanism.platform.inertia", "mechanism.chain_defaults.driving_link.length",
@@ -26,13 +26,6 @@ LEAF_KEYS = [
 BAD_VALUES = ["abc", "1e-4", 1e308, float("nan"), True, {"a": 1}, -1.0]
 
 
-def _set(data, dotted, value):
-    keys = dotted.split(".")
-    d = data
-    for k in keys[:-1]:
-        d = d.setdefault(k, {})
-    d[keys[-1]] = value
-
 
 @pytest.mark.parametrize("key,value", list(itertools.product(LEAF_KEYS, BAD_VALUES)),
                          ids=[f"{k}={v!r}" for k, v in itertools.product(LEAF_KEYS, BAD_VALUES)])
@@ -40,7 +33,7 @@ def test_corpus_of_bad_scenes_is_refused_in_one_line_naming_the_key(paper_data, 
     """154 scenes, each with one bad value: refused with a SceneError of one line that starts
     with the key (for the path keys, possibly after the scene check)."""
     data = copy.deepcopy(paper_data)
-    _set(data, key, value)
+    set_key(data, key, value)
     with pytest.raises(SceneError) as err:
         check_scene(parse_scene(data))
     msg = str(err.value)
@@ -247,22 +240,12 @@ GRAPH_KEYS = ["mechanism.bodies.0.mass", "mechanism.bodies.1.inertia", "mechanis
               "mechanism.bodies.0.points", "path.duration", "integrator.step"]
 
 
-def _set_path(data, dotted, value):
-    keys = dotted.split(".")
-    d = data
-    for k in keys[:-1]:
-        d = d[int(k)] if isinstance(d, list) else d[k]
-    if isinstance(d, list):
-        d[int(keys[-1])] = value
-    else:
-        d[keys[-1]] = value
-
 
 @pytest.mark.parametrize("key,value", list(itertools.product(GRAPH_KEYS, BAD_VALUES)),
                          ids=[f"{k}={v!r}" for k, v in itertools.product(GRAPH_KEYS, BAD_VALUES)])
 def test_corpus_of_bad_graph_scenes_is_refused_in_one_line(key, value):
     data = yaml.safe_load((ROOT / "problems" / "flores_slider_crank.yaml").read_text())
-    _set_path(data, key, value)
+    set_key(data, key, value)
     with pytest.raises(SceneError) as err:
         check_scene(parse_scene(data))
     msg = str(err.value)
@@ -289,7 +272,7 @@ def test_any_value_anywhere_is_a_scene_or_one_line(paper_data):
         if key == "mechanism.chains.0.base":
             data["mechanism"]["chains"][0]["base"] = value
         else:
-            _set(data, key, value)
+            set_key(data, key, value)
         try:
             check_scene(parse_scene(data))
         except SceneError as e:

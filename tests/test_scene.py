@@ -10,6 +10,7 @@ import yaml
 
 from rrr4 import SceneError, check_scene, load_scene
 from rrr4.scene import PASSIVE_JOINTS, parse_scene
+from tests.conftest import set_key
 
 
 def test_reference_scene_holds_design_parameters(paper_scene):
@@ -37,15 +38,6 @@ def test_scene_is_frozen(paper_scene):
         paper_scene.name = "x"
 
 
-def _set(d, dotted, value):
-    keys = dotted.split(".")
-    for k in keys[:-1]:
-        d = d[int(k)] if isinstance(d, list) else d[k]
-    if isinstance(d, list):
-        d[int(keys[-1])] = value
-    else:
-        d[keys[-1]] = value
-
 
 BAD = [
     # (key to set, value, text the message must contain)
@@ -67,7 +59,7 @@ BAD = [
 
 @pytest.mark.parametrize("key,value,expected", BAD, ids=[b[0] for b in BAD])
 def test_bad_input_raises_scene_error_naming_the_key(paper_data, key, value, expected):
-    _set(paper_data, key, value)
+    set_key(paper_data, key, value)
     with pytest.raises(SceneError) as err:
         check_scene(parse_scene(paper_data))
     assert expected in str(err.value)
