@@ -11,7 +11,10 @@ ratio after / before is printed with the SX instruction counts and the machine.
     .venv/bin/python benchmarks/bench_rhs.py --before-tree ../rrr4-old [SCENE]
 
 (make ../rrr4-old with ``git worktree add ../rrr4-old <commit>``). Without --before-tree,
-only this tree is timed.
+only this tree is timed. With --references, this tree's three right-hand sides are timed
+against each other instead: references evaluated in the RHS with the feed-forward (the
+default 'exact' simulation without a given preload), without it (a preload given), and
+'sampled' (interpolated, nothing evaluated).
 """
 
 from __future__ import annotations
@@ -78,17 +81,28 @@ def main(argv=None) -> int:
     ap.add_argument("--before-tree", help="source tree of the version to compare against")
     ap.add_argument("--batch", type=int, default=2000, help="RHS calls per compiled call (K)")
     ap.add_argument("--repeat", type=int, default=41)
+    ap.add_argument("--references", action="store_true", help="compare this tree's reference variants")
     args = ap.parse_args(argv)
     from rrr4.integrators.compiled import compiled
     scene = Path(args.scene).resolve()
-    with tempfile.TemporaryDirectory() as tmp:
-        trees = {"after (this tree)": ROOT}
-        if args.before_tree:
-            trees = {"before": Path(args.before_tree).resolve(), **trees}
-        odes = {k: build_ode(t, scene, Path(tmp) / f"ode{i}.casadi") for i, (k, t) in enumerate(trees.items())}
-    args_ = inputs(next(iter(odes.values())), scene)
+    if args.references:
+        import rrr4
+        from rrr4.dynamics.builder import build_equations
+        from rrr4.simulation import _system, reference_function
+        sc = rrr4.load_scene(scene)
+        eqs = build_equations(sc)
+        odes = {"exact, with feed-forward": _system(eqs, reference_function(sc, True)).ode,
+                "exact, preload given": _system(eqs, reference_function(sc, False)).ode,
+                "sampled": _system(eqs, None).ode}
+    else:
+        with tempfile.TemporaryDirectory() as tmp:
+            trees = {"after (this tree)": ROOT}
+            if args.before_tree:
+                trees = {"before": Path(args.before_tree).resolve(), **trees}
+            odes = {k: build_ode(t, scene, Path(tmp) / f"ode{i}.casadi") for i, (k, t) in enumerate(trees.items())}
     fs = {k: compiled(chain(f, args.batch)) for k, f in odes.items()}
-    outs = {k: np.array(f(*args_)) for k, f in fs.items()}
+    ins = {k: inputs(f, scene) for k, f in odes.items()}
+    outs = {k: np.array(f(*ins[k])) for k, f in fs.items()}
     if len(outs) == 2:
         a, b = outs.values()
         print(f"max relative difference of the two chains' results on the same inputs: "
@@ -97,7 +111,7 @@ def main(argv=None) -> int:
     for _ in range(args.repeat):
         for k, f in fs.items():
             t0 = time.perf_counter()
-            f(*args_)
+            f(*ins[k])
             times[k].append((time.perf_counter() - t0) / args.batch * 1e9)
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores; scene {scene.name}; "
           f"{args.repeat} repeats of {args.batch} chained RHS each, medians")
@@ -110,6 +124,9 @@ def main(argv=None) -> int:
     if len(med) == 2:
         before, after = med.values()
         print(f"ratio after / before: {after / before:.3f}")
+    elif len(med) == 3:
+        base = next(iter(med.values()))
+        print("ratios to the first: " + ", ".join(f"{k} {v / base:.3f}" for k, v in med.items()))
     return 0
 
 

@@ -38,7 +38,7 @@ from .trajectory import trajectory_function
 
 __all__ = ["Simulation", "simulate", "OVERRIDES", "default_jit"]
 
-OVERRIDES = ("step", "output_rate", "preload", "v_min", "baumgarte", "jit", "progress")
+OVERRIDES = ("step", "output_rate", "preload", "v_min", "baumgarte", "jit", "progress", "references")
 MAX_STEPS = 1e10  # integrator steps one simulate call may take
 
 
@@ -177,9 +177,13 @@ class _References:
     tau_ff_d: np.ndarray | None = None
 
 
-def _references(scene: Scene, mech: Mechanism, t_frames: np.ndarray, feed_forward: bool) -> _References:
+REFERENCES = ("exact", "sampled")  # where the right-hand side gets its references (see simulate)
+
+
+def _references(scene: Scene, mech: Mechanism, t_frames: np.ndarray, feed_forward: bool,
+                mode: str = "exact") -> _References:
     N, n = len(t_frames), mech.n
-    if scene.mechanism is not None:
+    if scene.mechanism is not None and mode == "exact":
         f = reference_function(scene, feed_forward)
         pose, th, th_d, th_dd, tau_ff = (np.array(v).T for v in f.map(N)(t_frames[None, :]))
         return _References(pose, th, th_d, th_dd, tau_ff, f)
@@ -188,20 +192,25 @@ def _references(scene: Scene, mech: Mechanism, t_frames: np.ndarray, feed_forwar
         return _References(np.zeros((N, 3)), z, z, z, z, None, z)
     traj = trajectory_function(scene.path)
     pose = np.array(traj.map(N)(t_frames[None, :])[0]).T
-    # Newton IK and the effort family on the path's sample grid (or the frames, if coarser),
-    # cubic Hermite / spline interpolation to the frames (error ~ h^4, far below 1e-9 at 1 kHz)
+    # the references on the path's sample grid (or the frames, if coarser): closed form for an
+    # n-RRR, Newton IK and the effort family for any other graph; cubic Hermite / spline
+    # interpolation to the frames (error ~ h^4, far below 1e-9 at 1 kHz)
     t_end = float(t_frames[-1])
     n_s = max(int(round(t_end * scene.path.sample_rate)), 1) + 1
     t_s = t_frames if N <= n_s else np.linspace(0.0, t_end, n_s)
-    p_s, pd_s, pdd_s = (np.array(v).T for v in traj.map(len(t_s))(t_s[None, :]))
-    k = mech.n_task
-    q = mech.path_coordinates(p_s[:, :k])
-    _, qdd, th_d, th_dd = mech.motion(q, pd_s[:, :k], pdd_s[:, :k])
-    th = np.array(mech.model.actuator_coordinates_function.map(len(t_s))(q.T)[0]).T
-    tau_ff = np.zeros((len(t_s), n))
-    if feed_forward:
-        from .dynamics.family import graph_family
-        tau_ff = graph_family(mech, q, qdd, scene.effects.gravity).tau_p
+    if scene.mechanism is not None:
+        f = reference_function(scene, feed_forward)
+        _, th, th_d, th_dd, tau_ff = (np.array(v).T for v in f.map(len(t_s))(t_s[None, :]))
+    else:
+        p_s, pd_s, pdd_s = (np.array(v).T for v in traj.map(len(t_s))(t_s[None, :]))
+        k = mech.n_task
+        q = mech.path_coordinates(p_s[:, :k])
+        _, qdd, th_d, th_dd = mech.motion(q, pd_s[:, :k], pdd_s[:, :k])
+        th = np.array(mech.model.actuator_coordinates_function.map(len(t_s))(q.T)[0]).T
+        tau_ff = np.zeros((len(t_s), n))
+        if feed_forward:
+            from .dynamics.family import graph_family
+            tau_ff = graph_family(mech, q, qdd, scene.effects.gravity).tau_p
     if len(t_s) < 3:
         return _References(pose, th, th_d, th_dd, tau_ff, None, np.zeros_like(tau_ff))
     ff = CubicSpline(t_s, tau_ff, axis=0)
@@ -271,7 +280,10 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     path duration. overrides: step [s] (rounded so a whole number of steps fits one output
     interval), output_rate [Hz] (default: path.sample_rate), preload (object with t, tau),
     v_min [m/s], baumgarte [rad/s], jit (step in compiled C; default: yes when a C compiler
-    exists and RRR4_JIT is not 0, see :func:`default_jit`), progress (bar).
+    exists and RRR4_JIT is not 0, see :func:`default_jit`), progress (bar), references:
+    'exact' (default; an n-RRR evaluates its closed-form IK and feed-forward inside every
+    right-hand side) or 'sampled' (evaluated once per path sample and interpolated, cubic
+    Hermite; what a graph scene with a task always does).
     """
     bad = sorted(set(overrides) - set(OVERRIDES))
     if bad:
@@ -301,7 +313,10 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     t_frames = np.linspace(0.0, t_end, n_frames + 1)
 
     feed_forward = eqs.mode == "torque" and preload is None
-    ref = _references(scene, mech, t_frames, feed_forward)
+    mode = overrides.get("references") or "exact"
+    if mode not in REFERENCES:
+        raise unknown_value("references", "value", mode, REFERENCES)
+    ref = _references(scene, mech, t_frames, feed_forward, mode)
     tab = np.zeros((n_frames + 1, n))
     if preload is not None and eqs.mode == "torque":
         pt, ptau = np.asarray(preload.t, float), np.asarray(preload.tau, float)
