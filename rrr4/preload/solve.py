@@ -165,6 +165,7 @@ def solve_preload(scene: Scene, method: str | None = None, *, qp_solver: str | N
     feasible = (method_ok & ~solver_failed & finite & (singular == "") & force_ok.all(axis=1) & torque_ok.all(axis=1))
 
     names = model.preload_joints
+    units = ["N m" if scene.graph.joint(j).type == "revolute" else "N" for j in model.actuated_joints]
     issues: list[Infeasibility] = []
     for k in np.flatnonzero(~feasible):
         tk = float(samples.t[k])
@@ -177,7 +178,7 @@ def solve_preload(scene: Scene, method: str | None = None, *, qp_solver: str | N
                                                       f"(no preload within the torque limits reaches it)"))
         for i in np.flatnonzero(~torque_ok[k]):
             issues.append(Infeasibility(tk, f"actuator {model.actuator_names[i]}",
-                                        f"|tau| = {abs(tau[k, i]):.4g} N m > limit {limits[i]:g} N m"))
+                                        f"|tau| = {abs(tau[k, i]):.4g} {units[i]} > limit {limits[i]:g} {units[i]}"))
         if not issues or issues[-1].t != tk:
             reason = ("the fixed-sign axial force constraints cannot all hold within the torque limits"
                       if method == "qp" else f"solver did not converge ({stats.get('return_status')})")
