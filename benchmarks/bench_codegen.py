@@ -3,6 +3,10 @@ from Python, in one run on one machine.
 
     .venv/bin/python benchmarks/bench_codegen.py [SCENE] [--calls N] [--flags "-O3 -march=native"]
 
+It then compares the controller step with the exact preload, with the closed-form QP, and
+with the QP and clearance compensation: SX instructions (machine-independent) and C ns per
+call, the three harnesses run in turns in the same process, medians.
+
 The C side is a small timing harness written next to the generated sources in a temporary
 directory: inputs are 64 points along the scene's path (trajectory, IK with a 1 mrad
 tracking error, inverse dynamics), each kernel is called round-robin over them, and the
@@ -35,11 +39,11 @@ _HARNESS_ARGS = {
     "ik": "P[s], o4a, o4b",
     "jacobian": "P[s], o12, o4a",
     "null_space": "P[s], o4a",
-    "trajectory": "T[s], o3a, o3b, o3c",
+    "trajectory": "T[s], o3a, o3b, o3c, o3d",
     "inverse_dynamics": "P[s], PD[s], PDD[s], o4a, o4b, o16a, o16b",
     "exact_preload": "TP[s], TN[s], RP[s], RN[s], &o1a, o4a, &o1b, &o1c",
     "preload": "P[s], PD[s], PDD[s], &o1a, o4a, &o1b, &o1c",
-    "controller_step": "P[s], PD[s], PDD[s], TH[s], THD[s], o4a, o4b, &o1a, &o1b",
+    "controller_step": "P[s], PD[s], PDD[s], PDDD[s], TH[s], THD[s], o4a, o4b, o4c, o4d, &o1a, &o1b",
     "qp_preload": "TP[s], TN[s], RP[s], RN[s], &o1a, o4a, &o1b, &o1c",
 }
 
@@ -51,8 +55,10 @@ _HARNESS = r"""/* timing harness of the rrr4 kernels: prints 'name ns_per_call f
 
 #define S __SAMPLES__
 #define REPEATS 5
-static double T[S], P[S][3], PD[S][3], PDD[S][3], TH[S][4], THD[S][4], TP[S][4], TN[S][4], RP[S][16], RN[S][16];
-static double o1a, o1b, o1c, o3a[3], o3b[3], o3c[3], o4a[4], o4b[4], o12[12], o16a[16], o16b[16];
+static double T[S], P[S][3], PD[S][3], PDD[S][3], PDDD[S][3], TH[S][4], THD[S][4], TP[S][4], TN[S][4], RP[S][16],
+  RN[S][16];
+static double o1a, o1b, o1c, o3a[3], o3b[3], o3c[3], o3d[3], o4a[4], o4b[4], o4c[4], o4d[4], o12[12], o16a[16],
+  o16b[16];
 volatile double sink;
 
 static double now(void) {
@@ -67,7 +73,7 @@ int main(int argc, char **argv) {
   for (s = 0; s < S; ++s) {
     double J[12], cos_arg[4];
     T[s] = RRR4_PATH_DURATION * (s + 0.5) / S;
-    rrr4_trajectory(T[s], P[s], PD[s], PDD[s]);
+    rrr4_trajectory(T[s], P[s], PD[s], PDD[s], PDDD[s]);
     rrr4_ik(P[s], TH[s], cos_arg);
     rrr4_jacobian(P[s], J, NULL);
     for (i = 0; i < 4; ++i) {
@@ -109,7 +115,8 @@ def _python_inputs(scene):
     args = {k: [] for k in KERNELS}
     for s in range(SAMPLES):
         t = scene.path.duration * (s + 0.5) / SAMPLES
-        motion = tuple(np.array(v).ravel() for v in traj(t))
+        *motion, jerk = (np.array(v).ravel() for v in traj(t))
+        motion = tuple(motion)
         theta = mech.ik(motion[0]) - 1e-3
         theta_d = mech.jacobian(motion[0]) @ motion[1]
         family = tuple(np.array(v) for v in inv(*motion))
@@ -118,7 +125,7 @@ def _python_inputs(scene):
         args["trajectory"].append((t,))
         for k in ("inverse_dynamics", "preload"):
             args[k].append(motion)
-        args["controller_step"].append((*motion, theta, theta_d))
+        args["controller_step"].append((*motion, jerk, theta, theta_d))
         for k in ("exact_preload", "qp_preload"):
             args[k].append(family)
     return args
@@ -148,6 +155,44 @@ def _machine() -> str:
     gcc = subprocess.run(["gcc", "--version"], capture_output=True, text=True).stdout.splitlines()[0]
     load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
     return f"{platform.system()} {platform.machine()}, {os.cpu_count()} cores, {cpu}; {gcc}; load average {load}"
+
+
+# The controller step of the scene under these settings, compared in one run: the exact preload
+# on its branch (the controller before the closed-form QP), the QP, and the QP with clearance
+# compensation.
+VARIANTS = {"exact, uncompensated": ("exact", "none"), "qp, uncompensated": ("qp", "none"),
+            "qp, compensated": ("qp", "clearance")}
+
+
+def compare_controllers(scene, flags, calls: int, rounds: int = 7) -> None:
+    """Instruction counts and C ns per call of the controller-step variants (:data:`VARIANTS`):
+    one harness per variant, run in turns, medians over `rounds`."""
+    from dataclasses import replace
+
+    from rrr4.control import controller_function
+    exes, instructions = {}, {}
+    with tempfile.TemporaryDirectory(prefix="rrr4-bench-") as tmp:
+        for i, (name, (method, comp)) in enumerate(VARIANTS.items()):
+            a = scene.actuation
+            sc = replace(scene, actuation=replace(a, compensation=comp, preload=replace(a.preload, method=method)))
+            instructions[name] = controller_function(sc).n_instructions()
+            src = Path(tmp) / f"v{i}"
+            codegen(sc, src)
+            (src / "main.c").unlink()
+            case = _CASE.replace("__NAME__", "controller_step").replace("__ARGS__", _HARNESS_ARGS["controller_step"])
+            (src / "bench.c").write_text(_HARNESS.replace("__SAMPLES__", str(SAMPLES)).replace("__CASES__", case))
+            exes[name] = build_example(src, src / "bench", flags=tuple(f for f in flags if f != "-Wall"))
+        ns = {k: [] for k in exes}
+        for _ in range(rounds):
+            for k, exe in exes.items():
+                out = subprocess.run([str(exe), str(calls)], capture_output=True, text=True, check=True).stdout
+                ns[k].append(float(out.split()[1]))
+    base = next(iter(VARIANTS))
+    print(f"\ncontroller step variants, C ns per call: median of {rounds} turns (each the best of 5 x {calls} calls)")
+    print(f"{'variant':<24}{'SX instructions':>16}{'C [ns]':>10}{'ratio to ' + base:>32}")
+    for k in VARIANTS:
+        med = float(np.median(ns[k]))
+        print(f"{k:<24}{instructions[k]:>16}{med:10.1f}{med / float(np.median(ns[base])):32.3f}")
 
 
 def main(argv=None) -> int:
@@ -188,6 +233,8 @@ def main(argv=None) -> int:
         print(f"{k:<18}{ns:12.1f}{py_ns[k]:25.0f}{py_ns[k] / ns:9.0f}{ext}{note}")
     target = {k: c_ns[k][0] <= 1000.0 for k in ("exact_preload", "preload", "controller_step")}
     print("target <= 1 us: " + ", ".join(f"{k} {'met' if ok else 'MISSED'}" for k, ok in target.items()))
+    if scene.clearance_joints and scene.mechanism is not None:
+        compare_controllers(scene, flags, args.calls)
     return 0
 
 

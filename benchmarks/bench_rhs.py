@@ -1,7 +1,8 @@
 """ns per right-hand side (RHS) of the simulation ODE, compiled, this tree against another.
 
-The ODE is the one the integrators step (:func:`rrr4.simulation._system` of the scene's
-equations and closed-form references: y' = f(t, y, z, u)). Each tree's ODE is built in
+The ODE is the one the integrators step (:func:`rrr4.simulation.scene_system`; in trees
+before the shared controller, the scene's equations with closed-form references and a
+given preload: y' = f(t, y, z, u)). Each tree's ODE is built in
 its own process from its own sources, saved, and loaded here; both are compiled with the
 same flags as the simulation's compiled stepping, inside a chain of K dependent calls
 (y <- y + 1e-9 f(t, y, z, u), a ``mapaccum``), so the loop runs in C and no input
@@ -12,9 +13,9 @@ ratio after / before is printed with the SX instruction counts and the machine.
 
 (make ../rrr4-old with ``git worktree add ../rrr4-old <commit>``). Without --before-tree,
 only this tree is timed. With --references, this tree's three right-hand sides are timed
-against each other instead: references evaluated in the RHS with the feed-forward (the
-default 'exact' simulation without a given preload), without it (a preload given), and
-'sampled' (interpolated, nothing evaluated).
+against each other instead: the continuous controller step evaluated in the RHS ('exact'),
+the feedback law on interpolated references ('sampled'), and the sampled controller's held
+efforts (a control rate: the RHS evaluates no controller at all).
 """
 
 from __future__ import annotations
@@ -36,10 +37,15 @@ BUILD = """
 import sys
 sys.path.insert(0, sys.argv[1])
 import rrr4
-from rrr4.dynamics.builder import build_equations
-from rrr4.simulation import _system, reference_function
 scene = rrr4.load_scene(sys.argv[2])
-_system(build_equations(scene), reference_function(scene, False)).ode.save(sys.argv[3])
+try:  # the controller in the loop (this tree)
+    from rrr4.simulation import scene_system
+    ode = scene_system(scene).ode
+except ImportError:  # trees before it: references in the right-hand side, preload given
+    from rrr4.dynamics.builder import build_equations
+    from rrr4.simulation import _system, reference_function
+    ode = _system(build_equations(scene), reference_function(scene, False)).ode
+ode.save(sys.argv[3])
 """
 
 
@@ -86,14 +92,16 @@ def main(argv=None) -> int:
     from rrr4.integrators.compiled import compiled
     scene = Path(args.scene).resolve()
     if args.references:
+        from dataclasses import replace
+
         import rrr4
-        from rrr4.dynamics.builder import build_equations
-        from rrr4.simulation import _system, reference_function
+        from rrr4.simulation import scene_system
         sc = rrr4.load_scene(scene)
-        eqs = build_equations(sc)
-        odes = {"exact, with feed-forward": _system(eqs, reference_function(sc, True)).ode,
-                "exact, preload given": _system(eqs, reference_function(sc, False)).ode,
-                "sampled": _system(eqs, None).ode}
+        cont = replace(sc, actuation=replace(sc.actuation, control_rate=None))
+        odes = {"exact (controller step in the RHS)": scene_system(cont, "exact").ode,
+                "sampled (feedback on interpolated references)": scene_system(cont, "sampled").ode,
+                "held (sampled controller, zero-order hold)": scene_system(replace(
+                    sc, actuation=replace(sc.actuation, control_rate=sc.actuation.control_rate or 1e4))).ode}
     else:
         with tempfile.TemporaryDirectory() as tmp:
             trees = {"after (this tree)": ROOT}

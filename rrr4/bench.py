@@ -25,6 +25,7 @@ import io
 import itertools
 import os
 import platform
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -63,8 +64,11 @@ def work_precision(scene: Scene, t_end: float | None = None, plan: dict | None =
 
     kind: 'step' (setting = the step taken [s]) or 'rtol'; status: 'ok', 'unstable' (error and
     time NaN) or 'cross-check' (the two checks of the reference, first in the list).
-    t_end [s] defaults to the path duration.
+    t_end [s] defaults to the path duration. The controller runs continuously (a sampled one
+    would cap every step at its period) with the preload tabulated once, so only the
+    integrators differ between runs.
     """
+    scene = replace(scene, actuation=replace(scene.actuation, control_rate=None))
     plan = DEFAULT_PLAN if plan is None else plan
     t_end = scene.path.duration if t_end is None else float(t_end)
     preload = _preload(scene)

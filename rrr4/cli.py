@@ -78,6 +78,24 @@ def _bench(args) -> int:
     return 0
 
 
+def _robustness(args) -> int:
+    from pathlib import Path
+
+    from tqdm import tqdm
+
+    from .mechanism import load_scene
+    from .robustness import write_robustness
+    from .scene import argument
+    if args.t_end is not None:
+        argument("--t-end", args.t_end)
+    scene = load_scene(args.scene)
+    out = Path(args.out) if args.out else Path("results") / scene.name
+    _check_writable(out)
+    for f in write_robustness(scene, out, t_end=args.t_end, log=lambda m: tqdm.write(f"rrr4 robustness: {m}")):
+        print(f)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="rrr4",
@@ -97,8 +115,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "or the one rrr4 solve_preload picks on the scene's path (auto, default)")
     g.set_defaults(func=_codegen)
     r = sub.add_parser("run", help="run the study of a scene: inverse dynamics, preload, clearance simulation "
-                                    "with and without preload (a driven scene: with clearance and with ideal "
-                                    "joints); writes figures, CSV, summary.json, report.md")
+                                    "with preload, with preload and compensation, and without preload (a driven "
+                                    "scene: with clearance and with ideal joints); writes figures, CSV, "
+                                    "summary.json, report.md")
     r.add_argument("scene", help="scene YAML file, e.g. problems/paper_circle.yaml")
     r.add_argument("--out", help="result directory (default results/<scene name>/); replaced atomically")
     r.add_argument("--t-end", type=float, default=None, help="simulated time [s] (default: the path duration)")
@@ -107,6 +126,13 @@ def build_parser() -> argparse.ArgumentParser:
     an.add_argument("result_dir", help="a result directory of rrr4 run, e.g. results/paper_circle")
     an.add_argument("--out", help="GIF file to write (default RESULT_DIR/motion.gif)")
     an.set_defaults(func=_animate)
+    rb = sub.add_parser("robustness", help="the preloaded controller, with and without clearance compensation, "
+                                           "keeping the nominal model while the mechanism differs (clearance, "
+                                           "stiffness, friction, a link length); writes robustness.json/.png")
+    rb.add_argument("scene", help="scene YAML file of an n-RRR scene, e.g. problems/paper_circle.yaml")
+    rb.add_argument("--out", help="directory (default results/<scene name>/); the two files are replaced atomically")
+    rb.add_argument("--t-end", type=float, default=None, help="simulated time [s] (default: the path duration)")
+    rb.set_defaults(func=_robustness)
     b = sub.add_parser("bench", help="what accuracy costs in time")
     bsub = b.add_subparsers(dest="bench", metavar="BENCH", required=True)
     a = bsub.add_parser("accuracy", help="work-precision diagram (error vs CPU time per integrator) and CSV")

@@ -30,7 +30,8 @@ from pathlib import Path
 
 import casadi as ca
 
-from .dynamics.inverse import actuator_motion_function, inverse_dynamics_function
+from .control import controller_function, has_preload, preload_sign
+from .dynamics.inverse import inverse_dynamics_function
 from .errors import SceneError
 from .files import BuildError, atomic_directory, run_c_compiler
 from .mechanism import Mechanism
@@ -39,7 +40,7 @@ from .preload.qp import qp_preload_function
 from .scene import Scene
 from .trajectory import trajectory_function
 
-__all__ = ["codegen", "kernels", "controller_step_function", "preload_branch", "compile_library", "build_example",
+__all__ = ["codegen", "kernels", "generated_controller", "preload_branch", "compile_library", "build_example",
            "load_library", "KERNELS", "BuildError"]
 
 RAW = "rrr4_raw"  # stem of CasADi's generated .c/.h and prefix of its symbols
@@ -56,6 +57,10 @@ _IO_DOC = {
     "pose_des": "desired platform pose [x, y, theta_o] [m, m, rad]",
     "pose_d_des": "desired platform velocity [m/s, m/s, rad/s]",
     "pose_dd_des": "desired platform acceleration [m/s^2, m/s^2, rad/s^2]",
+    "pose_ddd_des": "desired platform jerk [m/s^3, m/s^3, rad/s^3]",
+    "pose_ddd": "platform jerk [m/s^3, m/s^3, rad/s^3]",
+    "theta_ref": "actuator angle references [rad] (compensated for the journal seats if the scene says so)",
+    "theta_d_ref": "actuator rate references [rad/s]",
     "theta": "actuator angles [rad]",
     "theta_d": "actuator rates [rad/s]",
     "cos_arg": "argument of acos per chain [-]; the pose is reachable iff all |cos_arg| <= 1",
@@ -68,7 +73,8 @@ _IO_DOC = {
     "r_n": "reactions per unit alpha at B1..B4, C1..C4 [N/(N m)]",
     "alpha": "preload along the null space [N m]",
     "tau": "actuator torques [N m]",
-    "tau_ff": "feed-forward torques (inverse dynamics + exact preload), before PD and clipping [N m]",
+    "tau_ff": "feed-forward torques (inverse dynamics + preload (+ friction compensation)), before PD and "
+              "clipping [N m]",
     "feasible": "[-] 1.0 if every passive joint carries >= min_force within the torque limits, else 0.0",
     "margin": "min_j |r_j| - min_force [N]",
 }
@@ -84,9 +90,11 @@ _KERNEL_DOC = {
                      "|r_j| >= min_force at all passive joints and |tau_i| <= limit_i, with alpha on the branch "
                      "RRR4_PRELOAD_BRANCH (closed form, no iterations).",
     "preload": "Exact preload law for a desired motion: inverse_dynamics followed by exact_preload.",
-    "controller_step": "One controller step: tau = clip(tau_ff + kp (theta_ref - theta) + kd (theta_d_ref - "
-                       "theta_d), +-limit) with theta_ref = ik(pose_des), theta_d_ref = J pose_d_des and the "
-                       "angle error wrapped to [-pi, pi).",
+    "controller_step": "One controller step, the one rrr4.simulate runs: tau = clip(tau_ff + kp (theta_ref - "
+                       "theta) + kd (theta_d_ref - theta_d), +-limit), the angle error wrapped to [-pi, pi); tau_ff "
+                       "= inverse dynamics + the scene's preload (RRR4_PRELOAD_METHOD on RRR4_PRELOAD_SIGN); "
+                       "theta_ref = ik(pose_des), or with RRR4_COMPENSATION clearance the IK closed around the "
+                       "predicted journal seats, plus the torques that overcome their friction.",
     "qp_preload": "Preload as a QP (qrqp active set, no allocation): fixed-sign axial force >= min_force in "
                   "every following link, torque limits, least weighted effort. Returns non-zero, with the "
                   "outputs undefined, when qrqp stops without a solution (an infeasible QP).",
@@ -116,35 +124,6 @@ def _renamed(f: ca.Function, name: str, fixed: dict | None = None) -> ca.Functio
 
 
 @functools.cache
-def controller_step_function(scene: Scene, branch: int = 1) -> ca.Function:
-    """SX Function 'controller_step': pose_des (3), pose_d_des (3), pose_dd_des (3),
-    theta (4) [rad], theta_d (4) [rad/s] -> tau (4) [N m], tau_ff (4) [N m], alpha [N m],
-    feasible (1.0/0.0).
-
-    tau_ff = inverse-dynamics feed-forward + exact preload at the desired motion, on the
-    preload branch `branch` (+1: alpha >= 0, -1: alpha <= 0, 0: global optimum, which may
-    jump between the two and so reverse every bearing force);
-    tau = clip(tau_ff + kp e + kd e_d, +-torque_limit) with e = ik(pose_des) - theta wrapped to [-pi, pi)
-    and e_d = J(pose_des) pose_d_des - theta_d (gains ``actuation.kp``, ``actuation.kd``).
-    """
-    mech = Mechanism.from_scene(scene)
-    n = mech.n
-    pose, pose_d, pose_dd = (ca.SX.sym(s, 3) for s in ("pose_des", "pose_d_des", "pose_dd_des"))
-    theta, theta_d = ca.SX.sym("theta", n), ca.SX.sym("theta_d", n)
-    alpha, tau_ff, feasible, _ = exact_preload_function(scene, branch=branch)(
-        *inverse_dynamics_function(scene)(pose, pose_d, pose_dd))
-    # theta_ref from the driving-link directions the inverse dynamics computes anyway
-    u_ref, theta_d_ref = actuator_motion_function(scene)(pose, pose_d)
-    d = ca.atan2(u_ref[1, :], u_ref[0, :]).T - theta
-    e = d - 2 * ca.pi * ca.floor((d + ca.pi) / (2 * ca.pi))  # wrapped to [-pi, pi)
-    lim = ca.DM(scene.actuation.torque_limit)
-    tau = ca.fmin(ca.fmax(tau_ff + scene.actuation.kp * e + scene.actuation.kd * (theta_d_ref - theta_d), -lim), lim)
-    return ca.Function("controller_step", [pose, pose_d, pose_dd, theta, theta_d], [tau, tau_ff, alpha, feasible],
-                       ["pose_des", "pose_d_des", "pose_dd_des", "theta", "theta_d"],
-                       ["tau", "tau_ff", "alpha", "feasible"])
-
-
-@functools.cache
 def kernels(scene: Scene, branch: int = 1) -> tuple[Kernel, ...]:
     """The generated kernels of a 4-RRR scene, in :data:`KERNELS` order (built once, cached);
     the exact preload (in exact_preload, preload and controller_step) on `branch` (+1, -1, 0)."""
@@ -168,7 +147,7 @@ def kernels(scene: Scene, branch: int = 1) -> tuple[Kernel, ...]:
         "inverse_dynamics": (inv, None),
         "exact_preload": (exact, None),
         "preload": (preload, None),
-        "controller_step": (controller_step_function(scene, branch), None),
+        "controller_step": (controller_function(scene), None),
         "qp_preload": (qp_preload_function(scene, "qrqp"), None),
     }
     return tuple(Kernel(k, _renamed(sources[k][0], f"{RAW}_{k}", sources[k][1]), _KERNEL_DOC[k]) for k in KERNELS)
@@ -241,6 +220,13 @@ extern "C" {{
 /* Branch of the exact preload: +1 alpha >= 0, -1 alpha <= 0, 0 global optimum per call
  * (which may jump between +-alpha and reverse every bearing force). */
 #define RRR4_PRELOAD_BRANCH {branch}
+/* The controller step's preload: method (none, exact or qp) and its fixed sign (+1 / -1:
+ * the exact branch or the QP's axial-force sign); clearance compensation (none or
+ * clearance); the rate it was designed to run at [Hz] (0: continuous in the simulation). */
+#define RRR4_PRELOAD_METHOD "{a.preload.method if has_preload(scene) else 'none'}"
+#define RRR4_PRELOAD_SIGN {preload_sign(scene)}
+#define RRR4_COMPENSATION "{a.compensation}"
+#define RRR4_CONTROL_RATE {a.control_rate or 0.0!r}
 #define RRR4_PATH_DURATION {scene.path.duration!r} /* duration of rrr4_trajectory's path [s] */
 
 /* Torque limit of each actuator [N m]; torques are clipped to +-limit. */
@@ -300,13 +286,13 @@ static void print_row(const char *tag, double t, const double *v, int n, const d
 }}
 
 int main(void) {{
-  double pose[3], pose_d[3], pose_dd[3];
+  double pose[3], pose_d[3], pose_dd[3], pose_ddd[3];
   double theta_ref[4], cos_arg[4], J[12], n[4];
   double theta[4], theta_d[4], tau[4], tau_ff[4], extra[2];
   int k, i, j;
 
   /* kinematics at the start of the path: theta (4), then J column-major (12), then n (4) */
-  if (rrr4_trajectory(0.0, pose, pose_d, pose_dd) || rrr4_ik(pose, theta_ref, cos_arg) ||
+  if (rrr4_trajectory(0.0, pose, pose_d, pose_dd, pose_ddd) || rrr4_ik(pose, theta_ref, cos_arg) ||
       rrr4_jacobian(pose, J, NULL) || rrr4_null_space(pose, n)) return 1;
   for (i = 0; i < RRR4_N_ACTUATORS; ++i) {{
     if (cos_arg[i] < -1.0 || cos_arg[i] > 1.0) {{
@@ -320,7 +306,7 @@ int main(void) {{
   printf("# t [s], tau [N m] (4), alpha [N m], feasible\\n");
   for (k = 0; k <= STEPS; ++k) {{
     double t = RRR4_PATH_DURATION * k / STEPS;
-    rrr4_trajectory(t, pose, pose_d, pose_dd);
+    rrr4_trajectory(t, pose, pose_d, pose_dd, pose_ddd);
     /* stand-in for the encoders: reference angles with a fixed lag, rates J pose_d */
     rrr4_ik(pose, theta_ref, cos_arg);
     rrr4_jacobian(pose, J, NULL);
@@ -329,7 +315,8 @@ int main(void) {{
       theta_d[i] = 0.0;
       for (j = 0; j < 3; ++j) theta_d[i] += J[i + 4 * j] * pose_d[j];
     }}
-    if (rrr4_controller_step(pose, pose_d, pose_dd, theta, theta_d, tau, tau_ff, &extra[0], &extra[1])) return 1;
+    if (rrr4_controller_step(pose, pose_d, pose_dd, pose_ddd, theta, theta_d, tau, tau_ff, NULL, NULL, &extra[0],
+                             &extra[1])) return 1;
     if (extra[1] == 0.0) printf("# t = %g s: preload infeasible, best effort\\n", t);
     if (k % PRINT_EVERY == 0) print_row("step", t, tau, 4, extra, 2);
   }}
@@ -373,12 +360,11 @@ def _out_dir(out_dir) -> Path:
 
 
 def preload_branch(scene: Scene, branch="auto") -> int:
-    """The exact-preload branch as +1 (alpha >= 0), -1 (alpha <= 0) or 0 (global optimum per
-    instant). 'auto' is the branch that :func:`rrr4.solve_preload` picks on the scene's path
-    (feasible at more samples, ties -> less effort)."""
+    """The exact-preload branch of the exact_preload and preload kernels as +1 (alpha >= 0),
+    -1 (alpha <= 0) or 0 (global optimum per instant). 'auto' is the controller's own sign
+    (:func:`rrr4.control.preload_sign`; +1 without a preload)."""
     if branch == "auto":
-        from .preload.solve import solve_preload
-        return int(solve_preload(scene, "exact", branch="auto").statistics["branch"])
+        return preload_sign(scene) or 1
     if branch in (0, 1, -1) and not isinstance(branch, bool):
         return int(branch)
     raise SceneError(f"branch: {branch!r} is not allowed (choose one of: auto, 1, -1, 0)")
@@ -390,8 +376,10 @@ def codegen(scene: Scene, out_dir, branch="auto") -> list[Path]:
     Files: rrr4_raw.c, rrr4_raw.h (CasADi), rrr4.h, rrr4.c (wrappers), main.c, Makefile.
     The directory is written atomically (:func:`rrr4.files.atomic_directory`): out_dir must
     be new, empty or an earlier codegen output (holds rrr4.h), which is replaced whole, so an
-    interrupted run leaves the earlier files intact. branch: the exact-preload branch
-    (:func:`preload_branch`); a fixed one keeps the torques continuous along a path.
+    interrupted run leaves the earlier files intact. branch: the exact_preload and preload
+    kernels' branch (:func:`preload_branch`); a fixed one keeps the torques continuous along a
+    path. The controller step is the one :func:`rrr4.simulate` runs, with the scene's preload
+    sign (:func:`rrr4.control.preload_sign`).
     """
     branch = preload_branch(scene, branch)
     ks = kernels(scene, branch)
@@ -429,6 +417,36 @@ def build_example(src_dir, exe_path, flags=("-O2", "-Wall", "-Werror")) -> Path:
     run_c_compiler([*flags, *sorted(p.name for p in src.glob("*.c")), "-lm", "-o", str(exe)], src,
                    warnings_are_errors=True)
     return exe
+
+
+_GENERATED: dict[str, tuple[ca.Function, Path]] = {}
+
+
+def generated_controller(scene: Scene) -> tuple[ca.Function, Path]:
+    """The scene's controller step as :func:`codegen` writes it, compiled with the C compiler
+    and loaded with ``casadi.external`` ('rrr4_raw_controller_step', same inputs and outputs
+    as :func:`rrr4.control.controller_function`), and the path of its C source. Cached on disk
+    (``rrr4.integrators.compiled.cache_dir()``) by the hash of the generated C."""
+    import hashlib
+    import shutil
+    import tempfile
+
+    from .integrators.compiled import cache_dir
+    root = cache_dir()
+    with tempfile.TemporaryDirectory(dir=root) as tmp:
+        src = Path(tmp) / "src"
+        codegen(scene, src)
+        key = hashlib.sha256((src / f"{RAW}.c").read_bytes() + (src / f"{WRAPPER}.c").read_bytes()).hexdigest()[:24]
+        if key in _GENERATED:
+            return _GENERATED[key]
+        final = root / f"controller_{key}"
+        lib = final / f"lib{WRAPPER}.so"
+        if not lib.exists():
+            compile_library(src, src / lib.name)
+            shutil.rmtree(final, ignore_errors=True)
+            os.replace(src, final)  # atomic: never a half-built cache entry
+    _GENERATED[key] = (ca.external(f"{RAW}_controller_step", str(lib)), final / f"{RAW}.c")
+    return _GENERATED[key]
 
 
 def load_library(lib_path, names=KERNELS) -> dict[str, ca.Function]:

@@ -39,7 +39,7 @@ GROUND = "ground"
 
 def choices(what: str) -> tuple[str, ...]:
     """The allowed names of a registry, read from the registry itself: 'contact law',
-    'friction law', 'integrator', 'preload method' or 'qp solver'. Imported when a scene is
+    'friction law', 'integrator', 'preload method', 'compensation' or 'qp solver'. Imported when a scene is
     parsed (the registries' modules import this one)."""
     if what == "contact law":
         from .contact.normal import NORMAL_LAWS
@@ -52,7 +52,10 @@ def choices(what: str) -> tuple[str, ...]:
         return tuple(METHODS)
     if what == "preload method":
         from .preload.solve import PRELOAD_METHODS
-        return tuple(PRELOAD_METHODS)
+        return ("none", *PRELOAD_METHODS)
+    if what == "compensation":
+        from .control import COMPENSATIONS
+        return COMPENSATIONS
     if what == "qp solver":
         from .preload.qp import QP_OPTIONS
         return tuple(QP_OPTIONS)
@@ -260,6 +263,8 @@ class Actuation:
     preload: PreloadSettings
     kp: float  # [N m/rad]
     kd: float  # [N m s/rad]
+    control_rate: float | None = None  # [Hz] sampled controller (zero-order hold); None: continuous
+    compensation: str = "none"         # 'clearance': references closed around the predicted journal seats
 
 
 @dataclass(frozen=True)
@@ -889,8 +894,11 @@ def _actuation(sec: _Section, n: int, graph: Graph | None = None) -> Actuation:
     kp = gains.number("kp", 200.0, nonneg=True)
     kd = gains.number("kd", 5.0, nonneg=True)
     gains.done()
+    rate = sec.number("control_rate", positive=True) if sec.raw("control_rate") is not None else None
+    compensation = sec.choice("compensation", choices("compensation"), "none")
     sec.done()
-    return Actuation(mode, limits, PreloadSettings(method, fmin, weights, qp, smooth, turn), kp, kd)
+    return Actuation(mode, limits, PreloadSettings(method, fmin, weights, qp, smooth, turn), kp, kd, rate,
+                     compensation)
 
 
 def _path(sec: _Section, task: bool = True) -> PathSpec:

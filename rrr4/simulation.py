@@ -4,15 +4,19 @@ The scene decides the equations (:func:`rrr4.dynamics.builder.build_equations`);
 module feeds them with references, picks the integrator, rolls it inside compiled CasADi
 and collects the results.
 
-References in the 'torque' and 'prescribed' modes: theta_ref(t), theta_d_ref, theta_dd_ref
-come from the scene's path. An n-RRR scene evaluates them through the closed-form IK,
-inside the graph; any other graph with a task body solves its IK by Newton on the output
-frames and the right-hand side interpolates them (cubic Hermite in theta and theta_d).
-tau_ref is the ideal inverse-dynamics feed-forward tau_p(t) (minimum norm, no preload),
-unless a ``preload`` solution (anything with ``t`` (N,) [s] and ``tau`` (N, n) [N m],
-e.g. a PreloadSolution) is given; then tau_ref is that torque, linear between its samples.
-In the 'free' mode the actuators carry no torque. A graph without a task body moves by its
-drivers (prescribed joint coordinates, constraint rows in time).
+Torque mode: the efforts are the scene's controller's (:mod:`rrr4.control`: feed-forward,
+preload, compensation, PD), run continuously inside the right-hand side or sampled at
+``actuation.control_rate`` with a zero-order hold (then the right-hand side only takes the
+held efforts). An n-RRR scene runs its closed-form controller step (in CasADi, or its
+generated C in the loop); any other graph with a task body tabulates the controller's
+references on the path samples and runs the same feedback law on them, interpolated
+(cubic Hermite). A ``preload`` override (anything with ``t`` (N,) [s] and ``tau`` (N, n),
+e.g. a PreloadSolution) replaces the controller's feed-forward.
+
+Prescribed mode: theta_ref(t), theta_d_ref, theta_dd_ref from the path's IK (closed form for
+an n-RRR, inside the graph; Newton and interpolation for other graphs). In the 'free' mode
+the actuators carry no effort. A graph without a task body moves by its drivers
+(prescribed joint coordinates, constraint rows in time).
 """
 
 from __future__ import annotations
@@ -27,18 +31,28 @@ import casadi as ca
 import numpy as np
 from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
+from .control import (
+    CONTROLLERS,
+    GraphReferences,
+    controller_function,
+    feedback_function,
+    graph_references,
+    has_preload,
+    pointwise_controller,
+)
 from .dynamics.builder import Equations, build_equations, graph_size
 from .dynamics.energy import energy_audit_residual, energy_terms
 from .errors import SceneError, SimulationError
 from .files import c_compiler
 from .integrators import METHODS, FixedStepIntegrator, System
 from .mechanism import Mechanism, Model
-from .scene import MAX_SAMPLES, Scene, argument, describe, unknown_value
+from .scene import MAX_SAMPLES, PathSpec, Scene, argument, describe, unknown_value
 from .trajectory import trajectory_function
 
-__all__ = ["Simulation", "simulate", "OVERRIDES", "default_jit"]
+__all__ = ["Simulation", "simulate", "scene_system", "OVERRIDES", "default_jit"]
 
-OVERRIDES = ("step", "output_rate", "preload", "v_min", "baumgarte", "jit", "progress", "references")
+OVERRIDES = ("step", "output_rate", "preload", "v_min", "baumgarte", "jit", "progress", "references", "controller",
+             "model")
 MAX_STEPS = 1e10  # integrator steps one simulate call may take
 
 
@@ -89,42 +103,24 @@ class Simulation:
         return model.body_poses(self.q, name)
 
 
-def reference_function(scene: Scene, feed_forward: bool) -> ca.Function:
-    """SX Function 'references': t [s] -> pose_ref (3), theta_ref (n) [rad], theta_d_ref,
-    theta_dd_ref, tau_ff (n) [N m] (ideal inverse dynamics tau_p, or 0 without feed-forward).
-    Built once per mechanism, gravity and path (not per integrator or initial state)."""
+def reference_function(scene: Scene) -> ca.Function:
+    """SX Function 'references' of an n-RRR scene: t [s] -> pose_ref (3), theta_ref (n) [rad],
+    theta_d_ref, theta_dd_ref (the closed-form IK of the path, for the prescribed mode).
+    Built once per mechanism and path (not per integrator or initial state)."""
     return _reference_function(replace(scene, name="", description="", source="", integrator=None, initial=None,
-                                       actuation=None), feed_forward)
+                                       actuation=None))
 
 
 @functools.lru_cache(maxsize=16)
-def _reference_function(scene: Scene, feed_forward: bool) -> ca.Function:
+def _reference_function(scene: Scene) -> ca.Function:
     mech = Mechanism.from_scene(scene)
     t = ca.SX.sym("t")
-    pose, pose_d, pose_dd = trajectory_function(scene.path)(t)
+    pose = trajectory_function(scene.path)(t)[0]
     theta = mech.ik_function(pose, ca.DM(mech.modes))[0]
     theta_d = ca.jacobian(theta, t)
     theta_dd = ca.jacobian(theta_d, t)
-    if feed_forward:
-        from .dynamics.inverse import inverse_dynamics_function
-        tau_ff = inverse_dynamics_function(scene)(pose, pose_d, pose_dd)[0]
-    else:
-        tau_ff = ca.SX.zeros(mech.n)
-    return ca.Function("references", [t], [pose, theta, theta_d, theta_dd, tau_ff],
-                       ["t"], ["pose_ref", "theta_ref", "theta_d_ref", "theta_dd_ref", "tau_ff"])
-
-
-def _system(eqs: Equations, refs: ca.Function | None) -> System:
-    """The ODE y = [q, qd, W_in, D_damping, D_friction] with discrete z = [delta_dot0,
-    in_contact, losses] (nc each) and frame input u = [t_a, t_b, tau_a (n), tau_b (n)]
-    (given efforts, linear in t), followed, for sampled references (refs None), by theta,
-    theta_d, theta_dd, the feed-forward tau_ff and its rate at both frame ends (n each;
-    cubic Hermite in theta, theta_d and tau_ff). Built once per (equations, references) pair
-    and kept by the equations (the entry holds the references, so its id stays unique)."""
-    key = id(refs)
-    if key not in eqs.systems:
-        eqs.systems[key] = (refs, _build_system(eqs, refs))
-    return eqs.systems[key][1]
+    return ca.Function("references", [t], [pose, theta, theta_d, theta_dd],
+                       ["t"], ["pose_ref", "theta_ref", "theta_d_ref", "theta_dd_ref"])
 
 
 def _hermite(s, h, a, b, da, db):
@@ -133,94 +129,90 @@ def _hermite(s, h, a, b, da, db):
     return (2 * s3 - 3 * s2 + 1) * a + (s3 - 2 * s2 + s) * h * da + (3 * s2 - 2 * s3) * b + (s3 - s2) * h * db
 
 
-def _build_system(eqs: Equations, refs: ca.Function | None) -> System:
+REFERENCES = ("exact", "sampled")  # where the right-hand side gets its references (see simulate)
+
+
+@dataclass(frozen=True)
+class _Loop:
+    """How the efforts enter the right-hand side.
+
+    kind: 'exact' (the controller step, or the prescribed-mode IK, is evaluated inside the
+    right-hand side at the path's time; frame input u = [t_a, t_b]); 'sampled' (the
+    references are interpolated between the frame ends, cubic Hermite, and the feedback law
+    runs inside the right-hand side; u = [t_a, t_b] + 10 n end values); 'held' (a sampled
+    controller with zero-order hold: it runs once per frame = control period, u_frame =
+    [t_a, t_b, references at t_a], and the right-hand side takes the held efforts).
+    control: the controller step (pointwise: pose and its derivatives -> efforts), the
+    feedback law (tabulated references), or None (free and prescribed modes).
+    """
+    kind: str
+    control: ca.Function | None
+    pointwise: bool
+    path: PathSpec | None = None  # the path a pointwise controller follows inside the right-hand side
+    sources: tuple = ()
+
+
+def _measured(model: Model, q, qd):
+    """Actuator coordinates theta (n,) and rates theta_d = S qd of a state (symbolic)."""
+    theta, S = model.actuator_coordinates_function(q)
+    return theta, S @ qd
+
+
+def _system(eqs: Equations, loop: _Loop, refs: ca.Function | None) -> System:
+    """The ODE y = [q, qd, W_in, D_damping, D_friction] with discrete z = [delta_dot0,
+    in_contact, losses] (nc each) and the frame inputs of `loop` (see :class:`_Loop`).
+    refs: the prescribed mode's closed-form references (or None). Built once per (equations,
+    loop, references) and kept by the equations (the entry holds them, so its key stays unique)."""
+    key = (loop.kind, id(loop.control), loop.path if loop.kind == "exact" else None, id(refs))
+    if key not in eqs.systems:
+        eqs.systems[key] = (loop, refs, _build_system(eqs, loop, refs))
+    return eqs.systems[key][2]
+
+
+def _build_system(eqs: Equations, loop: _Loop, refs: ca.Function | None) -> System:
+    model = Model.of(eqs.scene.graph)
     nq, n, nc = eqs.nq, eqs.n_actuators, len(eqs.clearance_joints)
     t, y, z = ca.SX.sym("t"), ca.SX.sym("y", 2 * nq + 3), ca.SX.sym("z", 3 * nc)
-    u = ca.SX.sym("u", 2 + 2 * n + (0 if refs is not None else 10 * n))
+    width = {"exact": 0, "sampled": 10 * n, "held": n}[loop.kind]
+    u = ca.SX.sym("u", 2 + width)
     q, qd = y[:nq], y[nq:2 * nq]
     dd0, inc, losses = z[:nc], z[nc:2 * nc], z[2 * nc:]
-    h = ca.fmax(u[1] - u[0], 1e-300)
-    s = ca.fmin(ca.fmax((t - u[0]) / h, 0.0), 1.0)
-    tau_ref = (1 - s) * u[2:2 + n] + s * u[2 + n:2 + 2 * n]
-    if refs is not None:
-        _, th, th_d, th_dd, tau_ff = refs(t)
-        tau_ref = tau_ref + tau_ff
-    else:
+    zeros = ca.SX.zeros(n)
+    th, th_d, th_dd, effort = zeros, zeros, zeros, zeros
+    if loop.kind == "held":
+        effort = u[2:2 + n]
+    elif loop.kind == "sampled":
+        h = ca.fmax(u[1] - u[0], 1e-300)
+        s = ca.fmin(ca.fmax((t - u[0]) / h, 0.0), 1.0)
         th_a, th_b, thd_a, thd_b, thdd_a, thdd_b, ff_a, ff_b, ffd_a, ffd_b = (
-            u[2 + n * k:2 + n * (k + 1)] for k in range(2, 12))
+            u[2 + n * k:2 + n * (k + 1)] for k in range(10))
         th = _hermite(s, h, th_a, th_b, thd_a, thd_b)
         th_d = _hermite(s, h, thd_a, thd_b, thdd_a, thdd_b)
         th_dd = (1 - s) * thdd_a + s * thdd_b
-        tau_ref = tau_ref + _hermite(s, h, ff_a, ff_b, ffd_a, ffd_b)
-    out = eqs.acceleration(q=q, qd=qd, tau_ref=tau_ref, theta_ref=th, theta_d_ref=th_d, theta_dd_ref=th_dd,
+        if eqs.mode == "torque":
+            effort = loop.control(th, th_d, _hermite(s, h, ff_a, ff_b, ffd_a, ffd_b), *_measured(model, q, qd))
+    elif eqs.mode == "torque":  # exact: the controller step at the path's time
+        effort = loop.control(*trajectory_function(loop.path)(t), *_measured(model, q, qd))[0]
+    elif refs is not None:
+        _, th, th_d, th_dd = refs(t)
+    out = eqs.acceleration(q=q, qd=qd, effort=effort, theta_ref=th, theta_d_ref=th_d, theta_dd_ref=th_dd,
                            delta_dot0=dd0, in_contact=inc, t=t)
     ydot = ca.vertcat(qd, out["qdd"], out["power_in"], out["power_damping"], out["power_friction"])
     ode = ca.Function("ode", [t, y, z, u], [ydot], ["t", "y", "z", "u"], ["y_dot"])
     dd0n, incn, loss = eqs.contact_update(q, qd, dd0, inc)
     disc = ca.Function("discrete", [t, y, z], [ca.vertcat(dd0n, incn, losses + loss)], ["t", "y", "z"], ["z_next"])
-    return System(ode, disc)
-
-
-@dataclass(frozen=True)
-class _References:
-    """References on the output frames (N,): task pose (N, 3) (zeros without a task),
-    actuator theta, theta_d, theta_dd (N, n) and the feed-forward effort (N, n); `function`
-    is the closed-form n-RRR reference Function evaluated inside the right-hand side, or
-    None when the frame samples are interpolated (cubic Hermite) instead; tau_ff_d (N, n):
-    the rate of tau_ff from its cubic spline through the frames (sampled references only)."""
-    pose: np.ndarray
-    theta: np.ndarray
-    theta_d: np.ndarray
-    theta_dd: np.ndarray
-    tau_ff: np.ndarray
-    function: ca.Function | None
-    tau_ff_d: np.ndarray | None = None
-
-
-REFERENCES = ("exact", "sampled")  # where the right-hand side gets its references (see simulate)
-
-
-def _references(scene: Scene, mech: Mechanism, t_frames: np.ndarray, feed_forward: bool,
-                mode: str = "exact") -> _References:
-    N, n = len(t_frames), mech.n
-    if scene.mechanism is not None and mode == "exact":
-        f = reference_function(scene, feed_forward)
-        pose, th, th_d, th_dd, tau_ff = (np.array(v).T for v in f.map(N)(t_frames[None, :]))
-        return _References(pose, th, th_d, th_dd, tau_ff, f)
-    if scene.graph.task is None:
-        z = np.zeros((N, n))
-        return _References(np.zeros((N, 3)), z, z, z, z, None, z)
-    traj = trajectory_function(scene.path)
-    pose = np.array(traj.map(N)(t_frames[None, :])[0]).T
-    # the references on the path's sample grid (or the frames, if coarser): closed form for an
-    # n-RRR, Newton IK and the effort family for any other graph; cubic Hermite / spline
-    # interpolation to the frames (error ~ h^4, far below 1e-9 at 1 kHz)
-    t_end = float(t_frames[-1])
-    n_s = max(int(round(t_end * scene.path.sample_rate)), 1) + 1
-    t_s = t_frames if N <= n_s else np.linspace(0.0, t_end, n_s)
-    if scene.mechanism is not None:
-        f = reference_function(scene, feed_forward)
-        _, th, th_d, th_dd, tau_ff = (np.array(v).T for v in f.map(len(t_s))(t_s[None, :]))
-    else:
-        p_s, pd_s, pdd_s = (np.array(v).T for v in traj.map(len(t_s))(t_s[None, :]))
-        k = mech.n_task
-        q = mech.path_coordinates(p_s[:, :k])
-        _, qdd, th_d, th_dd = mech.motion(q, pd_s[:, :k], pdd_s[:, :k])
-        th = np.array(mech.model.actuator_coordinates_function.map(len(t_s))(q.T)[0]).T
-        tau_ff = np.zeros((len(t_s), n))
-        if feed_forward:
-            from .dynamics.family import graph_family
-            tau_ff = graph_family(mech, q, qdd, scene.effects.gravity).tau_p
-    if len(t_s) < 3:
-        return _References(pose, th, th_d, th_dd, tau_ff, None, np.zeros_like(tau_ff))
-    ff = CubicSpline(t_s, tau_ff, axis=0)
-    if t_s is t_frames:
-        return _References(pose, th, th_d, th_dd, tau_ff, None, ff(t_frames, 1))
-    return _References(pose, CubicHermiteSpline(t_s, th, th_d, axis=0)(t_frames),
-                       CubicHermiteSpline(t_s, th_d, th_dd, axis=0)(t_frames),
-                       CubicSpline(t_s, th_dd, axis=0)(t_frames), ff(t_frames), None, ff(t_frames, 1))
-
-
+    control = None
+    if loop.kind == "held":
+        ym, uf = ca.MX.sym("y", y.shape[0]), ca.MX.sym("u_frame", 2 + loop.control.size1_in(0) * (
+            4 if loop.pointwise else 3))
+        meas = _measured(model, ym[:nq], ym[nq:2 * nq])
+        r = uf[2:]
+        k = loop.control.size1_in(0)
+        args = [r[i * k:(i + 1) * k] for i in range(4 if loop.pointwise else 3)]
+        eff = loop.control(*args, *meas)
+        eff = eff[0] if isinstance(eff, (list, tuple)) else eff
+        control = ca.Function("control", [ym, uf], [ca.vertcat(uf[:2], eff)], ["y", "u_frame"], ["u"])
+    return System(ode, disc, control, loop.sources)
 _NO_COMPILER_WARNED = False
 
 
@@ -271,19 +263,103 @@ def _seated_offsets(scene: Scene, eqs: Equations, mech: Mechanism, q0, qd0, qdd0
     return out
 
 
+def _tabulated(scene: Scene, t: np.ndarray, given) -> GraphReferences:
+    """The controller's references on the grid t (N,) [s]: the closed-form controller's own
+    outputs where it has one (an n-RRR without a given preload), else
+    :func:`rrr4.control.graph_references` (Newton IK, the effort family, the preload)."""
+    if given is None and not pointwise_controller(scene):
+        f = controller_function(scene)
+        rows = _path_rows(scene, t)
+        n = f.size1_in(4)
+        out = f.map(len(t))(*(rows[:, 3 * k:3 * k + 3].T for k in range(4)), np.zeros((n, len(t))),
+                            np.zeros((n, len(t))))
+        _, ff, th, th_d, alpha, _ = (np.array(v).T for v in out)
+        th_dd = CubicSpline(t, th_d, axis=0)(t, 1) if len(t) > 2 else np.zeros_like(th_d)
+        return GraphReferences(t, rows[:, :3], th, th_d, th_dd, ff, alpha.reshape(len(t), -1))
+    return graph_references(scene, t, given)
+
+
+def _path_rows(scene: Scene, t: np.ndarray) -> np.ndarray:
+    """(N, 12) [pose, pose_d, pose_dd, pose_ddd] of the path at the times t (N,)."""
+    out = trajectory_function(scene.path).map(len(t))(np.asarray(t, float)[None, :])
+    return np.vstack([np.array(v) for v in out]).T
+
+
+def _loop(scene: Scene, eqs: Equations, controller: str, references: str, given) -> _Loop:
+    """How this run's efforts are made (see :class:`_Loop`) by the controller of `scene` (the
+    controller's model); raises SceneError for a combination that does not exist (a
+    generated controller without a closed form or rate)."""
+    held = eqs.mode == "torque" and scene.actuation.control_rate is not None
+    if eqs.mode != "torque":
+        kind = "sampled" if references == "sampled" or (scene.mechanism is None and scene.graph.task) else "exact"
+        return _Loop(kind, None, False, scene.path)
+    why = pointwise_controller(scene) or ("a feed-forward is given (preload=)" if given is not None else "") or (
+        "references='sampled' tabulates the references" if references == "sampled" and not held else "")
+    if controller == "generated":
+        if why:
+            raise SceneError(f"controller: 'generated' is not allowed here ({why}; the generated C is the "
+                             "closed-form controller step of an n-RRR scene)")
+        if not held:
+            raise SceneError("controller: 'generated' is not allowed without actuation.control_rate (the generated "
+                             "controller runs as a sampled controller with zero-order hold: set a rate in Hz)")
+        from .codegen import generated_controller
+        step, source = generated_controller(scene)
+        return _Loop("held", step, True, None, (source,))
+    if why:
+        return _Loop("held" if held else "sampled", feedback_function(scene), False, None)
+    return _Loop("held" if held else "exact", controller_function(scene), True, scene.path if not held else None)
+
+
+def scene_system(scene: Scene, references: str = "exact", controller: str = "python") -> System:
+    """The ODE System :func:`simulate` steps for `scene` (torque mode: its controller
+    continuous or held, see :class:`_Loop`), e.g. to time its right-hand side."""
+    eqs = build_equations(scene)
+    loop = _loop(scene, eqs, controller, references, None)
+    refs = reference_function(scene) if eqs.mode == "prescribed" and scene.mechanism is not None else None
+    return _system(eqs, loop, refs if loop.kind == "exact" else None)
+
+
+def _frames(scene: Scene, t_end: float, rate: float, held: bool) -> tuple[int, int]:
+    """(number of frames, frames per output): frames are the output intervals, or the
+    control periods of a sampled controller (then every m-th frame is an output)."""
+    if not held:
+        return max(int(round(t_end * rate)), 1), 1
+    c = scene.actuation.control_rate
+    n = int(round(t_end * c))
+    if n < 1 or abs(n - t_end * c) > 1e-6 * max(1.0, t_end * c):
+        raise SceneError(f"actuation.control_rate: {c:g} Hz is not allowed with t_end {t_end:g} s (the run must be "
+                         "a whole number of control periods)")
+    m = max(int(round(c / rate)), 1)
+    while n % m:
+        m -= 1
+    return n, m
+
+
 def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overrides) -> Simulation:
     """Simulate `scene` from the path's start pose; journals centred, or seated under
     their initial load when the scene says ``initial.journals: seated``.
 
+    In torque mode the actuators get what the scene's controller (:mod:`rrr4.control`)
+    commands: inverse-dynamics feed-forward, the preload of ``actuation.preload`` and the
+    clearance compensation of ``actuation.compensation``, with PD feedback on the measured
+    actuator coordinates; continuously, or sampled at ``actuation.control_rate`` with a
+    zero-order hold.
+
     integrator: None (the scene's integrator.method), a name from
     :data:`rrr4.integrators.METHODS`, or an integrator instance. t_end [s] defaults to the
     path duration. overrides: step [s] (rounded so a whole number of steps fits one output
-    interval), output_rate [Hz] (default: path.sample_rate), preload (object with t, tau),
-    v_min [m/s], baumgarte [rad/s], jit (step in compiled C; default: yes when a C compiler
-    exists and RRR4_JIT is not 0, see :func:`default_jit`), progress (bar), references:
-    'exact' (default; an n-RRR evaluates its closed-form IK and feed-forward inside every
-    right-hand side) or 'sampled' (evaluated once per path sample and interpolated, cubic
-    Hermite; what a graph scene with a task always does).
+    interval or control period), output_rate [Hz] (default: path.sample_rate; with a sampled
+    controller, at most its rate), controller: 'python' (default; the controller step in
+    CasADi) or 'generated' (the C that :func:`rrr4.codegen` writes, compiled with the C
+    compiler and called through ``casadi.external``; needs a control rate), preload (object
+    with t, tau, e.g. a PreloadSolution: the feed-forward efforts instead of the controller's
+    own), model (a Scene: the controller's model of the simulated mechanism, default the scene
+    itself; e.g. nominal parameters against a mechanism built with tolerances), v_min [m/s],
+    baumgarte [rad/s], jit (step in compiled C; default: yes when a C
+    compiler exists and RRR4_JIT is not 0, see :func:`default_jit`), progress (bar),
+    references: 'exact' (default; a continuous n-RRR controller runs its closed form inside
+    every right-hand side) or 'sampled' (references evaluated once per path sample and
+    interpolated, cubic Hermite; what a graph scene with a task always does).
     """
     bad = sorted(set(overrides) - set(OVERRIDES))
     if bad:
@@ -292,43 +368,77 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     rate = scene.path.sample_rate if overrides.get("output_rate") is None else argument("output_rate",
                                                                                           overrides["output_rate"])
     h_req = scene.integrator.step if overrides.get("step") is None else argument("step", overrides["step"])
-    n_frames = max(int(round(t_end * rate)), 1)
-    if n_frames > MAX_SAMPLES or t_end / h_req > MAX_STEPS:
+    if t_end * rate > MAX_SAMPLES or t_end / h_req > MAX_STEPS:
         raise SceneError(f"t_end: {t_end:g} s is not allowed at output rate {rate:g} Hz and step {h_req:g} s "
                          f"(at most {MAX_SAMPLES:g} output frames and {MAX_STEPS:g} steps)")
-    preload = overrides.get("preload")
-    if preload is not None and not (hasattr(preload, "t") and hasattr(preload, "tau")):
-        raise SceneError(f"preload: {describe(preload)} is not allowed (a PreloadSolution from rrr4.solve_preload, or "
+    given = overrides.get("preload")
+    if given is not None and not (hasattr(given, "t") and hasattr(given, "tau")):
+        raise SceneError(f"preload: {describe(given)} is not allowed (a PreloadSolution from rrr4.solve_preload, or "
                          "an object with t (N,) [s] and tau (N, n))")
+    controller = overrides.get("controller") or "python"
+    if controller not in CONTROLLERS:
+        raise unknown_value("controller", "value", controller, CONTROLLERS)
+    mode = overrides.get("references") or "exact"
+    if mode not in REFERENCES:
+        raise unknown_value("references", "value", mode, REFERENCES)
     kw = {k: overrides[k] for k in ("v_min", "baumgarte") if k in overrides}
     eqs = build_equations(scene, **kw)
     jit = overrides.get("jit")
     method = _integrator(scene, integrator, default_jit() if jit is None else bool(jit))
     mech = Mechanism.from_scene(scene)
-    n, nc = mech.n, len(eqs.clearance_joints)
-
-    dt_out = t_end / n_frames
-    spf = max(int(round(dt_out / h_req)), 1)
-    h = dt_out / spf
-    t_frames = np.linspace(0.0, t_end, n_frames + 1)
-
-    feed_forward = eqs.mode == "torque" and preload is None
-    mode = overrides.get("references") or "exact"
-    if mode not in REFERENCES:
-        raise unknown_value("references", "value", mode, REFERENCES)
-    ref = _references(scene, mech, t_frames, feed_forward, mode)
-    tab = np.zeros((n_frames + 1, n))
-    if preload is not None and eqs.mode == "torque":
-        pt, ptau = np.asarray(preload.t, float), np.asarray(preload.tau, float)
-        tab = np.column_stack([np.interp(t_frames, pt, ptau[:, i]) for i in range(n)])
-    ends = [tab]
-    if ref.function is None:
-        ends = [tab, ref.theta, ref.theta_d, ref.theta_dd, ref.tau_ff, ref.tau_ff_d]
-    u = np.column_stack([t_frames[:-1], t_frames[1:]] + [v for e in ends for v in (e[:-1], e[1:])])
-
     model = mech.model
+    n, nc = mech.n, len(eqs.clearance_joints)
+    model_scene = overrides.get("model") or scene
+    if not isinstance(model_scene, Scene) or (Model.of(model_scene.graph).actuator_names != model.actuator_names):
+        raise SceneError(f"model: {describe(model_scene)} is not allowed (a Scene of the same mechanism, with the "
+                         "same actuators: the controller's model of the simulated one)")
+    loop = _loop(model_scene, eqs, controller, mode, given)
+    held = loop.kind == "held"
+
+    n_frames, every = _frames(model_scene, t_end, rate, held)
+    dt = t_end / n_frames
+    spf = max(int(round(dt / h_req)), 1)
+    h = dt / spf
+    t_grid = np.linspace(0.0, t_end, n_frames + 1)  # frame ends
+    t_out = t_grid[::every]
+
+    # frame inputs
+    refs = None
+    u_ends = [t_grid[:-1], t_grid[1:]]
+    tab = None
+    if loop.kind == "sampled" or (loop.kind == "held" and not loop.pointwise):
+        # references on the path's sample grid (or the frames, if coarser), interpolated to
+        # the frames: cubic Hermite in theta (with theta_d), theta_d (with theta_dd) and the
+        # feed-forward (with its spline rate); error ~ h^4, far below 1e-9 at 1 kHz
+        n_s = max(int(round(t_end * scene.path.sample_rate)), 2) + 1
+        t_s = t_grid if len(t_grid) <= n_s else np.linspace(0.0, t_end, n_s)
+        if eqs.mode == "torque":
+            tab = _tabulated(model_scene, t_s, given)
+            th, th_d, th_dd, ff = tab.theta_ref, tab.theta_d_ref, tab.theta_dd_ref, tab.tau_ff
+        elif scene.mechanism is not None:
+            th, th_d, th_dd = (np.array(v).T for v in reference_function(scene).map(len(t_s))(t_s[None, :])[1:])
+            ff = np.zeros_like(th)
+        else:
+            g = graph_references(scene, t_s)
+            th, th_d, th_dd, ff = g.theta_ref, g.theta_d_ref, g.theta_dd_ref, np.zeros_like(g.theta_ref)
+        ffs = CubicSpline(t_s, ff, axis=0) if len(t_s) > 2 else None
+        at = {"th": CubicHermiteSpline(t_s, th, th_d, axis=0)(t_grid),
+              "thd": CubicHermiteSpline(t_s, th_d, th_dd, axis=0)(t_grid),
+              "thdd": CubicSpline(t_s, th_dd, axis=0)(t_grid) if ffs else th_dd,
+              "ff": ffs(t_grid) if ffs else ff, "ffd": ffs(t_grid, 1) if ffs else np.zeros_like(ff)}
+        if held:
+            u_ends += [at["th"][:-1], at["thd"][:-1], at["ff"][:-1]]
+        else:
+            u_ends += [v for key in ("th", "thd", "thdd", "ff", "ffd") for v in (at[key][:-1], at[key][1:])]
+    elif held:  # pointwise controller: the path and its derivatives at each control instant
+        u_ends.append(_path_rows(scene, t_grid[:-1]))
+    elif eqs.mode == "prescribed" and scene.mechanism is not None:
+        refs = reference_function(scene)
+    u = np.column_stack(u_ends)
+
+    # initial state
     if model.task is not None:
-        pose0, pose_d0, pose_dd0 = (np.array(v).ravel() for v in trajectory_function(scene.path)(0.0))
+        pose0, pose_d0, pose_dd0 = (np.array(v).ravel() for v in trajectory_function(scene.path)(0.0)[:3])
         k = mech.n_task
         target, target_d, target_dd = (pose0[:k], (pose_d0 + np.asarray(scene.initial.platform_velocity))[:k],
                                        pose_dd0[:k])
@@ -343,7 +453,9 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
         qd0, qdd0, _, _ = (v.ravel() for v in mech.motion(q0, target_d, target_dd))
     seated = np.zeros(nc)
     if scene.initial.journals == "seated" and nc and (eqs.mode != "free" or scene.graph.drivers):
-        offsets = _seated_offsets(scene, eqs, mech, q0, qd0, qdd0, tab[0] + ref.tau_ff[0])
+        tau0 = _controller_efforts(model_scene, loop, model, np.array([0.0]), q0[None, :], qd0[None, :], tab)[0] if (
+            eqs.mode == "torque") else np.zeros(n)
+        offsets = _seated_offsets(scene, eqs, mech, q0, qd0, qdd0, tau0)
         if scene.mechanism is not None:  # closed form; eccentricities of all passive joints
             ecc = np.zeros((len(scene.joints), 2))
             ecc[[[j.name for j in scene.joints].index(c) for c in eqs.clearance_joints]] = offsets
@@ -353,12 +465,11 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
         seated = np.any(offsets != 0, axis=1).astype(float)
     x0 = np.r_[0.0, q0, qd0, 0.0, 0.0, 0.0, np.full(nc, eqs.v_min), seated, np.zeros(nc)]
 
-    system = _system(eqs, ref.function)
+    system = _system(eqs, loop, refs)
     wall = time.perf_counter()
     run = method.run(system, x0, u, h, spf, progress=bool(overrides.get("progress", False)))
-    X = run.states
     wall = time.perf_counter() - wall
-    X = np.vstack([x0, X])
+    X = np.vstack([x0, run.states])[::every]
     nq = eqs.nq
     q, qd = X[:, 1:1 + nq], X[:, 1 + nq:1 + 2 * nq]
     W, Dd, Df = X[:, 1 + 2 * nq], X[:, 2 + 2 * nq], X[:, 3 + 2 * nq]
@@ -366,13 +477,25 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     if not np.all(np.isfinite(X)):
         k = int(np.argmax(~np.all(np.isfinite(X), axis=1)))
         raise SimulationError(f"integrator.step: {h:g} s lets the state blow up (non-finite by t = "
-                              f"{t_frames[k]:.6g} s) with {method.name}; use a smaller step")
+                              f"{t_out[k]:.6g} s) with {method.name}; use a smaller step")
 
-    N = len(t_frames)
-    tau_ref = (ref.tau_ff + tab).T
+    N = len(t_out)
+    pose_ref = _path_rows(scene, t_out)[:, :3] if model.task is not None else np.zeros((N, 3))
+    effort = np.zeros((N, n))
+    th = th_d = th_dd = np.zeros((N, n))
+    if eqs.mode == "torque":
+        effort = _controller_efforts(model_scene, loop, model, t_out, q, qd, tab)
+    elif eqs.mode == "prescribed" and model.task is not None:
+        if refs is not None:
+            th, th_d, th_dd = (np.array(v).T for v in refs.map(N)(t_out[None, :])[1:])
+        else:
+            th, th_d, th_dd = (np.array(u[:, 2 + n * k:2 + n * (k + 1)]) for k in (0, 2, 4))
+            th, th_d, th_dd = (np.vstack([v, last]) for v, last in
+                               zip((th, th_d, th_dd), (at["th"][-1:], at["thd"][-1:], at["thdd"][-1:]), strict=True))
+            th, th_d, th_dd = th[::every], th_d[::every], th_dd[::every]
     acc = eqs.acceleration.map(N)
-    out = acc(q=q.T, qd=qd.T, tau_ref=tau_ref, theta_ref=ref.theta.T, theta_d_ref=ref.theta_d.T,
-              theta_dd_ref=ref.theta_dd.T, delta_dot0=z[:, :nc].T, in_contact=z[:, nc:2 * nc].T, t=t_frames[None, :])
+    out = acc(q=q.T, qd=qd.T, effort=effort.T, theta_ref=th.T, theta_d_ref=th_d.T, theta_dd_ref=th_dd.T,
+              delta_dot0=z[:, :nc].T, in_contact=z[:, nc:2 * nc].T, t=t_out[None, :])
     k = len(eqs.passive_ideal_joints)
 
     def per_joint(a, rows):
@@ -382,14 +505,18 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     losses = {j.name: 0 for j in scene.joints}
     losses.update({j: int(round(v)) for j, v in zip(eqs.clearance_joints, z[-1, 2 * nc:], strict=True)})
     energy = energy_terms(eqs.energy, q, qd, W, Dd, Df)
-    stats = {"method": method.name, "step": h, "steps": spf * n_frames, "frames": n_frames, "wall_time": wall,
+    stats = {"method": method.name, "step": h, "steps": spf * n_frames, "frames": N - 1, "wall_time": wall,
              "jit": method.jit, "graph": {f.name(): graph_size(f) for f in (eqs.acceleration, system.ode)},
-             "preload": "given" if preload is not None else ("feed-forward only" if feed_forward else "none")}
+             "controller": (controller if loop.control is not None else "none"),
+             "control_rate": model_scene.actuation.control_rate if held else None, "references": loop.kind,
+             "preload": "given" if given is not None else (model_scene.actuation.preload.method if has_preload(
+                 model_scene) and eqs.mode == "torque" else "none"),
+             "compensation": model_scene.actuation.compensation if eqs.mode == "torque" else "none"}
     stats.update(run.stats)
     return Simulation(
         scene=scene, clearance_joints=eqs.clearance_joints, ideal_passive_joints=eqs.passive_ideal_joints,
-        terms=eqs.terms, t=t_frames, q=q, qd=qd, qdd=np.array(out["qdd"]).T, pose=pose, pose_ref=ref.pose,
-        platform_error=np.linalg.norm(pose[:, :2] - ref.pose[:, :2], axis=1),
+        terms=eqs.terms, t=t_out, q=q, qd=qd, qdd=np.array(out["qdd"]).T, pose=pose, pose_ref=pose_ref,
+        platform_error=np.linalg.norm(pose[:, :2] - pose_ref[:, :2], axis=1),
         tau=np.array(out["tau"]).T,
         contact_force=per_joint(out["contact_force"], 2) if nc else np.zeros((N, 0, 2)),
         normal_force=per_joint(out["normal_force"], 1) if nc else np.zeros((N, 0)),
@@ -399,3 +526,22 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
         driver_effort=np.array(out["driver_effort"]).T.reshape(N, -1),
         contact_loss_events=losses, energy=energy, energy_audit_residual=energy_audit_residual(energy),
         stats=stats)
+
+
+def _controller_efforts(scene: Scene, loop: _Loop, model: Model, t: np.ndarray, q: np.ndarray, qd: np.ndarray,
+                        tab: GraphReferences | None) -> np.ndarray:
+    """(N, n) efforts the controller commands at the states (q, qd) (N, nq) at times t (N,):
+    what it held over the control period starting there, or what it applied there."""
+    N = len(t)
+    qs, qds = ca.SX.sym("q", q.shape[1]), ca.SX.sym("qd", q.shape[1])
+    meas = ca.Function("measured", [qs, qds], list(_measured(model, qs, qds)))
+    th, th_d = (np.array(v) for v in meas.map(N)(q.T, qd.T))
+    if loop.pointwise:
+        rows = _path_rows(scene, t)
+        out = loop.control.map(N)(*(rows[:, 3 * k:3 * k + 3].T for k in range(4)), th, th_d)
+    else:
+        refs = [np.column_stack([np.interp(t, tab.t, v[:, i]) for i in range(v.shape[1])]).T
+                for v in (tab.theta_ref, tab.theta_d_ref, tab.tau_ff)]
+        out = loop.control.map(N)(*refs, th, th_d)
+    out = out[0] if isinstance(out, (list, tuple)) else out
+    return np.array(out).T

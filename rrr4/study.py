@@ -1,17 +1,23 @@
 """The reference study of a scene: does a preload keep every clearance joint in contact,
 and what does it buy in accuracy?
 
-Pipeline (DESIGN section 1.4): scene -> inverse dynamics of the ideal mechanism along the
-path -> preload torques with the scene's ``actuation.preload.method`` -> the clearance
-simulation (:func:`rrr4.simulate`) twice, with the same PD controller:
+Pipeline (DESIGN sections 1.4 and 7): scene -> inverse dynamics of the ideal mechanism
+along the path -> the preload with the scene's ``actuation.preload.method`` (its
+feasibility report) -> the clearance simulation (:func:`rrr4.simulate`) of the scene's
+controller (:mod:`rrr4.control`) in up to three arms:
 
-- ``with_preload``: feed-forward = the preload torques tau_p + alpha n;
-- ``without_preload``: feed-forward = the minimum-norm torques tau_p (alpha = 0).
+- ``with_preload``: the controller with its preload, no compensation;
+- ``with_preload_compensated``: the same with ``actuation.compensation: clearance``
+  (references closed around the predicted journal seats, friction moments fed forward);
+- ``without_preload``: the same controller without preload (``method: none``: the
+  minimum-norm torques tau_p, alpha = 0).
 
-The "with preload" arm exists only when the mechanism has actuation redundancy (4 chains)
-and ``actuation.preload.min_force`` > 0: a fully actuated 3-RRR has no null space (its
-inverse dynamics has a single solution), and f_min = 0 makes the minimum-norm torques
-optimal, so both arms would be the same run.
+The preloaded arms exist only when the controller preloads (actuation redundancy,
+``actuation.preload.min_force`` > 0 and a method other than none): a fully actuated 3-RRR
+has no null space, and f_min = 0 makes the minimum-norm torques optimal. The compensated
+arm needs clearance joints. Where the scene's controller is sampled (``actuation.control_rate``)
+and has a closed form, the preloaded arms run its generated C in the loop (when a C compiler
+exists), the other arm the same step in CasADi.
 
 A scene without a task body (a driven mechanism such as Flores's slider-crank) has no
 preload question; its study compares the mechanism with its clearance joints against its
@@ -23,7 +29,9 @@ ideal twin (every joint ideal), driven alike:
   converged in the step (kept in ``Study.refinement``, not drawn as an arm).
 
 The simulations write every integrator step (output rate = 1/step), so the contact state
-of every step is in the result and loss events can be located in time.
+of every step is in the result and loss events can be located in time; with a sampled
+controller they write every control period (the frames the controller holds its efforts
+over), so losses are located to a period and counted by the integrator itself.
 """
 
 from __future__ import annotations
@@ -34,18 +42,19 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .control import has_preload, pointwise_controller
 from .dynamics.family import effort_family
 from .errors import SceneError
-from .mechanism import Model
 from .preload import PreloadSolution, solve_preload
 from .preload.solve import PreloadWarning
 from .scene import MAX_SAMPLES, Scene, argument
 from .simulation import Simulation, simulate
 from .trajectory import sample_path
 
-__all__ = ["Study", "StudyArm", "run_study", "has_preload_arm", "ARMS", "PRELOAD_ARMS", "DRIVEN_ARMS"]
+__all__ = ["Study", "StudyArm", "run_study", "has_preload_arm", "arm_scene", "study_controller", "ARMS",
+           "PRELOAD_ARMS", "DRIVEN_ARMS"]
 
-PRELOAD_ARMS = ("with_preload", "without_preload")   # scenes with a task body
+PRELOAD_ARMS = ("with_preload", "with_preload_compensated", "without_preload")   # scenes with a task body
 DRIVEN_ARMS = ("with_clearance", "ideal")             # scenes moved by drivers
 ARMS = PRELOAD_ARMS + DRIVEN_ARMS
 
@@ -79,8 +88,30 @@ class Study:
 
 
 def has_preload_arm(scene: Scene) -> bool:
-    """True if the study of `scene` has a "with preload" arm (actuation redundancy and f_min > 0)."""
-    return Model.of(scene.graph).redundancy >= 1 and scene.actuation.preload.min_force > 0
+    """True if the study of `scene` has a "with preload" arm (its controller preloads)."""
+    return has_preload(scene)
+
+
+def arm_scene(scene: Scene, arm: str) -> Scene:
+    """The scene an arm of the study simulates (see the module docstring)."""
+    a = scene.actuation
+    if arm == "with_preload":
+        return replace(scene, actuation=replace(a, compensation="none"))
+    if arm == "with_preload_compensated":
+        return replace(scene, actuation=replace(a, compensation="clearance"))
+    if arm == "without_preload":
+        return replace(scene, actuation=replace(a, compensation="none", preload=replace(a.preload, method="none")))
+    if arm == "ideal":
+        return ideal_twin(scene)
+    return scene
+
+
+def study_controller(scene: Scene) -> str:
+    """'generated' where the scene's sampled controller has a closed form and a C compiler
+    exists, else 'python'."""
+    from .files import c_compiler
+    ok = scene.actuation.control_rate is not None and not pointwise_controller(scene) and c_compiler() is not None
+    return "generated" if ok and scene.actuation.mode == "torque" else "python"
 
 
 def _min_norm_torques(scene: Scene, t_path: np.ndarray) -> np.ndarray:
@@ -125,10 +156,12 @@ def run_study(scene: Scene, *, t_end: float | None = None, step: float | None = 
         if preload_warning:
             say(f"preload is infeasible at {int(np.sum(~preload.feasible))} samples; simulated anyway")
 
-    def arm(name, sc, pl=None, step=h):
-        say(f"simulate {name.replace('_', ' ')}: {t_end:g} s, step {step:g} s")
+    def arm(name, sc, step=h, controller="python"):
+        say(f"simulate {name.replace('_', ' ')}: {t_end:g} s, step {step:g} s"
+            + (", generated controller in the loop" if controller == "generated" else ""))
         wall = time.perf_counter()
-        sim = simulate(sc, integrator, t_end=t_end, step=step, output_rate=1.0 / step, preload=pl, progress=progress)
+        sim = simulate(sc, integrator, t_end=t_end, step=step, output_rate=1.0 / step, progress=progress,
+                       controller=controller)
         return StudyArm(name, sim, time.perf_counter() - wall)
 
     arms, refinement = {}, None
@@ -138,8 +171,11 @@ def run_study(scene: Scene, *, t_end: float | None = None, step: float | None = 
         if scene.clearance_joints:
             refinement = arm("with_clearance (half step)", scene, step=h / 2)
     else:
-        if preload is not None:
-            arms["with_preload"] = arm("with_preload", scene, preload)
-        arms["without_preload"] = arm("without_preload", scene)
+        names = (("with_preload", "with_preload_compensated") if preload is not None and scene.clearance_joints
+                 else ("with_preload",) if preload is not None else ())
+        for name in names:
+            sc = arm_scene(scene, name)
+            arms[name] = arm(name, sc, controller=study_controller(sc))
+        arms["without_preload"] = arm("without_preload", arm_scene(scene, "without_preload"))
     return Study(scene=scene, t_path=t_path, tau_min_norm=tau_min_norm, preload=preload,
                  preload_warning=preload_warning, arms=arms, t_end=t_end, step=h, refinement=refinement)

@@ -59,21 +59,28 @@ def test_all_ideal_scene_has_no_contact_code(paper_scene):
     assert {ca.OP_FMAX, ca.OP_IF_ELSE_ZERO} <= _ops(partial.acceleration)
 
 
-def test_free_actuators_ignore_torque_inputs_and_torque_mode_uses_them(paper_scene):
+def test_each_mode_depends_on_its_own_inputs(paper_scene):
+    """free: no effort, no references; torque: the controller's efforts only (the controller,
+    not the equations, holds the references); prescribed: the references only."""
     free = build_equations(load_scene(CONSERVATIVE)).acceleration
     torque = build_equations(paper_scene).acceleration
-    for name in ("tau_ref", "theta_ref", "theta_d_ref"):
+    prescribed = build_equations(_with(paper_scene, mode="prescribed")).acceleration
+    refs = ("theta_ref", "theta_d_ref", "theta_dd_ref")
+    for name in ("effort", *refs):
         assert not any(free.which_depends(name, ["qdd"], 1, False))
-        assert all(torque.which_depends(name, ["qdd"], 1, False))
+    assert all(torque.which_depends("effort", ["qdd"], 1, False))
+    assert not any(prescribed.which_depends("effort", ["qdd"], 1, False))
+    for name in refs:
+        assert not any(torque.which_depends(name, ["qdd"], 1, False))
+        assert any(prescribed.which_depends(name, ["qdd"], 1, False))
 
 
-def test_torque_is_clipped_at_the_actuator_limit(paper_scene):
-    eqs = build_equations(paper_scene)
-    mech = Mechanism.from_scene(paper_scene)
-    q, qd, _ = mech.body_motion([0.0, 0.0, 0.0])
-    tau = np.array(eqs.acceleration(q=q, qd=qd, tau_ref=[100.0, -100.0, 1.0, 0.0], theta_ref=mech.ik([0, 0, 0]),
-                                    theta_d_ref=np.zeros(4), theta_dd_ref=np.zeros(4), delta_dot0=np.ones(8),
-                                    in_contact=np.zeros(8))["tau"]).ravel()
+def test_feedback_clips_at_the_actuator_limit_and_wraps_the_angle_error(paper_scene):
+    from rrr4.control import feedback_function
+    f = feedback_function(paper_scene)
+    th = np.array([0.1, 0.2, 0.3, 0.4])
+    tau = np.array(f(th + 2 * np.pi * np.array([1, -1, 0, 2]), np.zeros(4), [100.0, -100.0, 1.0, 0.0], th,
+                     np.zeros(4))).ravel()
     np.testing.assert_allclose(tau, [5.0, -5.0, 1.0, 0.0], atol=1e-9)
 
 
@@ -86,7 +93,7 @@ def test_index1_form_satisfies_the_residual_form(paper_scene, mode, clearance):
     rng = np.random.default_rng(3)
     q, qd, _ = mech.body_motion([0.01, 0.005, 0.05], [0.1, -0.2, 0.5])
     q = q + rng.normal(0, 3e-5, q.shape)
-    args = dict(tau_ref=rng.normal(0, 1, 4), theta_ref=mech.ik([0.01, 0.005, 0.05]) + 1e-3,
+    args = dict(effort=rng.normal(0, 1, 4), theta_ref=mech.ik([0.01, 0.005, 0.05]) + 1e-3,
                 theta_d_ref=rng.normal(0, 1, 4), theta_dd_ref=rng.normal(0, 1, 4),
                 delta_dot0=np.full(len(clearance), 0.1), in_contact=np.ones(len(clearance)))
     out = eqs.acceleration(q=q, qd=qd, **args)
@@ -144,29 +151,34 @@ def test_changing_only_the_integrator_or_path_rate_does_not_rebuild_the_equation
                                 path=dataclasses.replace(paper_scene.path, sample_rate=500.0))
     assert build_equations(other) is a
     simulate(other, t_end=2e-3)
-    assert any(k[2] == 2e-5 for _, system in a.systems.values() for k in system.frames)
+    assert any(k[2] == 2e-5 for *_, system in a.systems.values() for k in system.frames)
     assert build_equations(_with(paper_scene, friction="none")) is not a
 
 
 def test_sampled_references_interpolate_the_exact_ones_and_cut_the_right_hand_side(paper_scene):
-    """references='sampled': IK and feed-forward once per 1 kHz path sample, cubic Hermite in
-    the right-hand side. Against the closed form at 20 kHz over the whole path: theta within
-    1e-10 rad, tau_ff within 1e-8 N m; the motion with the same preload within 1e-9 m; the ODE
-    smaller."""
-    import warnings
+    """references='sampled': the controller's references (IK, feed-forward with preload) once
+    per 1 kHz path sample, cubic Hermite in the right-hand side. Against the closed-form
+    controller at 20 kHz over the whole path: theta_ref within 1e-10 rad, tau_ff within
+    1e-8 N m at most instants (the QP preload's active-set switches are kinks a cubic
+    cannot follow: there up to 2e-3 N m); the motion of the continuous controller within
+    1e-9 m; the ODE smaller."""
+    from dataclasses import replace
 
-    from rrr4 import solve_preload
-    from rrr4.simulation import _references, reference_function
-    f = reference_function(paper_scene, True)
-    t = np.linspace(0.0, paper_scene.path.duration, 20001)
-    _, th, _, _, tau = (np.array(v).T for v in f.map(len(t))(t[None, :]))
-    ref = _references(paper_scene, Mechanism.from_scene(paper_scene), t, True, "sampled")
-    assert np.max(np.abs(ref.theta - th)) < 1e-10 and np.max(np.abs(ref.tau_ff - tau)) < 1e-8
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        pre = solve_preload(paper_scene)
-    a = simulate(paper_scene, t_end=0.1, preload=pre)
-    b = simulate(paper_scene, t_end=0.1, preload=pre, references="sampled")
+    from rrr4.control import controller_function
+    from rrr4.simulation import _path_rows, _tabulated
+    scene = replace(paper_scene, actuation=replace(paper_scene.actuation, control_rate=None))
+    f = controller_function(scene)
+    t = np.linspace(0.0, scene.path.duration, 20001)
+    rows = _path_rows(scene, t)
+    z = np.zeros((4, len(t)))
+    _, tau, th, _, _, _ = (np.array(v).T for v in f.map(len(t))(*(rows[:, 3 * k:3 * k + 3].T for k in range(4)), z, z))
+    tab = _tabulated(scene, np.linspace(0.0, scene.path.duration, 1001), None)
+    from scipy.interpolate import CubicHermiteSpline, CubicSpline
+    assert np.max(np.abs(CubicHermiteSpline(tab.t, tab.theta_ref, tab.theta_d_ref, axis=0)(t) - th)) < 1e-10
+    err = np.max(np.abs(CubicSpline(tab.t, tab.tau_ff, axis=0)(t) - tau), axis=1)
+    assert np.median(err) < 1e-8 and np.max(err) < 2e-3
+    a = simulate(scene, t_end=0.1)
+    b = simulate(scene, t_end=0.1, references="sampled")
     assert np.max(np.abs(a.pose - b.pose)) < 1e-9
     assert b.stats["graph"]["ode"]["instructions"] < a.stats["graph"]["ode"]["instructions"]
     with pytest.raises(SceneError, match="references: unknown value 'sampeld'"):

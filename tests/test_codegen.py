@@ -16,10 +16,10 @@ from rrr4.codegen import (
     build_example,
     codegen,
     compile_library,
-    controller_step_function,
     load_library,
     preload_branch,
 )
+from rrr4.control import controller_function
 from rrr4.dynamics.inverse import inverse_dynamics_function
 from rrr4.preload.exact import exact_preload_function
 from rrr4.preload.qp import qp_preload_function
@@ -61,7 +61,8 @@ def _motions(rng, k):
     pose = np.vstack([rng.uniform(-0.05, 0.05, (2, k)), rng.uniform(-0.25, 0.25, (1, k))])
     pose_d = rng.normal(size=(3, k)) * np.array([[0.3], [0.3], [1.0]])
     pose_dd = rng.normal(size=(3, k)) * np.array([[3.0], [3.0], [10.0]])
-    return pose, pose_d, pose_dd
+    pose_ddd = rng.normal(size=(3, k)) * np.array([[30.0], [30.0], [100.0]])
+    return pose, pose_d, pose_dd, pose_ddd
 
 
 def _outputs(f, *args):
@@ -110,12 +111,12 @@ def test_every_compiled_kernel_matches_python_on_random_inputs(built, paper_scen
         "inverse_dynamics": inv,
         "exact_preload": exact,
         "preload": lambda p, pd, pdd: exact(*inv(p, pd, pdd)),
-        "controller_step": controller_step_function(paper_scene, branch),
+        "controller_step": controller_function(paper_scene),
         "qp_preload": qp_preload_function(paper_scene, "qrqp"),
     }
     assert set(cases) == set(KERNELS)
     compiled = load_library(built["lib"])
-    pose, pose_d, pose_dd = _motions(rng, N_RANDOM)
+    pose, pose_d, pose_dd, pose_ddd = _motions(rng, N_RANDOM)
     times = np.linspace(-0.1, paper_scene.path.duration + 0.1, N_RANDOM)
     qp_failures = 0
     for k in range(N_RANDOM):
@@ -126,7 +127,8 @@ def test_every_compiled_kernel_matches_python_on_random_inputs(built, paper_scen
         args = {
             "ik": motion[:1], "jacobian": motion[:1], "null_space": motion[:1], "trajectory": (times[k],),
             "inverse_dynamics": motion, "exact_preload": family, "preload": motion,
-            "controller_step": (*motion, theta, rng.normal(scale=0.5, size=4)), "qp_preload": family,
+            "controller_step": (*motion, pose_ddd[:, k], theta, rng.normal(scale=0.5, size=4)),
+            "qp_preload": family,
         }
         for name, reference in cases.items():
             want = _outputs(reference, *args[name])
@@ -150,7 +152,7 @@ def test_example_prints_what_the_python_controller_computes(built, example_outpu
             tag, *vals = line.split()
             rows.setdefault(tag, []).append(np.array(vals, dtype=float))
     mech = Mechanism.from_scene(paper_scene)
-    traj, step = trajectory_function(paper_scene.path), controller_step_function(paper_scene, built["branch"])
+    traj, step = trajectory_function(paper_scene.path), controller_function(paper_scene)
 
     kin = rows["kinematics"][0]
     pose0 = np.array(traj(0.0)[0]).ravel()
@@ -161,10 +163,10 @@ def test_example_prints_what_the_python_controller_computes(built, example_outpu
     steps = rows["step"]
     assert len(steps) == 11 and steps[-1][0] == pytest.approx(paper_scene.path.duration)
     for row in steps:
-        pose, pose_d, pose_dd = (np.array(v).ravel() for v in traj(row[0]))
+        pose, pose_d, pose_dd, pose_ddd = (np.array(v).ravel() for v in traj(row[0]))
         theta = mech.ik(pose) - EXAMPLE_ANGLE_OFFSET * np.arange(1, 5)
         theta_d = mech.jacobian(pose) @ pose_d
-        tau, _, alpha, feasible = _outputs(step, pose, pose_d, pose_dd, theta, theta_d)
+        tau, _, _, _, alpha, feasible = _outputs(step, pose, pose_d, pose_dd, pose_ddd, theta, theta_d)
         np.testing.assert_allclose(row[1:5], tau.ravel(), rtol=TOL, atol=TOL)
         np.testing.assert_allclose(row[5:7], [alpha.item(), feasible.item()], rtol=TOL, atol=TOL)
 
@@ -180,24 +182,30 @@ def test_example_preload_is_feasible_and_stays_on_one_branch(built, example_outp
     assert np.all(built["branch"] * alpha > 0)
 
 
-def test_controller_step_is_feedforward_plus_clipped_pd(paper_scene):
+@pytest.mark.parametrize("method", ["exact", "qp"])
+def test_controller_step_is_feedforward_plus_clipped_pd(paper_data, method):
     """tau = clip(tau_ff + kp wrap(ik(pose) - theta) + kd (J pose_d - theta_d), +-limit),
-    with tau_ff the exact preload of the desired motion."""
+    with tau_ff the scene's preload of the desired motion (exact on a branch, or the QP)."""
+    paper_data["actuation"]["preload"]["method"] = method
+    scene = parse_scene(paper_data)
     rng = np.random.default_rng(3)
-    mech = Mechanism.from_scene(paper_scene)
-    step = controller_step_function(paper_scene, branch=1)
-    inv, exact = inverse_dynamics_function(paper_scene), exact_preload_function(paper_scene, branch=1)
-    a, lim = paper_scene.actuation, np.array(paper_scene.actuation.torque_limit)
+    mech = Mechanism.from_scene(scene)
+    step = controller_function(scene, sign=1)
+    inv = inverse_dynamics_function(scene)
+    exact = exact_preload_function(scene, branch=1) if method == "exact" else qp_preload_function(scene, "qrqp", 1.0)
+    a, lim = scene.actuation, np.array(scene.actuation.torque_limit)
     saturated = 0
     for _ in range(40):
-        pose, pose_d, pose_dd = (v[:, 0] for v in _motions(rng, 1))
+        pose, pose_d, pose_dd, pose_ddd = (v[:, 0] for v in _motions(rng, 1))
         error = rng.normal(scale=0.02, size=4)
         theta = mech.ik(pose) - error + 2 * np.pi * rng.integers(-1, 2, size=4)
         theta_d = rng.normal(scale=0.5, size=4)
-        tau, tau_ff, alpha, _ = _outputs(step, pose, pose_d, pose_dd, theta, theta_d)
-        alpha_ref, tau_ref, _, _ = _outputs(exact, *inv(pose, pose_d, pose_dd))
-        np.testing.assert_allclose(tau_ff.ravel(), tau_ref.ravel(), rtol=1e-12, atol=1e-12)
-        assert alpha.item() == pytest.approx(alpha_ref.item(), abs=1e-12)
+        tau, tau_ff, _, _, alpha, _ = _outputs(step, pose, pose_d, pose_dd, pose_ddd, theta, theta_d)
+        alpha_ref, tau_ref, feasible, _ = _outputs(exact, *inv(pose, pose_d, pose_dd))
+        if feasible.item() == 0.0 and method == "qp":  # qrqp's answer is undefined there
+            continue
+        np.testing.assert_allclose(tau_ff.ravel(), tau_ref.ravel(), rtol=1e-9, atol=1e-9)
+        assert alpha.item() == pytest.approx(alpha_ref.item(), abs=1e-9)
         pd = tau_ref.ravel() + a.kp * error + a.kd * (mech.jacobian(pose) @ pose_d - theta_d)
         np.testing.assert_allclose(tau.ravel(), np.clip(pd, -lim, lim), rtol=1e-9, atol=1e-9)
         saturated += np.any(np.abs(pd) > lim)
@@ -254,7 +262,8 @@ def test_external_library_reports_the_generated_signatures(built, paper_scene):
     """casadi.external sees the names and shapes the header documents."""
     lib = load_library(built["lib"], ["controller_step", "inverse_dynamics"])
     f = lib["controller_step"]
-    assert [f.name_in(i) for i in range(f.n_in())] == ["pose_des", "pose_d_des", "pose_dd_des", "theta", "theta_d"]
+    assert [f.name_in(i) for i in range(f.n_in())] == ["pose_des", "pose_d_des", "pose_dd_des", "pose_ddd_des",
+                                                        "theta", "theta_d"]
     assert f.size_out(0) == (4, 1)
     g = lib["inverse_dynamics"]
     assert g.size_out(2) == (2, 8) and g.size_out(3) == (2, 8)

@@ -118,7 +118,7 @@ def test_contact_forces_obey_newtons_third_law(name):
     q[io:io + 2] += shift / np.linalg.norm(shift) * 1.05e-4              # 5 um into the bearing
     qd = qd0 + rng.normal(0, 0.05, qd0.shape)
     z = np.zeros(mech.n)
-    args = dict(tau_ref=z, theta_ref=z, theta_d_ref=z, theta_dd_ref=z, delta_dot0=[0.2], in_contact=[1.0])
+    args = dict(effort=z, theta_ref=z, theta_d_ref=z, theta_dd_ref=z, delta_dot0=[0.2], in_contact=[1.0])
     Q = -np.array(eqs.residual(q=q, qd=qd, qdd=np.zeros(mech.nq), **{"lambda": np.zeros(eqs.n_constraints)},
                                **args)["dynamics"]).ravel()
     out = eqs.acceleration(q=q, qd=qd, **args)

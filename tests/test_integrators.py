@@ -102,6 +102,7 @@ def test_bad_bathe_parameters_raise_user_errors():
 @pytest.fixture(scope="module")
 def ideal_scene(paper_data_module):
     paper_data_module["joints"]["clearance"] = []
+    paper_data_module["actuation"].pop("control_rate")  # continuous: steps longer than a control period
     return rrr4.scene.parse_scene(paper_data_module)
 
 
@@ -126,7 +127,8 @@ def test_onset_refinement_resolves_the_first_impacts_better_per_step(paper_scene
     Re-taking only the steps with a contact event as 4 sub-steps must beat the plain step by
     more than 4x in platform error against a fine reference; it adds 4 sub-steps per event step
     only, far fewer than dividing every step by 4."""
-    scene = dataclasses.replace(paper_scene, initial=dataclasses.replace(paper_scene.initial, journals="centred"))
+    scene = dataclasses.replace(paper_scene, initial=dataclasses.replace(paper_scene.initial, journals="centred"),
+                                actuation=dataclasses.replace(paper_scene.actuation, control_rate=None))
     kw = {"t_end": 0.004, "output_rate": 1000, "preload": rrr4.solve_preload(scene)}
     ref = rrr4.simulate(scene, "rk4", step=2.5e-7, **kw)
     assert sum(ref.contact_loss_events.values()) > 0          # the window holds impacts, not only seating

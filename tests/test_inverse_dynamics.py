@@ -38,7 +38,7 @@ def test_family_satisfies_constrained_equations_of_motion(paper_scene, gravity):
     f = joint_reactions_function(mech, gravity)
     M, Q = mech.model.mass_matrix(), mech.model.gravity_forces(gravity)
     for pose, pd, pdd in _random_motions(np.random.default_rng(1)):
-        tau_p, tau_n, r_p, r_n, _ = (np.array(v) for v in f(pose, pd, pdd))
+        tau_p, tau_n, r_p, r_n, _, _ = (np.array(v) for v in f(pose, pd, pdd))
         q, qd, qdd = mech.body_motion(pose, pd, pdd)
         phi_q = np.array(mech.constraints()(q, qd)[1])
         for alpha in (0.0, -3.0, 2.5):
@@ -55,7 +55,7 @@ def test_three_chain_mechanism_has_a_unique_solution(paper_data):
     mech = Mechanism.from_scene(scene)
     f = joint_reactions_function(mech)
     pose, pd, pdd = next(_random_motions(np.random.default_rng(2)))
-    tau_p, tau_n, r_p, r_n, _ = (np.array(v) for v in f(pose, pd, pdd))
+    tau_p, tau_n, r_p, r_n, _, _ = (np.array(v) for v in f(pose, pd, pdd))
     assert tau_n.size == 0 and r_n.size == 0
     q, qd, qdd = mech.body_motion(pose, pd, pdd)
     phi_q = np.array(mech.constraints()(q, qd)[1])
@@ -157,10 +157,10 @@ def test_ideal_forward_dynamics_driven_by_the_family_reproduces_the_motion(paper
     mech = Mechanism.from_scene(scene)
     f = joint_reactions_function(scene)
     for pose, pd, pdd in _random_motions(np.random.default_rng(6), k=3):
-        tau_p, tau_n, r_p, r_n, _ = (np.array(v) for v in f(pose, pd, pdd))
+        tau_p, tau_n, r_p, r_n, _, _ = (np.array(v) for v in f(pose, pd, pdd))
         q, qd, qdd = mech.body_motion(pose, pd, pdd)
         alpha = 2.0
-        out = acc(q=q, qd=qd, tau_ref=tau_p.ravel() + alpha * tau_n.ravel(), theta_ref=q[2:24:6],
+        out = acc(q=q, qd=qd, effort=tau_p.ravel() + alpha * tau_n.ravel(), theta_ref=q[2:24:6],
                   theta_d_ref=qd[2:24:6], theta_dd_ref=qdd[2:24:6])
         assert np.allclose(np.array(out["qdd"]).ravel(), qdd, atol=1e-9)
         assert np.allclose(np.array(out["reaction"]), (r_p + alpha * r_n)[:, 4:], atol=1e-9)
@@ -171,7 +171,7 @@ def test_actuator_motion_matches_the_ik_and_jacobian(paper_scene):
     mech = Mechanism.from_scene(paper_scene)
     f = actuator_motion_function(paper_scene)
     for pose, pd, _ in _random_motions(np.random.default_rng(8)):
-        u, theta_d = (np.array(v) for v in f(pose, pd))
+        u, theta_d = (np.array(v) for v in f(pose, pd, np.zeros((2, 4))))
         theta = mech.ik(pose)
         np.testing.assert_allclose(u, np.vstack([np.cos(theta), np.sin(theta)]), atol=1e-13)
         np.testing.assert_allclose(theta_d.ravel(), mech.jacobian(pose) @ pd, rtol=1e-12, atol=1e-12)

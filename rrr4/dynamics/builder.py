@@ -15,15 +15,15 @@ with exactly the effects the scene asks for:
   law; the friction term exists only if the friction law is not 'none'; with no clearance
   joint there is no contact code at all;
 - tau (actuator efforts, generalised force S^T tau with S = ds/dq): 'free' -> 0 (no
-  effort inputs in the graph); 'torque' -> clip(tau_ref + kp (theta_ref - theta) + kd
-  (theta_d_ref - theta_d), +-torque_limit); 'prescribed' -> tau = -lambda of the driving
+  effort inputs in the graph); 'torque' -> the input ``effort``, what the controller
+  (:mod:`rrr4.control`) commands; 'prescribed' -> tau = -lambda of the driving
   constraints.
 
 Every Function is SX, named, with named inputs and outputs. Common inputs ("refs"):
-q (nq,) [m, rad], qd (nq,), tau_ref (n,) [N m], theta_ref (n,) [rad], theta_d_ref (n,)
-[rad/s], theta_dd_ref (n,) [rad/s^2], delta_dot0 (nc,) [m/s], in_contact (nc,) {0, 1},
-t [s] (drivers only) (nc = number of clearance joints, in graph order; B1..Bn, C1..Cn for an
-n-RRR; prismatic actuators in m, m/s, N).
+q (nq,) [m, rad], qd (nq,), effort (n,) [N m or N] (torque mode), theta_ref (n,) [rad],
+theta_d_ref (n,) [rad/s], theta_dd_ref (n,) [rad/s^2] (prescribed mode), delta_dot0
+(nc,) [m/s], in_contact (nc,) {0, 1}, t [s] (drivers only) (nc = number of clearance
+joints, in graph order; B1..Bn, C1..Cn for an n-RRR; prismatic actuators in m, m/s, N).
 
 ``acceleration`` (index-1 form, for explicit integrators): refs -> qdd (nq,), lambda (m,),
 tau (n,) [N m], reaction (2, k) [N] of the k ideal passive revolute joints, contact_force (2, nc)
@@ -131,11 +131,13 @@ def build_equations(scene: Scene, v_min: float = V_MIN, baumgarte: float = BAUMG
 
 
 def physics(scene: Scene) -> Scene:
-    """The part of `scene` the equations depend on (graph, effects, actuation mode, limits and
-    gains): the key under which they are built once. Changing the path, the integrator, the
-    initial state, the preload settings or the names does not rebuild them."""
+    """The part of `scene` the equations depend on (graph, effects, actuation mode): the key
+    under which they are built once. Changing the path, the integrator, the initial state,
+    the controller's settings (preload, gains, limits, rate, compensation) or the names does
+    not rebuild them."""
     return replace(scene, name="", description="", source="", path=None, integrator=None, initial=None,
-                   actuation=replace(scene.actuation, preload=None))
+                   actuation=replace(scene.actuation, preload=None, kp=0.0, kd=0.0, torque_limit=(),
+                                     control_rate=None, compensation="none"))
 
 
 @functools.lru_cache(maxsize=16)
@@ -154,11 +156,11 @@ def _build(scene: Scene, v_min: float, omega: float) -> Equations:
 
     t = ca.SX.sym("t")
     q, qd, qdd_s = ca.SX.sym("q", nq), ca.SX.sym("qd", nq), ca.SX.sym("qdd", nq)
-    tau_ref, th_ref, thd_ref, thdd_ref = (ca.SX.sym(s, n) for s in ("tau_ref", "theta_ref", "theta_d_ref",
-                                                                     "theta_dd_ref"))
+    effort, th_ref, thd_ref, thdd_ref = (ca.SX.sym(s, n) for s in ("effort", "theta_ref", "theta_d_ref",
+                                                                    "theta_dd_ref"))
     dd0, inc = ca.SX.sym("delta_dot0", nc), ca.SX.sym("in_contact", nc)
-    refs = [q, qd, tau_ref, th_ref, thd_ref, thdd_ref, dd0, inc, t]
-    ref_names = ["q", "qd", "tau_ref", "theta_ref", "theta_d_ref", "theta_dd_ref", "delta_dot0", "in_contact", "t"]
+    refs = [q, qd, effort, th_ref, thd_ref, thdd_ref, dd0, inc, t]
+    ref_names = ["q", "qd", "effort", "theta_ref", "theta_d_ref", "theta_dd_ref", "delta_dot0", "in_contact", "t"]
 
     m_diag = model.mass_diagonal
     M = np.diag(m_diag)
@@ -171,10 +173,9 @@ def _build(scene: Scene, v_min: float, omega: float) -> Equations:
 
     # ---- actuation: generalised forces S^T tau of the actuator efforts (virtual work)
     if act.mode == "torque":
-        lim = ca.DM(act.torque_limit)
-        tau = ca.fmin(ca.fmax(tau_ref + act.kp * (th_ref - theta) + act.kd * (thd_ref - theta_d), -lim), lim)
+        tau = effort
         Q = Q + S.T @ tau
-        terms.append("actuator efforts (feed-forward + PD, clipped)")
+        terms.append("actuator efforts (the controller's)")
     elif act.mode == "free":
         tau = ca.SX.zeros(n)
         terms.append("free actuators" if n else "no actuators")

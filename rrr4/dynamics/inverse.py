@@ -100,21 +100,23 @@ def _link_rates(c, u1, e, v, inv_T):
 
 @functools.cache
 def _actuator_motion(mech: Mechanism) -> ca.Function:
-    pose, pose_d = ca.SX.sym("pose", 3), ca.SX.sym("pose_d", 3)
+    pose, pose_d, shift = ca.SX.sym("pose", 3), ca.SX.sym("pose_d", 3), ca.SX.sym("shift", 2, mech.n)
     cs = (ca.cos(pose[2]), ca.sin(pose[2]))
     u1s, rates = [], []
-    for c in mech.data.chains:
-        u1, e, _, Cd_rel, _, _ = _chain_motion(c, pose[0:2], pose_d[2], 0, cs)
+    for i, c in enumerate(mech.data.chains):
+        u1, e, _, Cd_rel, _, _ = _chain_motion(c, pose[0:2] - shift[:, i], pose_d[2], 0, cs)
         u1s.append(u1)
         rates.append(_link_rates(c, u1, e, pose_d[0:2] + Cd_rel, _transmission(c, u1, e)[2])[0])
-    return ca.Function("actuator_motion", [pose, pose_d], [ca.horzcat(*u1s), ca.vertcat(*rates)],
-                       ["pose", "pose_d"], ["driving_direction", "theta_d"])
+    return ca.Function("actuator_motion", [pose, pose_d, shift], [ca.horzcat(*u1s), ca.vertcat(*rates)],
+                       ["pose", "pose_d", "shift"], ["driving_direction", "theta_d"])
 
 
 def actuator_motion_function(model: Mechanism | Scene) -> ca.Function:
-    """SX Function 'actuator_motion': pose (3) [m, m, rad], pose_d (3) ->
+    """SX Function 'actuator_motion': pose (3) [m, m, rad], pose_d (3), shift (2, n) [m] ->
     driving_direction (2, n) [-] = [cos theta_i, sin theta_i] of the IK actuator angles in
-    the scene's working modes, theta_d (n,) [rad/s] = J pose_d.
+    the scene's working modes, theta_d (n,) [rad/s] = J pose_d, with chain i's platform
+    point moved by -shift[:, i] (0 for the ideal chain; the sum of a chain's joint gaps for
+    journals off-centre, see :func:`rrr4.mechanism.kinematics.chain_ik`), held fixed in the rate.
 
     The same closed-form expressions as the inverse dynamics (no trigonometry of the
     angles), so a controller built from both shares them. Built once per mechanism.
@@ -188,14 +190,15 @@ def _build(mech: Mechanism, gravity: tuple[float, float]) -> ca.Function:
 
     r_p = reactions(tau_p, True)
     r_n = ca.horzcat(*[reactions(tau_n[:, k], False) for k in range(m)]) if m else ca.SX(2, 0)
-    return ca.Function("joint_reactions", [pose, pose_d, pose_dd], [tau_p, tau_n, r_p, r_n, T],
-                       ["pose", "pose_d", "pose_dd"], ["tau_p", "tau_n", "r_p", "r_n", "transmission"])
+    return ca.Function("joint_reactions", [pose, pose_d, pose_dd], [tau_p, tau_n, r_p, r_n, T, JT.T],
+                       ["pose", "pose_d", "pose_dd"], ["tau_p", "tau_n", "r_p", "r_n", "transmission", "J"])
 
 
 def joint_reactions_function(model: Mechanism | Scene, gravity=None) -> ca.Function:
     """SX Function 'joint_reactions': pose (3), pose_d (3), pose_dd (3) ->
     tau_p (n,) [N m], tau_n (n, n-3), r_p (2, 3n) [N], r_n (2, 3n (n-3)) [N],
-    transmission (n,) [m] = (B_i - A_i) x e_i (0 at a serial singularity).
+    transmission (n,) [m] = (B_i - A_i) x e_i (0 at a serial singularity), J (n, 3): the
+    Jacobian d theta = J d pose (from the same expressions, no angles).
 
     Reactions of all 3n ideal joints A1..An, B1..Bn, C1..Cn; column j + 3n k of r_n
     belongs to null-space direction k. gravity (2,) [m/s^2] defaults to the scene's
@@ -209,7 +212,7 @@ def _passive(mech: Mechanism, gravity: tuple[float, float]) -> ca.Function:
     n = mech.n
     f = _build(mech, gravity)
     pose, pose_d, pose_dd = (ca.SX.sym(s, 3) for s in ("pose", "pose_d", "pose_dd"))
-    tau_p, tau_n, r_p, r_n, _ = f(pose, pose_d, pose_dd)
+    tau_p, tau_n, r_p, r_n = f(pose, pose_d, pose_dd)[:4]
     m = tau_n.shape[1]
     passive = list(range(n, 3 * n))
     r_n_passive = ca.horzcat(*[r_n[:, [3 * n * k + j for j in passive]] for k in range(m)]) if m else ca.SX(2, 0)

@@ -61,9 +61,9 @@ class AdaptiveIntegrator(ABC):
             frames = tqdm(frames, desc=f"simulate ({self.name})", unit="frame")
         try:
             for k in frames:
-                u = u_frames[k]
-                t_a, t_b = u[0], u[1]
                 y, z = x[1:1 + ny], x[1 + ny:]
+                u = np.array(system.held(y, u_frames[k]), float).ravel()
+                t_a, t_b = u[0], u[1]
                 y1, counts = self.integrate_frame(t_a, t_b, y, z, u)
                 for key in totals:
                     totals[key] += int(counts.get(key, 0))

@@ -12,7 +12,9 @@ z <- g(t, y, z) after each step (contact onset/loss). A method only implements
   only at those steps. The onset approach velocity is then captured within h/k of the
   crossing instead of h (the onset rule is first order in the capture delay),
 - rolls ``steps_per_frame`` steps with ``mapaccum`` into ``frame``, which returns the
-  state at the frame end, and rolls frames with ``mapaccum`` again (optionally JIT-compiled),
+  state at the frame end (a sampled controller, ``System.control``, runs once at the
+  frame start and holds its output over the frame's steps), and rolls frames with
+  ``mapaccum`` again (optionally JIT-compiled),
 - runs frames in chunks so that long runs show a progress bar,
 - keeps the built (and compiled) frame Function on the system (per method settings, step
   and steps per frame), so a second run of the same scene builds nothing, and dropping the
@@ -41,9 +43,17 @@ class Run:
 @dataclass(frozen=True)
 class System:
     """ode: t, y, z, u -> y_dot; discrete: t, y, z -> z_next (both CasADi Functions).
-    u is constant over a frame (e.g. reference samples at the frame's two ends)."""
+    u is constant over a frame (e.g. reference samples at the frame's two ends) and starts
+    with the frame's [t_a, t_b].
+
+    control (optional): y, u_frame -> u, a sampled controller with zero-order hold. It runs
+    once at the start of every frame on the state there, and its output (which keeps the
+    frame's [t_a, t_b] first) is the ODE's u over the whole frame; the frame inputs u_frame
+    then carry the controller's references."""
     ode: ca.Function
     discrete: ca.Function
+    control: ca.Function | None = None
+    c_sources: tuple = ()  # C files that must be compiled with the frames (e.g. an external controller's)
     # (method, settings, h, steps per frame) -> the built (and compiled) frame Function: the
     # system owns them, so they live exactly as long as it does
     frames: dict = field(default_factory=dict, compare=False, repr=False)
@@ -59,6 +69,15 @@ class System:
     @property
     def nu(self) -> int:
         return self.ode.size1_in(3)
+
+    @property
+    def nu_frame(self) -> int:
+        """Size of a frame's input: the controller's references, or the ODE's u."""
+        return self.nu if self.control is None else self.control.size1_in(1)
+
+    def held(self, y, u_frame):
+        """The ODE's u over a frame that starts at state y (numeric or symbolic)."""
+        return u_frame if self.control is None else self.control(y, u_frame)
 
 
 class FixedStepIntegrator(ABC):
@@ -115,8 +134,8 @@ class FixedStepIntegrator(ABC):
         """MX Function 'frame': x, u -> x after `steps_per_frame` steps (mapaccum)."""
         step = self.refined_step_function(system, h)
         roll = step.mapaccum("roll", steps_per_frame)
-        x, u = ca.MX.sym("x", step.size1_in(0)), ca.MX.sym("u", system.nu)
-        xs = roll(x, ca.repmat(u, 1, steps_per_frame))
+        x, u = ca.MX.sym("x", step.size1_in(0)), ca.MX.sym("u", system.nu_frame)
+        xs = roll(x, ca.repmat(system.held(x[1:1 + system.ny], u), 1, steps_per_frame))
         return ca.Function("frame", [x, u], [xs[:, -1]], ["x", "u"], ["x_next"])
 
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,
@@ -128,7 +147,7 @@ class FixedStepIntegrator(ABC):
             frame = self.frame_function(system, h, steps_per_frame)
             if self.jit:  # generated C of the whole frame loop, cached on disk (see .compiled)
                 from .compiled import compiled
-                frame = compiled(frame)
+                frame = compiled(frame, system.c_sources)
             system.frames[key] = frame
         frame = system.frames[key]
         u_frames = np.atleast_2d(np.asarray(u_frames, float))

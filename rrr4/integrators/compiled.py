@@ -31,8 +31,11 @@ def cache_dir() -> Path:
     return d
 
 
-def compiled(f: ca.Function) -> ca.Function:
+def compiled(f: ca.Function, sources=()) -> ca.Function:
     """`f` as a compiled external Function with the same name and I/O (cached on disk and in memory).
+
+    sources: further C files compiled into the same library, e.g. the generated code of an
+    external Function that `f` calls (their text is part of the cache key).
 
     Raises BuildError (an Rrr4Error) if no C compiler ($CC, cc or gcc) is available or
     compilation fails.
@@ -40,7 +43,9 @@ def compiled(f: ca.Function) -> ca.Function:
     cg = ca.CodeGenerator(f"{f.name()}.c", {"with_header": False})
     cg.add(f)
     src = cg.dump()
-    key = hashlib.sha256((src + " ".join(COMPILE_FLAGS)).encode()).hexdigest()[:24]
+    extra = [Path(p).resolve() for p in sources]
+    key = hashlib.sha256("\n".join([src, " ".join(COMPILE_FLAGS), *(p.read_text() for p in extra)]).encode()
+                         ).hexdigest()[:24]
     if key in _loaded:
         return _loaded[key]
     lib = cache_dir() / f"{f.name()}_{key}.so"
@@ -49,7 +54,7 @@ def compiled(f: ca.Function) -> ca.Function:
             c_file = Path(tmp) / f"{f.name()}.c"
             c_file.write_text(src)
             tmp_lib = Path(tmp) / lib.name
-            run_c_compiler([*COMPILE_FLAGS, str(c_file), "-o", str(tmp_lib), "-lm"], tmp)
+            run_c_compiler([*COMPILE_FLAGS, str(c_file), *map(str, extra), "-o", str(tmp_lib), "-lm"], tmp)
             os.replace(tmp_lib, lib)  # atomic: never a half-written cache entry
     ext = ca.external(f.name(), str(lib))
     _loaded[key] = ext

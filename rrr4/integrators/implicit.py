@@ -130,7 +130,8 @@ class ImplicitIntegrator(FixedStepIntegrator):
         ny, nz = system.ny, system.nz
         x0 = np.asarray(x0, float)
         u0 = np.atleast_2d(np.asarray(u_frames, float))[0]
-        f0 = np.array(system.ode(x0[0], x0[1:1 + ny], x0[1 + ny:1 + ny + nz], u0)).ravel()
+        y0 = x0[1:1 + ny]
+        f0 = np.array(system.ode(x0[0], y0, x0[1 + ny:1 + ny + nz], system.held(y0, u0))).ravel()
         mem0 = np.asarray(self.initial_memory(f0, nq), float).ravel()
         X = super().run(system, np.r_[x0, mem0, 0.0, 0.0], u_frames, h, steps_per_frame, chunk, progress).states
         n_steps = steps_per_frame * X.shape[0]

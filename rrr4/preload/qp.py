@@ -29,7 +29,7 @@ from ..mechanism.graph import Model
 from ..scene import Scene
 from .exact import constraint_violation
 
-__all__ = ["qp_preload_function", "QP_OPTIONS"]
+__all__ = ["qp_preload_function", "scalar_qp_preload_function", "QP_OPTIONS"]
 
 QP_OPTIONS = {
     "qrqp": {"print_iter": False, "print_header": False, "print_info": False, "error_on_fail": False},
@@ -45,8 +45,9 @@ FEASIBILITY_TOL = 1e-6
 @functools.cache
 def _qp_parts(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...],
               signs: tuple[float, ...], m: int) -> tuple[ca.Function, ca.Function]:
-    """SX Functions 'qp_data' (inputs -> H, g, A, lba, uba) and 'qp_result'
-    (inputs, alpha -> tau, feasible, margin); n actuators, nj = len(signs) joints, m alphas."""
+    """SX Functions 'qp_data' (inputs -> H, g, A, lba, uba; rows unscaled, infinite bounds
+    constant) and 'qp_result' (inputs, alpha -> tau, feasible, margin); n actuators,
+    nj = len(signs) joints, m alphas."""
     n, nj = len(weights), len(signs)
     tau_p, tau_n = ca.SX.sym("tau_p", n), ca.SX.sym("tau_n", n, m)
     r_p, r_n = ca.SX.sym("r_p", 2, nj), ca.SX.sym("r_n", 2, nj * m)
@@ -55,19 +56,15 @@ def _qp_parts(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...
     # QP data in alpha: H = 2 N^T W N, g = 2 N^T W tau_p; rows: joints, then actuators
     H = 2 * tau_n.T @ W @ tau_n
     g = 2 * tau_n.T @ W @ tau_p
-    rows, lba, uba = [], [], []
+    rows, bounds = [], []
     for j in range(nj):
         d = r_n[:, j] / ca.fmax(ca.norm_2(r_n[:, j]), 1e-300)
         rows.append(ca.horzcat(*[d.T @ r_n[:, j + nj * k] for k in range(m)]))
-        bound = sig[j] * f_min - d.T @ r_p[:, j]
-        lba.append(ca.if_else(sig[j] > 0, bound, -ca.inf))
-        uba.append(ca.if_else(sig[j] > 0, ca.inf, bound))
+        bounds.append(sig[j] * f_min - d.T @ r_p[:, j])
     A = ca.vertcat(*rows, tau_n)
-    lba = ca.vertcat(*lba, -lim - tau_p)
-    uba = ca.vertcat(*uba, lim - tau_p)
-    # unit row norms: qrqp otherwise cycles on nearly parallel active rows of different scale
-    scale = 1.0 / ca.fmax(ca.sqrt(ca.sum2(A**2)), 1e-300)
-    data = ca.Function("qp_data", [tau_p, tau_n, r_p, r_n], [H, g, A * scale, lba * scale, uba * scale])
+    lba = ca.vertcat(*[bounds[j] if signs[j] > 0 else -ca.inf for j in range(nj)], -lim - tau_p)
+    uba = ca.vertcat(*[ca.inf if signs[j] > 0 else bounds[j] for j in range(nj)], lim - tau_p)
+    data = ca.Function("qp_data", [tau_p, tau_n, r_p, r_n], [H, g, A, lba, uba])
 
     # result: torques, reactions, feasibility (axial sign constraints and limits) and margin
     alpha = ca.SX.sym("alpha", m)
@@ -93,7 +90,9 @@ def _build(solver: str, f_min: float, weights: tuple[float, ...], limits: tuple[
                   QP_OPTIONS[solver])
     ins = [ca.MX.sym("tau_p", n), ca.MX.sym("tau_n", n, m), ca.MX.sym("r_p", 2, nj), ca.MX.sym("r_n", 2, nj * m)]
     Hm, gm, Am, lbam, ubam = data(*ins)
-    sol = qp(h=Hm, g=gm, a=Am, lba=lbam, uba=ubam)
+    # unit row norms: qrqp otherwise cycles on nearly parallel active rows of different scale
+    scale = 1.0 / ca.fmax(ca.sqrt(ca.sum2(Am**2)), 1e-300)
+    sol = qp(h=Hm, g=gm, a=Am * scale, lba=lbam * scale, uba=ubam * scale)
     a_opt = sol["x"]
     tau_m, feas_m, margin_m = result(*ins, a_opt)
     return ca.Function("qp_preload", ins, [a_opt, tau_m, feas_m, margin_m],
@@ -124,3 +123,61 @@ def qp_preload_function(scene: Scene, solver: str = "qrqp", signs=1.0, f_min: fl
     p = scene.actuation.preload
     fm = p.min_force if f_min is None else float(f_min)
     return _build(solver, float(fm), tuple(p.weights), tuple(scene.actuation.torque_limit), tuple(s), m)
+
+
+_BIG = 1e30  # stands for an infinite bound in the closed-form QP
+
+
+@functools.cache
+def _build_scalar(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...],
+                  signs: tuple[float, ...]) -> ca.Function:
+    n, nj = len(weights), len(signs)
+    data, result = _qp_parts(f_min, weights, limits, signs, 1)
+    tau_p, tau_n = ca.SX.sym("tau_p", n), ca.SX.sym("tau_n", n, 1)
+    r_p, r_n = ca.SX.sym("r_p", 2, nj), ca.SX.sym("r_n", 2, nj)
+    H, g, A, lba, uba = data(tau_p, tau_n, r_p, r_n)
+
+    def box(rows):
+        """[lo, hi] of alpha from the rows (a alpha in [lb, ub]); a row with a ~ 0 bounds nothing."""
+        lo, hi = -_BIG, _BIG
+        for k in rows:
+            a = A[k]
+            safe = ca.if_else(a >= 0, 1.0, -1.0) * ca.fmax(ca.fabs(a), 1e-300)
+            # infinite bounds clamped first: inf / a would make the derivative (inf * da) NaN
+            b1, b2 = ca.fmax(lba[k], -_BIG) / safe, ca.fmin(uba[k], _BIG) / safe
+            active = ca.fabs(a) > 1e-12
+            lo = ca.if_else(active, ca.fmax(lo, ca.if_else(a > 0, b1, b2)), lo)
+            hi = ca.if_else(active, ca.fmin(hi, ca.if_else(a > 0, b2, b1)), hi)
+        return lo, hi
+
+    lo_f, hi_f = box(range(nj))              # the contact rows
+    lo_t, hi_t = box(range(nj, nj + n))      # the actuator limits
+    lo, hi = ca.fmax(lo_f, lo_t), ca.fmin(hi_f, hi_t)
+    x0 = -g / ca.fmax(H, 1e-300)
+    # feasible: the QP's unique optimum; else keep the contact rows and let the limits go
+    ok = lo <= hi
+    alpha = ca.if_else(ok, ca.fmin(ca.fmax(x0, lo), hi), ca.fmin(ca.fmax(x0, lo_f), hi_f))
+    tau, _, margin = result(tau_p, tau_n, r_p, r_n, alpha)
+    feasible = ca.if_else(ok, 1.0, 0.0)
+    return ca.Function("qp_preload", [tau_p, tau_n, r_p, r_n], [alpha, tau, feasible, margin],
+                       ["tau_p", "tau_n", "r_p", "r_n"], ["alpha", "tau", "feasible", "margin"])
+
+
+def scalar_qp_preload_function(scene: Scene, signs=1.0) -> ca.Function:
+    """The QP of :func:`qp_preload_function` for one degree of redundancy, solved in closed
+    form: SX Function 'qp_preload' with the same inputs and outputs, no solver, no iterations.
+
+    With one unknown every constraint row a alpha in [lb, ub] is an interval of alpha, so
+    the optimum is the unconstrained minimiser -g/H clipped to the intersection [lo, hi]
+    of the intervals (the QP's unique solution, strictly convex). When [lo, hi] is empty
+    (feasible = 0) alpha keeps the contact rows and leaves the torque limits to the
+    controller's clipping. Code-generable and cheap enough for a controller step.
+    """
+    model = Model.of(scene.graph)
+    if model.redundancy != 1:
+        raise SceneError(f"actuation.preload.method: the closed-form QP needs one degree of actuation redundancy, "
+                         f"the scene has {model.redundancy} (use qp_preload_function)")
+    nj = len(model.preload_joints)
+    s = [float(signs)] * nj if isinstance(signs, (int, float)) else [float(v) for v in signs]
+    p = scene.actuation.preload
+    return _build_scalar(float(p.min_force), tuple(p.weights), tuple(scene.actuation.torque_limit), tuple(s))

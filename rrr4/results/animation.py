@@ -29,14 +29,14 @@ from matplotlib.animation import FuncAnimation, PillowWriter  # noqa: E402
 from ..errors import Rrr4Error  # noqa: E402
 from ..mechanism import Model  # noqa: E402
 from ..scene import GROUND, Scene, parse_scene  # noqa: E402
+from .plots import STYLE  # noqa: E402
 
 __all__ = ["save_motion", "load_motion", "render", "MOTION", "FRAMES", "FPS"]
 
 MOTION = "motion.npz"
 FRAMES = 60         # frames of the animation (fewer if the result has fewer samples); ~0.25 s each to draw
 FPS = 10            # frames per second of the GIF
-LABELS = {"with_preload": "with preload", "without_preload": "without preload",
-          "with_clearance": "with clearance", "ideal": "ideal joints"}
+LABELS = {k: v["label"] for k, v in STYLE.items()}
 
 
 def save_motion(study, path: Path, rate: float | None = None) -> Path | None:

@@ -23,6 +23,7 @@ __all__ = ["orbits", "contact_forces", "platform_error", "torques", "preload_alp
            "driver_efforts", "all_figures"]
 
 STYLE = {"with_preload": {"color": "tab:blue", "label": "with preload"},
+         "with_preload_compensated": {"color": "tab:green", "label": "with preload, compensated"},
          "without_preload": {"color": "tab:orange", "label": "without preload"},
          "with_clearance": {"color": "tab:red", "label": "with clearance"},
          "ideal": {"color": "k", "label": "ideal joints"}}

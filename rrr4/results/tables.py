@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..mechanism import Model
-from ..study import Study
+from ..study import PRELOAD_ARMS, Study
 
 __all__ = ["write_timeseries_csv", "report_markdown"]
 
@@ -17,7 +17,7 @@ def write_timeseries_csv(study: Study, path: Path, rate: float | None = None) ->
     """Time series at `rate` [Hz] (default the path's sample rate), one row per instant.
 
     Columns: t_s, x_ref_m, y_ref_m, theta_ref_rad, alpha_Nm (preload, if any), then per arm
-    (prefix ``with_preload_`` / ``without_preload_``): x_m, y_m, theta_rad, error_m,
+    (prefix ``<arm>_``, e.g. ``with_preload_``): x_m, y_m, theta_rad, error_m,
     tau_<actuator>_Nm (or _N for a prismatic actuator), and per clearance joint Fn_<J>_N,
     penetration_<J>_m, ex_<J>_m, ey_<J>_m.
     A driven scene (no task; arms ``with_clearance_`` / ``ideal_``) has instead, per body B,
@@ -71,7 +71,7 @@ def report_markdown(summary: dict) -> str:
     """A short Markdown report: one table comparing the arms, the preload and the targets."""
     if summary.get("ideal") is not None:
         return _driven_report(summary)
-    arms = [(k, summary[k]) for k in ("with_preload", "without_preload") if summary.get(k) is not None]
+    arms = [(k, summary[k]) for k in PRELOAD_ARMS if summary.get(k) is not None]
     head = "| metric | " + " | ".join(k.replace("_", " ") for k, _ in arms) + " |"
     rows = [head, "|---" * (len(arms) + 1) + "|"]
 
@@ -111,6 +111,10 @@ def report_markdown(summary: dict) -> str:
                   f"**{'yes' if tg['zero_losses_with_preload'] else 'no'}**; RMS error with/without = "
                   f"{_fmt(tg['rms_error_ratio_with_to_without'], 1.0, 3)} (target <= 0.5: "
                   f"**{'yes' if tg['rms_error_at_most_half'] else 'no'}**)."]
+        if "zero_losses_compensated" in tg:
+            lines += ["", "With clearance compensation: zero losses "
+                      f"**{'yes' if tg['zero_losses_compensated'] else 'no'}**, RMS error <= 1 um "
+                      f"**{'yes' if tg['compensated_rms_at_most_1um'] else 'no'}**."]
     journals = summary.get("initial_journals", "centred")
     lines += ["", f"Start: journals {journals}"
               + (" (each clearance journal rests on its bearing wall under the ideal reaction at t = 0; "

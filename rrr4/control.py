@@ -1,0 +1,335 @@
+"""The controller: one CasADi Function per scene, run by the simulation and written to C.
+
+Torque mode (DESIGN sections 1.3(b) and 7). A controller step maps the references and the
+measured actuator coordinates and rates to actuator efforts:
+
+    tau = clip(tau_ff + kp wrap(theta_ref - theta) + kd (theta_d_ref - theta_d), +-limit)
+
+(:func:`feedback_function`; the angle error of a revolute actuator wrapped to [-pi, pi)).
+For an n-RRR scene the whole step is one closed-form SX Function,
+:func:`controller_function` ('controller_step'): from the desired pose and its first three
+derivatives it computes
+
+- the ideal inverse dynamics, the affine family tau = tau_p + alpha tau_n;
+- the preload alpha with the scene's ``actuation.preload``: ``exact`` on a fixed branch,
+  ``qp`` (the fixed-sign axial-force QP, solved in closed form for one degree of
+  redundancy), or none (``method: none`` or ``min_force: 0``: alpha = 0);
+- the references theta_ref, theta_d_ref: the IK of the pose, or with ``actuation.compensation:
+  clearance`` the IK with every clearance journal at its predicted seat (below), and its
+  exact time derivative (forward AD along the pose's derivatives, hence the jerk input);
+- the feedback law above.
+
+`rrr4.simulate` runs this Function (inlined in CasADi, or its generated C in the loop
+through ``casadi.external``) and ``rrr4.codegen`` writes it: there is no second controller.
+
+Clearance compensation. Under preload each clearance journal rests on the side of its
+bearing that the planned reaction r_j pushes it to: its gap (second joint point minus
+first) is g_j = -(c_j + delta_j) r_j / |r_j| with K_j delta_j^n = |r_j| (the elastic part
+of the contact law). An n-RRR chain closes around its two gaps exactly like an ideal chain
+whose platform point is moved by -(g_B + g_C) (:func:`rrr4.mechanism.kinematics.chain_ik`),
+so the compensated IK is closed form. A joint carrying less than ``SEAT_FORCE`` is assumed
+centred (its seat is undetermined).
+
+A general graph scene has no closed-form controller: its references (IK by Newton, the
+effort family by SVD, the preload from :func:`rrr4.solve_preload`, the compensated IK by
+Newton around the predicted gaps) are tabulated on the path samples (:func:`graph_references`)
+and the same feedback law runs on them.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass, replace
+
+import casadi as ca
+import numpy as np
+
+from .errors import SceneError
+from .mechanism import Mechanism, Model
+from .scene import Scene
+
+__all__ = ["controller_function", "feedback_function", "has_preload", "pointwise_controller", "preload_law",
+           "preload_sign",
+           "seat_gaps", "graph_references", "GraphReferences", "COMPENSATIONS", "CONTROLLERS", "SEAT_FORCE"]
+
+COMPENSATIONS = ("none", "clearance")   # actuation.compensation
+CONTROLLERS = ("python", "generated")   # simulate(controller=...): CasADi's VM/JIT, or the codegen C
+SEAT_FORCE = 1e-6  # [N] below this planned reaction a journal's seat is undetermined: assumed centred
+
+
+def has_preload(scene: Scene) -> bool:
+    """True if the scene's controller preloads: redundancy, min_force > 0 and a method other than none."""
+    p = scene.actuation.preload
+    return Model.of(scene.graph).redundancy >= 1 and p.min_force > 0 and p.method != "none"
+
+
+def pointwise_controller(scene: Scene) -> str:
+    """'' if the scene's controller is one closed-form Function (:func:`controller_function`),
+    else why not (then the simulation tabulates its references)."""
+    if scene.mechanism is None:
+        return "a graph scene has no closed-form IK (its references are tabulated on the path samples)"
+    if has_preload(scene):
+        m = Model.of(scene.graph).redundancy
+        if m > 1:
+            return f"a pointwise preload in closed form needs one degree of redundancy, the scene has {m}"
+        if scene.actuation.preload.method == "nlp":
+            return "the 'nlp' preload is a trajectory optimisation, not a pointwise law"
+    return ""
+
+
+def _sign(scene: Scene) -> int:
+    """The fixed preload sign (+1 / -1) that :func:`rrr4.solve_preload` picks for the scene's
+    method on its path: feasible at more samples, ties -> less effort."""
+    return _signs(replace(scene, name="", description="", source="", integrator=None, initial=None))
+
+
+@functools.lru_cache(maxsize=32)
+def _signs(scene: Scene) -> int:
+    from .dynamics.family import effort_family
+    from .preload.solve import _choose_signs
+    from .trajectory import sample_path
+    s = sample_path(scene.path)
+    raw = effort_family(scene, s.pose, s.pose_d, s.pose_dd).raw
+    p = scene.actuation.preload
+    return int(_choose_signs(scene, raw, p.qp_solver, exact=p.method == "exact")[0])
+
+
+def preload_sign(scene: Scene) -> int:
+    """The controller's fixed preload sign: +1 / -1 (the exact branch or the QP's axial-force
+    sign that :func:`rrr4.solve_preload` picks on the path), 0 without a preload."""
+    return _sign(scene) if has_preload(scene) else 0
+
+
+def preload_law(scene: Scene, sign: int | None = None) -> ca.Function | None:
+    """The pointwise preload of the scene's controller, an SX Function tau_p, tau_n, r_p, r_n
+    -> alpha, tau, feasible, margin (None without a preload): the exact law on the branch
+    `sign`, or the closed-form QP with that axial-force sign (default: :func:`rrr4.solve_preload`'s
+    choice on the path)."""
+    if not has_preload(scene):
+        return None
+    why = pointwise_controller(scene)
+    if why and scene.mechanism is not None:
+        raise SceneError(f"actuation.preload.method: {scene.actuation.preload.method!r} is not allowed in a "
+                         f"controller step ({why}; choose exact or qp, or pass preload= to simulate)")
+    sign = _sign(scene) if sign is None else int(sign)
+    if scene.actuation.preload.method == "exact":
+        from .preload.exact import exact_preload_function
+        return exact_preload_function(scene, branch=sign)
+    from .preload.qp import scalar_qp_preload_function
+    return scalar_qp_preload_function(scene, float(sign))
+
+
+def _stiffness(scene: Scene) -> dict:
+    from .dynamics.builder import joint_stiffness
+    return {j: joint_stiffness(scene, j) for j in scene.clearance_joints}
+
+
+def seat_gaps(scene: Scene, r, slip=None):
+    """Predicted gaps (2, nj) [m] (second joint point - first) of the passive revolute joints
+    (``Model.preload_joints`` order) under their planned reactions r (2, nj) [N] (force of
+    the first body on the second), 0 at ideal joints. SX or numeric; a reaction below
+    SEAT_FORCE leaves its joint centred.
+
+    The journal seats where the contact force balances r: normal force f_n along -n and
+    friction f_t = mu f_n along t = E n, with mu the scene's friction law at the slip
+    velocity slip (nj,) [m/s] (R_J omega_J - R_B omega_B; None or law 'none': mu = 0). Then
+    gap = -(c + delta) (r + mu E r) / (sqrt(1 + mu^2) |r|) with K delta^n = f_n = |r| / sqrt(1 + mu^2),
+    whichever body carries the journal."""
+    gaps, _ = _seats(scene, r, slip)
+    return np.array(ca.evalf(gaps)) if not isinstance(r, (ca.SX, ca.MX)) else gaps
+
+
+def _seats(scene: Scene, r, slip):
+    """(gaps (2, nj) [m], friction forces f_t (nj,) [N]) of :func:`seat_gaps`, symbolic."""
+    from .contact import friction_force
+    names = Model.of(scene.graph).preload_joints
+    stiff = _stiffness(scene)
+    n_exp = scene.effects.contact.exponent
+    fe = scene.effects.friction
+    cols, f_t = [], []
+    for j, name in enumerate(names):
+        if name not in stiff:
+            cols.append(ca.DM.zeros(2))
+            f_t.append(0.0)
+            continue
+        rj = r[:, j]
+        mu = 0.0 if slip is None or fe.law == "none" else friction_force(fe, slip[j], 1.0)
+        f = ca.norm_2(rj)
+        root = ca.sqrt(1 + mu**2)
+        f_n = f / root
+        delta = (f_n / stiff[name]) ** (1.0 / n_exp)
+        g = -(scene.joint(name).radial_clearance + delta) * (rj + mu * ca.vertcat(-rj[1], rj[0])) / (
+            root * ca.fmax(f, SEAT_FORCE))
+        cols.append(ca.if_else(f > SEAT_FORCE, g, ca.DM.zeros(2)))
+        f_t.append(mu * f_n)
+    return ca.horzcat(*cols), ca.vertcat(*f_t)
+
+
+def _nrrr_slip(scene: Scene, pose, pose_d):
+    """Slip velocities (2n,) [m/s] R_J omega_J - R_B omega_B of the passive joints B1..Bn,
+    C1..Cn of an n-RRR at the desired motion (journals on the outboard bodies)."""
+    from .dynamics.inverse import _chain_motion, _link_rates, _transmission
+    mech = Mechanism.from_scene(scene)
+    cs = (ca.cos(pose[2]), ca.sin(pose[2]))
+    b, c = [], []
+    for i, ch in enumerate(mech.data.chains):
+        u1, e, _, cd_rel, _, _ = _chain_motion(ch, pose[0:2], pose_d[2], 0, cs)
+        w1, w2 = _link_rates(ch, u1, e, pose_d[0:2] + cd_rel, _transmission(ch, u1, e)[2])
+        jb, jc = scene.joint(f"B{i + 1}"), scene.joint(f"C{i + 1}")
+        b.append(jb.journal_radius * w2 - jb.bearing_radius * w1)
+        c.append(jc.journal_radius * pose_d[2] - jc.bearing_radius * w2)
+    return ca.vertcat(*b, *c)
+
+
+def _friction_feed_forward(scene: Scene, pose, pose_d, slip, f_t):
+    """Actuator torques (n,) [N m] that overcome the friction moments of the seated clearance
+    journals (minimum norm): by virtual power, J^T dtau = -G^T f_t with f_t (nj,) [N] the
+    friction forces at the planned normal forces and G = d slip / d pose_d (slip is linear
+    in the platform twist)."""
+    from .dynamics.inverse import joint_reactions_function
+    G = ca.jacobian(slip, pose_d)
+    J = joint_reactions_function(scene)(pose, pose_d, pose_d)[5]  # J depends on the pose only
+    return J @ ca.solve(J.T @ J, -G.T @ f_t)
+
+
+@functools.cache
+def feedback_function(scene: Scene) -> ca.Function:
+    """SX Function 'feedback': theta_ref, theta_d_ref, tau_ff, theta, theta_d (n each) ->
+    tau (n,) = clip(tau_ff + kp e + kd (theta_d_ref - theta_d), +-limit), e = theta_ref -
+    theta wrapped to [-pi, pi) for revolute actuators [rad], as is for prismatic ones [m]."""
+    a, model = scene.actuation, Model.of(scene.graph)
+    n = model.n_actuators
+    th_ref, thd_ref, ff, th, thd = (ca.SX.sym(s, n) for s in ("theta_ref", "theta_d_ref", "tau_ff", "theta",
+                                                               "theta_d"))
+    d = th_ref - th
+    wrap = ca.DM([1.0 if scene.graph.joint(j).type == "revolute" else 0.0 for j in model.actuated_joints])
+    e = d - wrap * 2 * ca.pi * ca.floor((d + ca.pi) / (2 * ca.pi))
+    lim = ca.DM(a.torque_limit)
+    tau = ca.fmin(ca.fmax(ff + a.kp * e + a.kd * (thd_ref - thd), -lim), lim)
+    return ca.Function("feedback", [th_ref, thd_ref, ff, th, thd], [tau],
+                       ["theta_ref", "theta_d_ref", "tau_ff", "theta", "theta_d"], ["tau"])
+
+
+def controller_function(scene: Scene, sign: int | None = None) -> ca.Function:
+    """SX Function 'controller_step' of an n-RRR scene: pose_des, pose_d_des, pose_dd_des,
+    pose_ddd_des (3 each) [m, rad and their rates], theta, theta_d (n each) [rad, rad/s] ->
+    tau (n,) [N m] (clipped), tau_ff (n,) [N m] (inverse dynamics + preload), theta_ref,
+    theta_d_ref (n,) [rad, rad/s] (compensated if the scene says so), alpha (m,) [N m],
+    feasible (1.0 / 0.0; 1.0 without a preload).
+
+    sign: the preload branch / axial-force sign (default: :func:`preload_law`'s). Built once
+    per scene (the path, integrator and names do not matter, except for the sign's choice).
+    Raises SceneError for a scene without a closed-form controller (:func:`pointwise_controller`).
+    """
+    why = pointwise_controller(scene)
+    if why:
+        raise SceneError(f"mechanism: no closed-form controller step for scene {scene.name!r} ({why})")
+    if has_preload(scene) and sign is None:
+        sign = _sign(scene)
+    return _controller(replace(scene, name="", description="", source="", path=None, integrator=None, initial=None),
+                       sign)
+
+
+@functools.lru_cache(maxsize=32)
+def _controller(scene: Scene, sign: int | None) -> ca.Function:
+    from .dynamics.inverse import actuator_motion_function, inverse_dynamics_function
+    mech = Mechanism.from_scene(scene)
+    n = mech.n
+    pose, pose_d, pose_dd, pose_ddd = (ca.SX.sym(s, 3) for s in ("pose_des", "pose_d_des", "pose_dd_des",
+                                                                  "pose_ddd_des"))
+    theta, theta_d = ca.SX.sym("theta", n), ca.SX.sym("theta_d", n)
+    tau_p, tau_n, r_p, r_n = inverse_dynamics_function(scene)(pose, pose_d, pose_dd)
+    law = preload_law(scene, sign)
+    if law is None:
+        alpha, tau_ff, feasible = ca.SX.zeros(tau_n.shape[1]), tau_p, ca.SX(1.0)
+    else:
+        alpha, tau_ff, feasible, _ = law(tau_p, tau_n, r_p, r_n)
+    if scene.actuation.compensation == "clearance" and scene.clearance_joints:
+        r = r_p + (alpha * r_n if alpha.numel() else 0)
+        slip = _nrrr_slip(scene, pose, pose_d)
+        gap, f_t = _seats(scene, r, slip)
+        if scene.effects.friction.law != "none":
+            tau_ff = tau_ff + _friction_feed_forward(scene, pose, pose_d, slip, f_t)
+        # the IK closed around the seats; its rate at fixed seats (their drift adds < 1 % of
+        # the remaining error on the reference scene, for a third of the instructions)
+        u_ref, theta_d_ref = actuator_motion_function(scene)(pose, pose_d, gap[:, :n] + gap[:, n:])
+    else:
+        # theta_ref from the driving-link directions the inverse dynamics computes anyway
+        u_ref, theta_d_ref = actuator_motion_function(scene)(pose, pose_d, ca.SX.zeros(2, n))
+    theta_ref = ca.atan2(u_ref[1, :], u_ref[0, :]).T
+    tau = feedback_function(scene)(theta_ref, theta_d_ref, tau_ff, theta, theta_d)
+    return ca.Function("controller_step", [pose, pose_d, pose_dd, pose_ddd, theta, theta_d],
+                       ca.cse([tau, tau_ff, theta_ref, theta_d_ref, alpha, feasible]),
+                       ["pose_des", "pose_d_des", "pose_dd_des", "pose_ddd_des", "theta", "theta_d"],
+                       ["tau", "tau_ff", "theta_ref", "theta_d_ref", "alpha", "feasible"])
+
+
+@dataclass(frozen=True)
+class GraphReferences:
+    """Controller references of a scene on a time grid t (N,) [s]: theta_ref, theta_d_ref,
+    theta_dd_ref, tau_ff (N, n) (actuator coordinates [rad or m], their rates, the
+    feed-forward efforts [N m or N] with the preload), alpha (N, m), pose (N, 3)."""
+    t: np.ndarray
+    pose: np.ndarray
+    theta_ref: np.ndarray
+    theta_d_ref: np.ndarray
+    theta_dd_ref: np.ndarray
+    tau_ff: np.ndarray
+    alpha: np.ndarray
+
+
+def graph_references(scene: Scene, t: np.ndarray, preload=None) -> GraphReferences:
+    """The controller references of any scene with a task body at the times t (N,) [s]:
+    IK by Newton along the path, the effort family, the preload (``preload``: an object
+    with t and tau, e.g. a PreloadSolution, else :func:`rrr4.solve_preload` with the scene's
+    method when it preloads) and, with compensation, the Newton IK around the predicted
+    journal seats. Rates of compensated references by central differences of the IK over
+    +-1e-4 of a sample step (second order, error ~ 1e-10 rad/s on the reference scene)."""
+    from .dynamics.family import graph_family
+    from .trajectory import trajectory_function
+    mech = Mechanism.from_scene(scene)
+    model, N, k = mech.model, len(t), mech.n_task
+    traj = trajectory_function(scene.path)
+    p, pd, pdd = (np.array(v).T for v in traj.map(N)(t[None, :])[:3])
+    if scene.mechanism is not None:  # closed form
+        q = np.array(mech.body_motion_function.map(N)(p.T, pd.T, pdd.T)[0]).T
+    else:
+        q = mech.path_coordinates(p[:, :k])
+    _, qdd, th_d, th_dd = mech.motion(q, pd[:, :k], pdd[:, :k])
+    th = np.array(model.actuator_coordinates_function.map(N)(q.T)[0]).T
+    fam = graph_family(mech, q, qdd, scene.effects.gravity)
+    m = fam.tau_n.shape[2]
+    alpha = np.zeros((N, m))
+    tau_ff = fam.tau_p
+    if preload is not None:
+        tau_ff = np.column_stack([np.interp(t, preload.t, np.asarray(preload.tau)[:, i]) for i in range(mech.n)])
+        alpha = np.einsum("knm,kn->km", fam.tau_n, tau_ff - fam.tau_p)
+    elif has_preload(scene):
+        from .preload.solve import solve_preload
+        sol = solve_preload(scene)
+        alpha = np.column_stack([np.interp(t, sol.t, np.asarray(sol.alpha).reshape(len(sol.t), -1)[:, i])
+                                 for i in range(m)])
+        tau_ff = fam.tau_p + np.einsum("knm,km->kn", fam.tau_n, alpha)
+    if scene.actuation.compensation == "clearance" and scene.clearance_joints:
+        r = fam.r_p + np.einsum("kjcm,km->kjc", fam.r_n, alpha)
+        dt = 1e-4 * (t[1] - t[0] if N > 1 else 1e-3)
+        th = _compensated_ik(scene, mech, p[:, :k], r, q)
+        shifted = [_compensated_ik(scene, mech, p[:, :k] + s * dt * pd[:, :k], r + s * dt * np.gradient(r, t, axis=0),
+                                   q) for s in (1.0, -1.0)]
+        th_d = (shifted[0] - shifted[1]) / (2 * dt)
+        th_dd = np.gradient(th_d, t, axis=0) if N > 2 else np.zeros_like(th_d)
+    return GraphReferences(t, p, th, th_d, th_dd, tau_ff, alpha)
+
+
+def _compensated_ik(scene: Scene, mech: Mechanism, task: np.ndarray, r: np.ndarray, guess: np.ndarray) -> np.ndarray:
+    """Actuator coordinates (N, n) that put the task at `task` (N, k) with every clearance
+    joint opened by its predicted seat under the reactions r (N, nj, 2), by Newton."""
+    model = mech.model
+    names = model.preload_joints
+    clear = [names.index(j) for j in scene.clearance_joints]
+    out = np.empty((len(task), mech.n))
+    for i in range(len(task)):
+        offsets = seat_gaps(scene, r[i].T).T[clear]
+        qi = mech.assemble(task[i], offsets, guess=guess[i])
+        out[i] = np.array(model.actuator_coordinates_function(qi)[0]).ravel()
+    return out

@@ -1,0 +1,148 @@
+"""How robust is the clearance compensation? The controller keeps the scene's nominal model
+while the simulated mechanism differs from it (DESIGN section 7; issue: clearance +-20 %,
+contact stiffness x0.3 to x3, friction coefficient 0 to 0.2, one link 50 um long).
+
+For each case :func:`robustness` simulates the preloaded controller with and without
+compensation (both built from the nominal scene, ``simulate(..., model=nominal)``) on the
+perturbed mechanism and reports the platform RMS and peak error and the contact losses.
+:func:`plot_robustness` draws them; ``rrr4 robustness SCENE`` writes both.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from .errors import SceneError
+from .files import write_atomic
+from .scene import Scene, parse_scene
+
+__all__ = ["CASES", "robustness", "plot_robustness", "write_robustness"]
+
+# name -> (scene key path, how the nominal value changes): a factor on a number, a value, or
+# a length added [m] to the first chain's driving link
+CASES = {
+    "nominal": None,
+    "clearance -20 %": ("joints.radial_clearance", "factor", 0.8),
+    "clearance +20 %": ("joints.radial_clearance", "factor", 1.2),
+    "stiffness x0.3": ("effects.contact.stiffness", "factor", 0.3),
+    "stiffness x3": ("effects.contact.stiffness", "factor", 3.0),
+    "friction 0": ("effects.friction.coefficient", "value", 0.0),
+    "friction 0.2": ("effects.friction.coefficient", "value", 0.2),
+    "link A1B1 +50 um": ("mechanism.chains[0].driving_link.length", "add", 50e-6),
+}
+ARMS = ("with_preload", "with_preload_compensated")
+
+
+def _nominal_data(scene: Scene) -> dict:
+    if not scene.source or not Path(scene.source).is_file():
+        raise SceneError(f"scene: {scene.name!r} has no YAML file to vary (load it with rrr4.load_scene)")
+    return yaml.safe_load(Path(scene.source).read_text())
+
+
+def perturbed(scene: Scene, case: str) -> Scene:
+    """The mechanism of robustness case `case` (a key of :data:`CASES`): the scene's YAML
+    with one parameter changed (n-RRR scenes)."""
+    if case not in CASES:
+        raise SceneError(f"case: {case!r} is not allowed (choose one of: {', '.join(CASES)})")
+    if CASES[case] is None:
+        return scene
+    if scene.mechanism is None:
+        raise SceneError("mechanism.kind: robustness cases are defined for n-RRR scenes")
+    key, how, v = CASES[case]
+    data = copy.deepcopy(_nominal_data(scene))
+    from .dynamics.builder import joint_stiffness
+    if key == "joints.radial_clearance":
+        data["joints"]["radial_clearance"] = scene.joint(scene.clearance_joints[0]).radial_clearance * v
+    elif key == "effects.contact.stiffness":
+        data["effects"]["contact"]["stiffness"] = joint_stiffness(scene, scene.clearance_joints[0]) * v
+    elif key == "effects.friction.coefficient":
+        data["effects"]["friction"]["coefficient"] = v
+    else:
+        chain = data["mechanism"]["chains"][0]
+        link = dict(chain.get("driving_link", {}))
+        link.setdefault("mass", scene.mechanism.chains[0].driving.mass)
+        link.setdefault("inertia", scene.mechanism.chains[0].driving.inertia)
+        link["length"] = scene.mechanism.chains[0].driving.length + v
+        chain["driving_link"] = link
+    return parse_scene(data, name=f"{scene.name}, {case}", source="")
+
+
+def robustness(scene: Scene, t_end: float | None = None, progress: bool = False, log=None) -> list[dict]:
+    """Rows {case, arm, platform_error_rms_m, platform_error_max_m, contact_loss_events,
+    wall_time_s}: the scene's preloaded controller, uncompensated and compensated, built
+    from the nominal scene, on each perturbed mechanism of :data:`CASES`."""
+    import time
+
+    from .simulation import simulate
+    from .study import arm_scene
+    say = log or (lambda _m: None)
+    models = {arm: arm_scene(scene, arm) for arm in ARMS}
+    rows = []
+    for case in CASES:
+        plant = perturbed(scene, case)
+        for arm, model in models.items():
+            say(f"{case}: {arm.replace('_', ' ')}")
+            wall = time.perf_counter()
+            sim = simulate(arm_scene(plant, arm), t_end=t_end, model=model, progress=progress)
+            e = sim.platform_error
+            rows.append({"case": case, "arm": arm, "platform_error_rms_m": float(np.sqrt(np.mean(e**2))),
+                         "platform_error_max_m": float(e.max()),
+                         "contact_loss_events": int(sum(sim.contact_loss_events.values())),
+                         "wall_time_s": time.perf_counter() - wall})
+    return rows
+
+
+def plot_robustness(rows: list[dict], path: Path, title: str = "") -> Path:
+    """Grouped bars of the platform RMS error [um] per case, one bar per arm (log scale),
+    with the 1 um target line."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .results.plots import STYLE
+    cases = list(dict.fromkeys(r["case"] for r in rows))
+    fig, ax = plt.subplots(figsize=(9.0, 4.2))
+    width = 0.38
+    x = np.arange(len(cases))
+    top = 0.0
+    for k, arm in enumerate(ARMS):
+        vals = [next(r["platform_error_rms_m"] for r in rows if r["case"] == c and r["arm"] == arm) * 1e6
+                for c in cases]
+        top = max(top, *vals)
+        bars = ax.bar(x + (k - 0.5) * width, vals, width, color=STYLE[arm]["color"], label=STYLE[arm]["label"])
+        for b, v in zip(bars, vals, strict=True):
+            ax.annotate(f"{v:.2g}", (b.get_x() + b.get_width() / 2, v), ha="center", va="bottom", fontsize=7)
+    ax.axhline(1.0, color="k", ls=":", lw=1, label="1 um")
+    ax.set_yscale("log")
+    ax.set_ylim(top=top * 6)  # room for the legend above the bars
+    ax.set_xticks(x, cases, rotation=20, ha="right")
+    ax.set_ylabel("platform position error, RMS [um]")
+    ax.set_title(title or "controller with the nominal model on a mechanism that differs from it", fontsize=10)
+    ax.legend(fontsize=8, ncol=3, loc="upper left")
+    ax.grid(axis="y", which="both", alpha=0.3)
+    fig.tight_layout()
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    tmp.replace(path)  # atomic: an interrupted run keeps the earlier figure
+    return path
+
+
+def write_robustness(scene: Scene, out: Path, t_end: float | None = None, progress: bool = False,
+                     log=None) -> list[Path]:
+    """Run :func:`robustness` and write ``robustness.json`` and ``robustness.png`` into out."""
+    rows = robustness(scene, t_end=t_end, progress=progress, log=log)
+    out.mkdir(parents=True, exist_ok=True)
+    meta = {"scene": scene.name, "t_end_s": t_end or scene.path.duration, "cases": {
+        k: (None if v is None else {"key": v[0], "change": v[1], "value": v[2]}) for k, v in CASES.items()},
+            "rows": rows}
+    js = out / "robustness.json"
+    write_atomic(js, json.dumps(meta, indent=1) + "\n")
+    png = plot_robustness(rows, out / "robustness.png", f"{scene.name}: controller with the nominal model, "
+                                                          f"{meta['t_end_s']:g} s")
+    return [js, png]

@@ -1,0 +1,133 @@
+"""The one controller (rrr4.control): what the simulation runs is what codegen writes; the
+sampled controller, the closed-form QP preload and the clearance compensation."""
+
+import shutil
+from dataclasses import replace
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from rrr4 import Mechanism, SceneError, load_scene, simulate
+from rrr4.control import _nrrr_slip, controller_function, seat_gaps
+from rrr4.dynamics.family import effort_family
+from rrr4.dynamics.inverse import inverse_dynamics_function
+from rrr4.preload.qp import qp_preload_function, scalar_qp_preload_function
+from rrr4.trajectory import sample_path
+
+PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
+
+
+def _act(scene, **kw):
+    return replace(scene, actuation=replace(scene.actuation, **kw))
+
+
+def _rms(sim):
+    return float(np.sqrt(np.mean(sim.platform_error**2)))
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
+def test_generated_controller_in_the_loop_reproduces_the_python_controller(paper_scene):
+    """The compiled C of the controller step (as codegen writes it, via casadi.external) in
+    the loop: the same trajectory as the CasADi controller to 1e-9 m over 0.1 s, no losses."""
+    scene = _act(paper_scene, compensation="clearance")
+    a = simulate(scene, t_end=0.1, controller="python")
+    b = simulate(scene, t_end=0.1, controller="generated")
+    assert b.stats["controller"] == "generated" and b.stats["control_rate"] == 1e4
+    assert np.max(np.abs(a.pose - b.pose)) < 1e-9
+    assert sum(b.contact_loss_events.values()) == 0
+    np.testing.assert_allclose(a.tau, b.tau, atol=1e-9)
+
+
+def test_generated_controller_needs_a_closed_form_and_a_rate(paper_scene):
+    with pytest.raises(SceneError, match="control_rate"):
+        simulate(_act(paper_scene, control_rate=None), t_end=0.01, controller="generated")
+    graph = load_scene(PROBLEMS / "paper_circle_graph.yaml")
+    with pytest.raises(SceneError, match="controller: 'generated' is not allowed"):
+        simulate(_act(graph, control_rate=1e4), t_end=0.01, controller="generated")
+    with pytest.raises(SceneError, match="controller: unknown value 'c'"):
+        simulate(paper_scene, t_end=0.01, controller="c")
+    with pytest.raises(SceneError, match="control_rate"):   # not a whole number of periods
+        simulate(_act(paper_scene, control_rate=3.0), t_end=0.01)
+
+
+def test_closed_form_qp_is_the_qp_solvers_optimum(paper_scene):
+    """One degree of redundancy: the QP's optimum in closed form equals qrqp's on the path."""
+    s = sample_path(paper_scene.path)
+    raw = effort_family(paper_scene, s.pose, s.pose_d, s.pose_dd).raw
+    for sign in (1.0, -1.0):
+        a, _, feasible, _ = (np.array(v) for v in qp_preload_function(paper_scene, "qrqp", sign).map(len(s.t))(*raw))
+        b, _, feasible_b, _ = (np.array(v) for v in scalar_qp_preload_function(paper_scene, sign).map(len(s.t))(*raw))
+        ok = feasible.ravel() > 0.5
+        assert ok.sum() > len(s.t) // 2
+        np.testing.assert_allclose(b.ravel()[ok], a.ravel()[ok], atol=1e-9)
+        np.testing.assert_array_equal(feasible_b.ravel(), feasible.ravel())
+
+
+def test_compensated_ik_puts_the_platform_on_the_commanded_pose(paper_scene):
+    """Kinematics only: with every journal at its predicted seat (the gaps the controller
+    closes its IK around), Newton on the graph's joint equations assembles the mechanism with
+    the platform on the commanded pose and the actuators at the compensated references."""
+    scene = _act(paper_scene, compensation="clearance")
+    mech = Mechanism.from_scene(scene)
+    f = controller_function(scene)
+    inv = inverse_dynamics_function(scene)
+    p, pd = ca.SX.sym("p", 3), ca.SX.sym("pd", 3)
+    slip_f = ca.Function("slip", [p, pd], [_nrrr_slip(scene, p, pd)])
+    s = sample_path(scene.path, 20.0)
+    names = list(mech.model.preload_joints)
+    clear = [names.index(j) for j in mech.model.clearance_joints]
+    for k in range(1, len(s.t) - 1):
+        motion = (s.pose[k], s.pose_d[k], s.pose_dd[k])
+        _, _, theta_ref, _, alpha, _ = (np.array(v) for v in f(*motion, np.zeros(3), np.zeros(4), np.zeros(4)))
+        _, _, r_p, r_n = (np.array(v) for v in inv(*motion))
+        gaps = seat_gaps(scene, r_p + alpha.item() * r_n, np.array(slip_f(*motion[:2])).ravel())
+        assert np.all(np.linalg.norm(gaps, axis=0) > 0.99e-4)  # every journal on its wall
+        q = mech.assemble(s.pose[k], gaps.T[clear], guess=mech.body_motion(s.pose[k])[0])
+        np.testing.assert_allclose(mech.model.task_pose_function(q), s.pose[k][:, None], atol=1e-12)
+        theta = mech.actuator_coordinates(q)
+        np.testing.assert_allclose(np.angle(np.exp(1j * (theta - theta_ref.ravel()))), 0.0, atol=1e-12)
+
+
+def test_compensation_lowers_the_error_and_changes_nothing_without_clearance(paper_scene):
+    """Reference scene: compensated RMS below uncompensated, both without contact loss;
+    friction off, the compensation removes the steady offset almost entirely. An all-ideal
+    scene: bit for bit the same motion."""
+    plain = simulate(paper_scene, t_end=0.2)
+    comp = simulate(_act(paper_scene, compensation="clearance"), t_end=0.2)
+    assert sum(plain.contact_loss_events.values()) == sum(comp.contact_loss_events.values()) == 0
+    assert _rms(comp) < 0.6 * _rms(plain)
+    dry = replace(paper_scene, effects=replace(paper_scene.effects, friction=replace(paper_scene.effects.friction,
+                                                                                      law="none")))
+    assert _rms(simulate(_act(dry, compensation="clearance"), t_end=0.2)) < 0.05 * _rms(simulate(dry, t_end=0.2))
+    ideal = load_scene(PROBLEMS / "ideal_circle.yaml")
+    a = simulate(ideal, t_end=0.05)
+    b = simulate(_act(ideal, compensation="clearance"), t_end=0.05)
+    np.testing.assert_array_equal(a.q, b.q)
+
+
+def test_sampled_controller_converges_to_the_continuous_one(paper_scene):
+    """Zero-order hold at 1 kHz and 10 kHz against the continuous controller: the difference
+    in platform motion shrinks with the rate (first order in the period)."""
+    cont = simulate(_act(paper_scene, control_rate=None), t_end=0.1, output_rate=1000)
+    errs = []
+    for rate in (1e3, 1e4):
+        held = simulate(_act(paper_scene, control_rate=rate), t_end=0.1, output_rate=1000)
+        assert held.stats["references"] == "held" and len(held.t) == len(cont.t)
+        errs.append(np.max(np.abs(held.pose[:, :2] - cont.pose[:, :2])))
+    assert errs[1] < 0.3 * errs[0]
+
+
+def test_unpreloaded_controller_is_the_minimum_norm_one(paper_scene):
+    """method none or min_force 0: alpha = 0, the feed-forward is tau_p."""
+    for scene in (replace(paper_scene, actuation=replace(paper_scene.actuation, preload=replace(
+            paper_scene.actuation.preload, method="none"))),
+                  replace(paper_scene, actuation=replace(paper_scene.actuation, preload=replace(
+                      paper_scene.actuation.preload, min_force=0.0)))):
+        f = controller_function(scene)
+        s = sample_path(scene.path, 10.0)
+        tau_p = np.array(inverse_dynamics_function(scene)(s.pose[3], s.pose_d[3], s.pose_dd[3])[0]).ravel()
+        out = f(s.pose[3], s.pose_d[3], s.pose_dd[3], np.zeros(3), np.zeros(4), np.zeros(4))
+        np.testing.assert_allclose(np.array(out[1]).ravel(), tau_p, atol=1e-12)
+        assert float(out[4]) == 0.0
