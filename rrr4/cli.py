@@ -89,7 +89,7 @@ def _robustness(args) -> int:
     if args.t_end is not None:
         argument("--t-end", args.t_end)
     scene = load_scene(args.scene)
-    out = Path(args.out) if args.out else Path("results") / scene.name
+    out = Path(args.out) if args.out else Path("results") / f"{scene.name}_robustness"
     _check_writable(out)
     for f in write_robustness(scene, out, t_end=args.t_end, log=lambda m: tqdm.write(f"rrr4 robustness: {m}")):
         print(f)
@@ -130,7 +130,8 @@ def build_parser() -> argparse.ArgumentParser:
                                            "keeping the nominal model while the mechanism differs (clearance, "
                                            "stiffness, friction, a link length); writes robustness.json/.png")
     rb.add_argument("scene", help="scene YAML file of an n-RRR scene, e.g. problems/paper_circle.yaml")
-    rb.add_argument("--out", help="directory (default results/<scene name>/); the two files are replaced atomically")
+    rb.add_argument("--out", help="directory (default results/<scene name>_robustness/); the two files are "
+                                  "replaced atomically")
     rb.add_argument("--t-end", type=float, default=None, help="simulated time [s] (default: the path duration)")
     rb.set_defaults(func=_robustness)
     b = sub.add_parser("bench", help="what accuracy costs in time")

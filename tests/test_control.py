@@ -131,3 +131,45 @@ def test_unpreloaded_controller_is_the_minimum_norm_one(paper_scene):
         out = f(s.pose[3], s.pose_d[3], s.pose_dd[3], np.zeros(3), np.zeros(4), np.zeros(4))
         np.testing.assert_allclose(np.array(out[1]).ravel(), tau_p, atol=1e-12)
         assert float(out[4]) == 0.0
+
+
+def test_robustness_cases_change_one_parameter_and_the_model_stays_nominal(paper_scene):
+    """Each case changes what it names; simulate(model=nominal) runs the nominal controller on
+    the changed mechanism (a 50 um longer link moves the platform), and a bad model is refused."""
+    from rrr4.dynamics.builder import joint_stiffness
+    from rrr4.robustness import CASES, perturbed
+    nominal_k = joint_stiffness(paper_scene, "B1")
+    checks = {
+        "clearance +20 %": lambda s: s.joint("C2").radial_clearance == pytest.approx(1.2e-4),
+        "stiffness x0.3": lambda s: s.effects.contact.stiffness == pytest.approx(0.3 * nominal_k),
+        "friction 0.2": lambda s: s.effects.friction.coefficient == 0.2,
+        "link A1B1 +50 um": lambda s: s.mechanism.chains[0].driving.length == pytest.approx(0.25005)
+        and s.mechanism.chains[1].driving.length == 0.25,
+    }
+    for case, ok in checks.items():
+        assert ok(perturbed(paper_scene, case)), case
+    assert set(checks) < set(CASES)
+    plant = perturbed(paper_scene, "link A1B1 +50 um")
+    a = simulate(paper_scene, t_end=0.02)
+    b = simulate(plant, t_end=0.02, model=paper_scene)
+    assert 5e-7 < np.max(np.abs(b.pose[-1, :2] - a.pose[-1, :2])) < 1e-4
+    with pytest.raises(SceneError, match="model: .* is not allowed"):
+        simulate(paper_scene, t_end=0.01, model="nominal")
+    with pytest.raises(SceneError, match="case: 'x' is not allowed"):
+        perturbed(paper_scene, "x")
+
+
+@pytest.mark.parametrize("key, value, match", [
+    ("actuation.control_rate", -5, "actuation.control_rate: -5 is not allowed"),
+    ("actuation.control_rate", "fast", "actuation.control_rate: 'fast' is not a number"),
+    ("actuation.compensation", "clearence", "did you mean 'clearance'"),
+    ("actuation.preload.method", "nonee", "did you mean 'none'"),
+])
+def test_bad_controller_keys_are_one_line(paper_data, key, value, match):
+    from rrr4.scene import parse_scene
+
+    from .conftest import set_key
+    set_key(paper_data, key, value)
+    with pytest.raises(SceneError, match=match) as e:
+        parse_scene(paper_data)
+    assert "\n" not in str(e.value)
