@@ -312,24 +312,52 @@ def graph_references(scene: Scene, t: np.ndarray, preload=None) -> GraphReferenc
         tau_ff = fam.tau_p + np.einsum("knm,km->kn", fam.tau_n, alpha)
     if scene.actuation.compensation == "clearance" and scene.clearance_joints:
         r = fam.r_p + np.einsum("kjcm,km->kjc", fam.r_n, alpha)
+        W = _slip_rows(scene, model)
+        qd = mech.motion(q, pd[:, :k], pdd[:, :k])[0]
+        slip = qd @ W.T
         dt = 1e-4 * (t[1] - t[0] if N > 1 else 1e-3)
-        th = _compensated_ik(scene, mech, p[:, :k], r, q)
+        th, f_t = _compensated_ik(scene, mech, p[:, :k], r, slip, q)
         shifted = [_compensated_ik(scene, mech, p[:, :k] + s * dt * pd[:, :k], r + s * dt * np.gradient(r, t, axis=0),
-                                   q) for s in (1.0, -1.0)]
+                                   slip, q)[0] for s in (1.0, -1.0)]
         th_d = (shifted[0] - shifted[1]) / (2 * dt)
         th_dd = np.gradient(th_d, t, axis=0) if N > 2 else np.zeros_like(th_d)
+        if scene.effects.friction.law != "none":  # the friction moments, by virtual power (see the n-RRR step)
+            V, S = mech.velocity_maps(q)
+            J, G = S @ V, W @ V
+            rhs = -np.einsum("kjt,kj->kt", G, f_t)
+            JtJ = np.einsum("knt,kns->kts", J, J)
+            tau_ff = tau_ff + np.einsum("knt,kt->kn", J, np.linalg.solve(JtJ, rhs[..., None])[..., 0])
     return GraphReferences(t, p, th, th_d, th_dd, tau_ff, alpha)
 
 
-def _compensated_ik(scene: Scene, mech: Mechanism, task: np.ndarray, r: np.ndarray, guess: np.ndarray) -> np.ndarray:
+def _slip_rows(scene: Scene, model: Model) -> np.ndarray:
+    """W (nj, nq): slip velocities R_J omega_J - R_B omega_B = W qd of the passive revolute
+    joints (``Model.preload_joints``; zero rows for ideal joints)."""
+    W = np.zeros((len(model.preload_joints), model.nq))
+    for j, name in enumerate(model.preload_joints):
+        spec = scene.graph.joint(name)
+        if not spec.clearance:
+            continue
+        for body, radius in ((spec.journal_body, spec.journal_radius), (spec.bearing_body, -spec.bearing_radius)):
+            i = model.rotation_index(body)
+            if i is not None:
+                W[j, i] += radius
+    return W
+
+
+def _compensated_ik(scene: Scene, mech: Mechanism, task: np.ndarray, r: np.ndarray, slip: np.ndarray,
+                    guess: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Actuator coordinates (N, n) that put the task at `task` (N, k) with every clearance
-    joint opened by its predicted seat under the reactions r (N, nj, 2), by Newton."""
+    joint opened by its predicted seat under the reactions r (N, nj, 2) and slip velocities
+    (N, nj), by Newton; and the seated journals' friction forces f_t (N, nj) [N]."""
     model = mech.model
     names = model.preload_joints
-    clear = [names.index(j) for j in scene.clearance_joints]
-    out = np.empty((len(task), mech.n))
+    clear = [names.index(j) for j in model.clearance_joints]
+    out, f_t = np.empty((len(task), mech.n)), np.zeros((len(task), len(names)))
     for i in range(len(task)):
-        offsets = seat_gaps(scene, r[i].T).T[clear]
+        gaps, ft = _seats(scene, ca.DM(r[i].T), ca.DM(slip[i]))
+        offsets = np.array(ca.evalf(gaps)).T[clear]
+        f_t[i] = np.array(ca.evalf(ft)).ravel()
         qi = mech.assemble(task[i], offsets, guess=guess[i])
         out[i] = np.array(model.actuator_coordinates_function(qi)[0]).ravel()
-    return out
+    return out, f_t

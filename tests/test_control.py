@@ -173,3 +173,17 @@ def test_bad_controller_keys_are_one_line(paper_data, key, value, match):
     with pytest.raises(SceneError, match=match) as e:
         parse_scene(paper_data)
     assert "\n" not in str(e.value)
+
+
+def test_graph_compensation_by_newton_equals_the_nrrr_closed_form(paper_scene):
+    """The general graph's compensated references (Newton around the seats, friction torques
+    by virtual power) equal the n-RRR closed form: angles to 1e-12 rad, feed-forward to
+    1e-9 N m (the rates differ by the seats' drift, which the closed form holds fixed)."""
+    from rrr4.simulation import _tabulated
+    a = _act(paper_scene, compensation="clearance")
+    b = _act(load_scene(PROBLEMS / "paper_circle_graph.yaml"), compensation="clearance")
+    t = np.linspace(0.0, 1.0, 21)
+    ra, rb = _tabulated(a, t, None), _tabulated(b, t, None)
+    assert np.max(np.abs(np.angle(np.exp(1j * (ra.theta_ref - rb.theta_ref))))) < 1e-12
+    np.testing.assert_allclose(rb.tau_ff, ra.tau_ff, atol=1e-9)
+    assert np.max(np.abs(ra.theta_d_ref - rb.theta_d_ref)) < 1e-3 * np.max(np.abs(ra.theta_d_ref))

@@ -134,11 +134,17 @@ class Mechanism:
 
     def path_jacobians(self, q) -> np.ndarray:
         """J (N, n, n_task) at states q (N, nq) of a task-driven graph: d theta = J d task."""
+        V, S = self.velocity_maps(q)
+        return S @ V
+
+    def velocity_maps(self, q) -> tuple[np.ndarray, np.ndarray]:
+        """(V (N, nq, n_task), S (N, n, nq)) at states q (N, nq) of a task-driven graph:
+        qd = V task_d (velocity analysis) and theta_d = S qd."""
         N = q.shape[0]
         Jf, _, _, S = (np.array(v).reshape(v.shape[0], N, v.shape[1] // N).transpose(1, 0, 2)
                        for v in self.constraint_jacobian_function.map(N)(q.T, np.zeros((self.nq, N))))
         rhs = np.vstack([np.zeros((self._n_rows, self.n_task)), np.eye(self.n_task)])
-        return S @ np.linalg.solve(Jf, np.broadcast_to(rhs, (N, *rhs.shape)))
+        return np.linalg.solve(Jf, np.broadcast_to(rhs, (N, *rhs.shape))), S
 
     def motion(self, q, target_d, target_dd):
         """(qd, qdd, theta_d, theta_dd) for q (N, nq) and task-row rates (N, n_task)."""
