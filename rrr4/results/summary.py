@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..control import has_preload
 from ..mechanism import Model
 from ..mechanism.workspace import path_kinematics
 from ..scene import Scene
@@ -190,9 +191,12 @@ def scene_summary(scene: Scene) -> str:
     lines.append(f"  gravity: {'none' if g == (0.0, 0.0) else f'({g[0]:g}, {g[1]:g}) m/s^2'}")
     a = scene.actuation
     if a.mode == "torque":
-        lines.append(f"  actuation: feed-forward + {a.preload.method} preload (f_min = {a.preload.min_force:g} N) "
-                     f"+ PD (kp = {a.kp:g} N m/rad, kd = {a.kd:g} N m s/rad), "
-                     f"|tau| <= {max(a.torque_limit):g} N m")
+        pre = (f"{a.preload.method} preload (f_min = {a.preload.min_force:g} N)" if has_preload(scene)
+               else "no preload")
+        comp = ", clearance compensation" if a.compensation == "clearance" else ""
+        rate = f"sampled at {a.control_rate:g} Hz" if a.control_rate else "continuous"
+        lines.append(f"  actuation: controller = feed-forward + {pre}{comp} + PD (kp = {a.kp:g} N m/rad, kd = "
+                     f"{a.kd:g} N m s/rad), |tau| <= {max(a.torque_limit):g} N m, {rate}")
     elif a.mode == "free":
         lines.append("  actuation: free (zero actuator torque)")
     else:
