@@ -39,11 +39,11 @@ _HARNESS_ARGS = {
     "ik": "P[s], o4a, o4b",
     "jacobian": "P[s], o12, o4a",
     "null_space": "P[s], o4a",
-    "trajectory": "T[s], o3a, o3b, o3c, o3d",
+    "trajectory": "T[s], o3a, o3b, o3c",
     "inverse_dynamics": "P[s], PD[s], PDD[s], o4a, o4b, o16a, o16b",
     "exact_preload": "TP[s], TN[s], RP[s], RN[s], &o1a, o4a, &o1b, &o1c",
     "preload": "P[s], PD[s], PDD[s], &o1a, o4a, &o1b, &o1c",
-    "controller_step": "P[s], PD[s], PDD[s], PDDD[s], TH[s], THD[s], o4a, o4b, o4c, o4d, &o1a, &o1b",
+    "controller_step": "P[s], PD[s], PDD[s], TH[s], THD[s], o4a, o4b, o4c, o4d, &o1a, &o1b",
     "qp_preload": "TP[s], TN[s], RP[s], RN[s], &o1a, o4a, &o1b, &o1c",
 }
 
@@ -55,10 +55,8 @@ _HARNESS = r"""/* timing harness of the rrr4 kernels: prints 'name ns_per_call f
 
 #define S __SAMPLES__
 #define REPEATS 5
-static double T[S], P[S][3], PD[S][3], PDD[S][3], PDDD[S][3], TH[S][4], THD[S][4], TP[S][4], TN[S][4], RP[S][16],
-  RN[S][16];
-static double o1a, o1b, o1c, o3a[3], o3b[3], o3c[3], o3d[3], o4a[4], o4b[4], o4c[4], o4d[4], o12[12], o16a[16],
-  o16b[16];
+static double T[S], P[S][3], PD[S][3], PDD[S][3], TH[S][4], THD[S][4], TP[S][4], TN[S][4], RP[S][16], RN[S][16];
+static double o1a, o1b, o1c, o3a[3], o3b[3], o3c[3], o4a[4], o4b[4], o4c[4], o4d[4], o12[12], o16a[16], o16b[16];
 volatile double sink;
 
 static double now(void) {
@@ -73,7 +71,7 @@ int main(int argc, char **argv) {
   for (s = 0; s < S; ++s) {
     double J[12], cos_arg[4];
     T[s] = RRR4_PATH_DURATION * (s + 0.5) / S;
-    rrr4_trajectory(T[s], P[s], PD[s], PDD[s], PDDD[s]);
+    rrr4_trajectory(T[s], P[s], PD[s], PDD[s]);
     rrr4_ik(P[s], TH[s], cos_arg);
     rrr4_jacobian(P[s], J, NULL);
     for (i = 0; i < 4; ++i) {
@@ -115,8 +113,7 @@ def _python_inputs(scene):
     args = {k: [] for k in KERNELS}
     for s in range(SAMPLES):
         t = scene.path.duration * (s + 0.5) / SAMPLES
-        *motion, jerk = (np.array(v).ravel() for v in traj(t))
-        motion = tuple(motion)
+        motion = tuple(np.array(v).ravel() for v in traj(t))
         theta = mech.ik(motion[0]) - 1e-3
         theta_d = mech.jacobian(motion[0]) @ motion[1]
         family = tuple(np.array(v) for v in inv(*motion))
@@ -125,7 +122,7 @@ def _python_inputs(scene):
         args["trajectory"].append((t,))
         for k in ("inverse_dynamics", "preload"):
             args[k].append(motion)
-        args["controller_step"].append((*motion, jerk, theta, theta_d))
+        args["controller_step"].append((*motion, theta, theta_d))
         for k in ("exact_preload", "qp_preload"):
             args[k].append(family)
     return args

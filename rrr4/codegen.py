@@ -57,8 +57,6 @@ _IO_DOC = {
     "pose_des": "desired platform pose [x, y, theta_o] [m, m, rad]",
     "pose_d_des": "desired platform velocity [m/s, m/s, rad/s]",
     "pose_dd_des": "desired platform acceleration [m/s^2, m/s^2, rad/s^2]",
-    "pose_ddd_des": "desired platform jerk [m/s^3, m/s^3, rad/s^3]",
-    "pose_ddd": "platform jerk [m/s^3, m/s^3, rad/s^3]",
     "theta_ref": "actuator angle references [rad] (compensated for the journal seats if the scene says so)",
     "theta_d_ref": "actuator rate references [rad/s]",
     "theta": "actuator angles [rad]",
@@ -286,13 +284,13 @@ static void print_row(const char *tag, double t, const double *v, int n, const d
 }}
 
 int main(void) {{
-  double pose[3], pose_d[3], pose_dd[3], pose_ddd[3];
+  double pose[3], pose_d[3], pose_dd[3];
   double theta_ref[4], cos_arg[4], J[12], n[4];
   double theta[4], theta_d[4], tau[4], tau_ff[4], extra[2];
   int k, i, j;
 
   /* kinematics at the start of the path: theta (4), then J column-major (12), then n (4) */
-  if (rrr4_trajectory(0.0, pose, pose_d, pose_dd, pose_ddd) || rrr4_ik(pose, theta_ref, cos_arg) ||
+  if (rrr4_trajectory(0.0, pose, pose_d, pose_dd) || rrr4_ik(pose, theta_ref, cos_arg) ||
       rrr4_jacobian(pose, J, NULL) || rrr4_null_space(pose, n)) return 1;
   for (i = 0; i < RRR4_N_ACTUATORS; ++i) {{
     if (cos_arg[i] < -1.0 || cos_arg[i] > 1.0) {{
@@ -306,7 +304,7 @@ int main(void) {{
   printf("# t [s], tau [N m] (4), alpha [N m], feasible\\n");
   for (k = 0; k <= STEPS; ++k) {{
     double t = RRR4_PATH_DURATION * k / STEPS;
-    rrr4_trajectory(t, pose, pose_d, pose_dd, pose_ddd);
+    rrr4_trajectory(t, pose, pose_d, pose_dd);
     /* stand-in for the encoders: reference angles with a fixed lag, rates J pose_d */
     rrr4_ik(pose, theta_ref, cos_arg);
     rrr4_jacobian(pose, J, NULL);
@@ -315,8 +313,8 @@ int main(void) {{
       theta_d[i] = 0.0;
       for (j = 0; j < 3; ++j) theta_d[i] += J[i + 4 * j] * pose_d[j];
     }}
-    if (rrr4_controller_step(pose, pose_d, pose_dd, pose_ddd, theta, theta_d, tau, tau_ff, NULL, NULL, &extra[0],
-                             &extra[1])) return 1;
+    if (rrr4_controller_step(pose, pose_d, pose_dd, theta, theta_d, tau, tau_ff, NULL, NULL, &extra[0], &extra[1]))
+      return 1;
     if (extra[1] == 0.0) printf("# t = %g s: preload infeasible, best effort\\n", t);
     if (k % PRINT_EVERY == 0) print_row("step", t, tau, 4, extra, 2);
   }}
@@ -428,7 +426,6 @@ def generated_controller(scene: Scene) -> tuple[ca.Function, Path]:
     as :func:`rrr4.control.controller_function`), and the path of its C source. Cached on disk
     (``rrr4.integrators.compiled.cache_dir()``) by the hash of the generated C."""
     import hashlib
-    import shutil
     import tempfile
 
     from .integrators.compiled import cache_dir
@@ -443,8 +440,11 @@ def generated_controller(scene: Scene) -> tuple[ca.Function, Path]:
         lib = final / f"lib{WRAPPER}.so"
         if not lib.exists():
             compile_library(src, src / lib.name)
-            shutil.rmtree(final, ignore_errors=True)
-            os.replace(src, final)  # atomic: never a half-built cache entry
+            try:
+                os.replace(src, final)  # atomic: never a half-built cache entry
+            except OSError:  # another process put the same entry in place first: use theirs
+                if not lib.exists():
+                    raise
     _GENERATED[key] = (ca.external(f"{RAW}_controller_step", str(lib)), final / f"{RAW}.c")
     return _GENERATED[key]
 

@@ -16,7 +16,8 @@ derivatives it computes
   redundancy), or none (``method: none`` or ``min_force: 0``: alpha = 0);
 - the references theta_ref, theta_d_ref: the IK of the pose, or with ``actuation.compensation:
   clearance`` the IK with every clearance journal at its predicted seat (below), and its
-  exact time derivative (forward AD along the pose's derivatives, hence the jerk input);
+  rate with the seats held (their drift is below 1 % of the remaining error on the
+  reference scene, and following it would triple the instructions);
 - the feedback law above.
 
 `rrr4.simulate` runs this Function (inlined in CasADi, or its generated C in the loop
@@ -212,7 +213,7 @@ def feedback_function(scene: Scene) -> ca.Function:
 
 def controller_function(scene: Scene, sign: int | None = None) -> ca.Function:
     """SX Function 'controller_step' of an n-RRR scene: pose_des, pose_d_des, pose_dd_des,
-    pose_ddd_des (3 each) [m, rad and their rates], theta, theta_d (n each) [rad, rad/s] ->
+    (3 each) [m, rad and their rates], theta, theta_d (n each) [rad, rad/s] ->
     tau (n,) [N m] (clipped), tau_ff (n,) [N m] (inverse dynamics + preload), theta_ref,
     theta_d_ref (n,) [rad, rad/s] (compensated if the scene says so), alpha (m,) [N m],
     feasible (1.0 / 0.0; 1.0 without a preload).
@@ -223,7 +224,10 @@ def controller_function(scene: Scene, sign: int | None = None) -> ca.Function:
     """
     why = pointwise_controller(scene)
     if why:
-        raise SceneError(f"mechanism: no closed-form controller step for scene {scene.name!r} ({why})")
+        key = "mechanism.kind" if scene.mechanism is None else "actuation.preload.method"
+        raise SceneError(f"{key}: no closed-form controller step for scene {scene.name!r} ({why}; choose exact or "
+                         "qp for the preload)" if scene.mechanism is not None else
+                         f"{key}: no closed-form controller step for scene {scene.name!r} ({why})")
     if has_preload(scene) and sign is None:
         sign = _sign(scene)
     return _controller(replace(scene, name="", description="", source="", path=None, integrator=None, initial=None),
@@ -235,8 +239,7 @@ def _controller(scene: Scene, sign: int | None) -> ca.Function:
     from .dynamics.inverse import actuator_motion_function, inverse_dynamics_function
     mech = Mechanism.from_scene(scene)
     n = mech.n
-    pose, pose_d, pose_dd, pose_ddd = (ca.SX.sym(s, 3) for s in ("pose_des", "pose_d_des", "pose_dd_des",
-                                                                  "pose_ddd_des"))
+    pose, pose_d, pose_dd = (ca.SX.sym(s, 3) for s in ("pose_des", "pose_d_des", "pose_dd_des"))
     theta, theta_d = ca.SX.sym("theta", n), ca.SX.sym("theta_d", n)
     tau_p, tau_n, r_p, r_n = inverse_dynamics_function(scene)(pose, pose_d, pose_dd)
     law = preload_law(scene, sign)
@@ -258,9 +261,9 @@ def _controller(scene: Scene, sign: int | None) -> ca.Function:
         u_ref, theta_d_ref = actuator_motion_function(scene)(pose, pose_d, ca.SX.zeros(2, n))
     theta_ref = ca.atan2(u_ref[1, :], u_ref[0, :]).T
     tau = feedback_function(scene)(theta_ref, theta_d_ref, tau_ff, theta, theta_d)
-    return ca.Function("controller_step", [pose, pose_d, pose_dd, pose_ddd, theta, theta_d],
+    return ca.Function("controller_step", [pose, pose_d, pose_dd, theta, theta_d],
                        ca.cse([tau, tau_ff, theta_ref, theta_d_ref, alpha, feasible]),
-                       ["pose_des", "pose_d_des", "pose_dd_des", "pose_ddd_des", "theta", "theta_d"],
+                       ["pose_des", "pose_d_des", "pose_dd_des", "theta", "theta_d"],
                        ["tau", "tau_ff", "theta_ref", "theta_d_ref", "alpha", "feasible"])
 
 
@@ -290,7 +293,7 @@ def graph_references(scene: Scene, t: np.ndarray, preload=None) -> GraphReferenc
     mech = Mechanism.from_scene(scene)
     model, N, k = mech.model, len(t), mech.n_task
     traj = trajectory_function(scene.path)
-    p, pd, pdd = (np.array(v).T for v in traj.map(N)(t[None, :])[:3])
+    p, pd, pdd = (np.array(v).T for v in traj.map(N)(t[None, :]))
     if scene.mechanism is not None:  # closed form
         q = np.array(mech.body_motion_function.map(N)(p.T, pd.T, pdd.T)[0]).T
     else:
@@ -306,7 +309,7 @@ def graph_references(scene: Scene, t: np.ndarray, preload=None) -> GraphReferenc
         alpha = np.einsum("knm,kn->km", fam.tau_n, tau_ff - fam.tau_p)
     elif has_preload(scene):
         from .preload.solve import solve_preload
-        sol = solve_preload(scene)
+        sol = solve_preload(scene, branch="auto")  # exact: one branch, as the n-RRR controller
         alpha = np.column_stack([np.interp(t, sol.t, np.asarray(sol.alpha).reshape(len(sol.t), -1)[:, i])
                                  for i in range(m)])
         tau_ff = fam.tau_p + np.einsum("knm,km->kn", fam.tau_n, alpha)

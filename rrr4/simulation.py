@@ -203,12 +203,10 @@ def _build_system(eqs: Equations, loop: _Loop, refs: ca.Function | None) -> Syst
     disc = ca.Function("discrete", [t, y, z], [ca.vertcat(dd0n, incn, losses + loss)], ["t", "y", "z"], ["z_next"])
     control = None
     if loop.kind == "held":
-        ym, uf = ca.MX.sym("y", y.shape[0]), ca.MX.sym("u_frame", 2 + loop.control.size1_in(0) * (
-            4 if loop.pointwise else 3))
+        k = loop.control.size1_in(0)  # pose derivatives (3 each) or actuator references (n each): 3 blocks
+        ym, uf = ca.MX.sym("y", y.shape[0]), ca.MX.sym("u_frame", 2 + 3 * k)
         meas = _measured(model, ym[:nq], ym[nq:2 * nq])
-        r = uf[2:]
-        k = loop.control.size1_in(0)
-        args = [r[i * k:(i + 1) * k] for i in range(4 if loop.pointwise else 3)]
+        args = [uf[2 + i * k:2 + (i + 1) * k] for i in range(3)]
         eff = loop.control(*args, *meas)
         eff = eff[0] if isinstance(eff, (list, tuple)) else eff
         control = ca.Function("control", [ym, uf], [ca.vertcat(uf[:2], eff)], ["y", "u_frame"], ["u"])
@@ -270,8 +268,8 @@ def _tabulated(scene: Scene, t: np.ndarray, given) -> GraphReferences:
     if given is None and not pointwise_controller(scene):
         f = controller_function(scene)
         rows = _path_rows(scene, t)
-        n = f.size1_in(4)
-        out = f.map(len(t))(*(rows[:, 3 * k:3 * k + 3].T for k in range(4)), np.zeros((n, len(t))),
+        n = f.size1_in(3)
+        out = f.map(len(t))(*(rows[:, 3 * k:3 * k + 3].T for k in range(3)), np.zeros((n, len(t))),
                             np.zeros((n, len(t))))
         _, ff, th, th_d, alpha, _ = (np.array(v).T for v in out)
         th_dd = CubicSpline(t, th_d, axis=0)(t, 1) if len(t) > 2 else np.zeros_like(th_d)
@@ -280,7 +278,7 @@ def _tabulated(scene: Scene, t: np.ndarray, given) -> GraphReferences:
 
 
 def _path_rows(scene: Scene, t: np.ndarray) -> np.ndarray:
-    """(N, 12) [pose, pose_d, pose_dd, pose_ddd] of the path at the times t (N,)."""
+    """(N, 9) [pose, pose_d, pose_dd] of the path at the times t (N,)."""
     out = trajectory_function(scene.path).map(len(t))(np.asarray(t, float)[None, :])
     return np.vstack([np.array(v) for v in out]).T
 
@@ -392,6 +390,7 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     if not isinstance(model_scene, Scene) or (Model.of(model_scene.graph).actuator_names != model.actuator_names):
         raise SceneError(f"model: {describe(model_scene)} is not allowed (a Scene of the same mechanism, with the "
                          "same actuators: the controller's model of the simulated one)")
+    model_scene = replace(model_scene, path=scene.path)  # one commanded path
     loop = _loop(model_scene, eqs, controller, mode, given)
     held = loop.kind == "held"
 
@@ -399,13 +398,16 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     dt = t_end / n_frames
     spf = max(int(round(dt / h_req)), 1)
     h = dt / spf
+    if n_frames > MAX_SAMPLES or n_frames * spf > MAX_STEPS:
+        raise SceneError(f"actuation.control_rate: {model_scene.actuation.control_rate:g} Hz is not allowed over "
+                         f"{t_end:g} s (at most {MAX_SAMPLES:g} control periods and {MAX_STEPS:g} steps)")
     t_grid = np.linspace(0.0, t_end, n_frames + 1)  # frame ends
     t_out = t_grid[::every]
 
     # frame inputs
     refs = None
     u_ends = [t_grid[:-1], t_grid[1:]]
-    tab = None
+    tab_at = None  # the tabulated controller's references at the frame ends (theta, theta_d, tau_ff)
     if loop.kind == "sampled" or (loop.kind == "held" and not loop.pointwise):
         # references on the path's sample grid (or the frames, if coarser), interpolated to
         # the frames: cubic Hermite in theta (with theta_d), theta_d (with theta_dd) and the
@@ -426,6 +428,7 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
               "thd": CubicHermiteSpline(t_s, th_d, th_dd, axis=0)(t_grid),
               "thdd": CubicSpline(t_s, th_dd, axis=0)(t_grid) if ffs else th_dd,
               "ff": ffs(t_grid) if ffs else ff, "ffd": ffs(t_grid, 1) if ffs else np.zeros_like(ff)}
+        tab_at = (at["th"], at["thd"], at["ff"])
         if held:
             u_ends += [at["th"][:-1], at["thd"][:-1], at["ff"][:-1]]
         else:
@@ -453,7 +456,8 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
         qd0, qdd0, _, _ = (v.ravel() for v in mech.motion(q0, target_d, target_dd))
     seated = np.zeros(nc)
     if scene.initial.journals == "seated" and nc and (eqs.mode != "free" or scene.graph.drivers):
-        tau0 = _controller_efforts(model_scene, loop, model, np.array([0.0]), q0[None, :], qd0[None, :], tab)[0] if (
+        tau0 = _controller_efforts(model_scene, loop, model, np.array([0.0]), q0[None, :], qd0[None, :],
+                                   tab_at and tuple(v[:1] for v in tab_at))[0] if (
             eqs.mode == "torque") else np.zeros(n)
         offsets = _seated_offsets(scene, eqs, mech, q0, qd0, qdd0, tau0)
         if scene.mechanism is not None:  # closed form; eccentricities of all passive joints
@@ -484,7 +488,8 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     effort = np.zeros((N, n))
     th = th_d = th_dd = np.zeros((N, n))
     if eqs.mode == "torque":
-        effort = _controller_efforts(model_scene, loop, model, t_out, q, qd, tab)
+        effort = _controller_efforts(model_scene, loop, model, t_out, q, qd,
+                                     tab_at and tuple(v[::every] for v in tab_at))
     elif eqs.mode == "prescribed" and model.task is not None:
         if refs is not None:
             th, th_d, th_dd = (np.array(v).T for v in refs.map(N)(t_out[None, :])[1:])
@@ -529,19 +534,19 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
 
 
 def _controller_efforts(scene: Scene, loop: _Loop, model: Model, t: np.ndarray, q: np.ndarray, qd: np.ndarray,
-                        tab: GraphReferences | None) -> np.ndarray:
+                        refs: tuple | None) -> np.ndarray:
     """(N, n) efforts the controller commands at the states (q, qd) (N, nq) at times t (N,):
-    what it held over the control period starting there, or what it applied there."""
+    what it held over the control period starting there, or what it applied there. refs:
+    a tabulated controller's (theta_ref, theta_d_ref, tau_ff) (N, n each) at t, as the loop
+    used them (None for a closed-form controller)."""
     N = len(t)
     qs, qds = ca.SX.sym("q", q.shape[1]), ca.SX.sym("qd", q.shape[1])
     meas = ca.Function("measured", [qs, qds], list(_measured(model, qs, qds)))
     th, th_d = (np.array(v) for v in meas.map(N)(q.T, qd.T))
     if loop.pointwise:
         rows = _path_rows(scene, t)
-        out = loop.control.map(N)(*(rows[:, 3 * k:3 * k + 3].T for k in range(4)), th, th_d)
+        out = loop.control.map(N)(*(rows[:, 3 * k:3 * k + 3].T for k in range(3)), th, th_d)
     else:
-        refs = [np.column_stack([np.interp(t, tab.t, v[:, i]) for i in range(v.shape[1])]).T
-                for v in (tab.theta_ref, tab.theta_d_ref, tab.tau_ff)]
-        out = loop.control.map(N)(*refs, th, th_d)
+        out = loop.control.map(N)(*(v.T for v in refs), th, th_d)
     out = out[0] if isinstance(out, (list, tuple)) else out
     return np.array(out).T

@@ -151,7 +151,7 @@ def run_study(scene: Scene, *, t_end: float | None = None, step: float | None = 
         say(f"preload: method {pre.method}, f_min = {pre.min_force:g} N")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", PreloadWarning)
-            preload = solve_preload(scene, pre.method)
+            preload = solve_preload(scene, pre.method, branch="auto")  # exact: the controller's one branch
         preload_warning = "\n".join(str(w.message) for w in caught if issubclass(w.category, PreloadWarning))
         if preload_warning:
             say(f"preload is infeasible at {int(np.sum(~preload.feasible))} samples; simulated anyway")

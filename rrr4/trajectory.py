@@ -1,8 +1,7 @@
 """Platform trajectories: a path in pose space composed with a smooth time law.
 
-``trajectory_function(path)`` is a CasADi Function ``t -> pose, pose_d, pose_dd, pose_ddd``
-(pose = [x, y, theta_o] in m, m, rad; derivatives per s, s^2 and s^3; the jerk feeds the
-rate of compensated controller references). It is symbolic, so
+``trajectory_function(path)`` is a CasADi Function ``t -> pose, pose_d, pose_dd``
+(pose = [x, y, theta_o] in m, m, rad; derivatives per s and s^2). It is symbolic, so
 controllers, inverse dynamics and generated code all use the same expression.
 """
 
@@ -55,7 +54,7 @@ def _pose_of_progress(spec: PathSpec, s):
 
 @functools.cache
 def trajectory_function(spec: PathSpec) -> ca.Function:
-    """CasADi Function 'trajectory': t [s] -> pose (3), pose_d (3), pose_dd (3), pose_ddd (3).
+    """CasADi Function 'trajectory': t [s] -> pose (3), pose_d (3), pose_dd (3).
 
     Before t = 0 and after the duration the pose rests at the end points.
     """
@@ -64,9 +63,7 @@ def trajectory_function(spec: PathSpec) -> ca.Function:
     pose = _pose_of_progress(spec, _time_law(spec.time_law, tau))
     pose_d = ca.jacobian(pose, t)
     pose_dd = ca.jacobian(pose_d, t)
-    pose_ddd = ca.jacobian(pose_dd, t)
-    return ca.Function("trajectory", [t], [pose, pose_d, pose_dd, pose_ddd], ["t"],
-                       ["pose", "pose_d", "pose_dd", "pose_ddd"])
+    return ca.Function("trajectory", [t], [pose, pose_d, pose_dd], ["t"], ["pose", "pose_d", "pose_dd"])
 
 
 @dataclass(frozen=True)
@@ -83,5 +80,5 @@ def sample_path(spec: PathSpec, sample_rate: float | None = None) -> PathSamples
     n = max(int(round(spec.duration * rate)) + 1, 2)
     t = np.linspace(0.0, spec.duration, n)
     f = trajectory_function(spec).map(n)
-    p, pd, pdd = (np.array(v).T for v in f(t[None, :])[:3])
+    p, pd, pdd = (np.array(v).T for v in f(t[None, :]))
     return PathSamples(t, p, pd, pdd)

@@ -171,7 +171,7 @@ def test_sampled_references_interpolate_the_exact_ones_and_cut_the_right_hand_si
     t = np.linspace(0.0, scene.path.duration, 20001)
     rows = _path_rows(scene, t)
     z = np.zeros((4, len(t)))
-    _, tau, th, _, _, _ = (np.array(v).T for v in f.map(len(t))(*(rows[:, 3 * k:3 * k + 3].T for k in range(4)), z, z))
+    _, tau, th, _, _, _ = (np.array(v).T for v in f.map(len(t))(*(rows[:, 3 * k:3 * k + 3].T for k in range(3)), z, z))
     tab = _tabulated(scene, np.linspace(0.0, scene.path.duration, 1001), None)
     from scipy.interpolate import CubicHermiteSpline, CubicSpline
     assert np.max(np.abs(CubicHermiteSpline(tab.t, tab.theta_ref, tab.theta_d_ref, axis=0)(t) - th)) < 1e-10

@@ -61,8 +61,7 @@ def _motions(rng, k):
     pose = np.vstack([rng.uniform(-0.05, 0.05, (2, k)), rng.uniform(-0.25, 0.25, (1, k))])
     pose_d = rng.normal(size=(3, k)) * np.array([[0.3], [0.3], [1.0]])
     pose_dd = rng.normal(size=(3, k)) * np.array([[3.0], [3.0], [10.0]])
-    pose_ddd = rng.normal(size=(3, k)) * np.array([[30.0], [30.0], [100.0]])
-    return pose, pose_d, pose_dd, pose_ddd
+    return pose, pose_d, pose_dd
 
 
 def _outputs(f, *args):
@@ -116,7 +115,7 @@ def test_every_compiled_kernel_matches_python_on_random_inputs(built, paper_scen
     }
     assert set(cases) == set(KERNELS)
     compiled = load_library(built["lib"])
-    pose, pose_d, pose_dd, pose_ddd = _motions(rng, N_RANDOM)
+    pose, pose_d, pose_dd = _motions(rng, N_RANDOM)
     times = np.linspace(-0.1, paper_scene.path.duration + 0.1, N_RANDOM)
     qp_failures = 0
     for k in range(N_RANDOM):
@@ -127,7 +126,7 @@ def test_every_compiled_kernel_matches_python_on_random_inputs(built, paper_scen
         args = {
             "ik": motion[:1], "jacobian": motion[:1], "null_space": motion[:1], "trajectory": (times[k],),
             "inverse_dynamics": motion, "exact_preload": family, "preload": motion,
-            "controller_step": (*motion, pose_ddd[:, k], theta, rng.normal(scale=0.5, size=4)),
+            "controller_step": (*motion, theta, rng.normal(scale=0.5, size=4)),
             "qp_preload": family,
         }
         for name, reference in cases.items():
@@ -163,10 +162,10 @@ def test_example_prints_what_the_python_controller_computes(built, example_outpu
     steps = rows["step"]
     assert len(steps) == 11 and steps[-1][0] == pytest.approx(paper_scene.path.duration)
     for row in steps:
-        pose, pose_d, pose_dd, pose_ddd = (np.array(v).ravel() for v in traj(row[0]))
+        pose, pose_d, pose_dd = (np.array(v).ravel() for v in traj(row[0]))
         theta = mech.ik(pose) - EXAMPLE_ANGLE_OFFSET * np.arange(1, 5)
         theta_d = mech.jacobian(pose) @ pose_d
-        tau, _, _, _, alpha, feasible = _outputs(step, pose, pose_d, pose_dd, pose_ddd, theta, theta_d)
+        tau, _, _, _, alpha, feasible = _outputs(step, pose, pose_d, pose_dd, theta, theta_d)
         np.testing.assert_allclose(row[1:5], tau.ravel(), rtol=TOL, atol=TOL)
         np.testing.assert_allclose(row[5:7], [alpha.item(), feasible.item()], rtol=TOL, atol=TOL)
 
@@ -196,11 +195,11 @@ def test_controller_step_is_feedforward_plus_clipped_pd(paper_data, method):
     a, lim = scene.actuation, np.array(scene.actuation.torque_limit)
     saturated = 0
     for _ in range(40):
-        pose, pose_d, pose_dd, pose_ddd = (v[:, 0] for v in _motions(rng, 1))
+        pose, pose_d, pose_dd = (v[:, 0] for v in _motions(rng, 1))
         error = rng.normal(scale=0.02, size=4)
         theta = mech.ik(pose) - error + 2 * np.pi * rng.integers(-1, 2, size=4)
         theta_d = rng.normal(scale=0.5, size=4)
-        tau, tau_ff, _, _, alpha, _ = _outputs(step, pose, pose_d, pose_dd, pose_ddd, theta, theta_d)
+        tau, tau_ff, _, _, alpha, _ = _outputs(step, pose, pose_d, pose_dd, theta, theta_d)
         alpha_ref, tau_ref, feasible, _ = _outputs(exact, *inv(pose, pose_d, pose_dd))
         if feasible.item() == 0.0 and method == "qp":  # qrqp's answer is undefined there
             continue
@@ -262,8 +261,7 @@ def test_external_library_reports_the_generated_signatures(built, paper_scene):
     """casadi.external sees the names and shapes the header documents."""
     lib = load_library(built["lib"], ["controller_step", "inverse_dynamics"])
     f = lib["controller_step"]
-    assert [f.name_in(i) for i in range(f.n_in())] == ["pose_des", "pose_d_des", "pose_dd_des", "pose_ddd_des",
-                                                        "theta", "theta_d"]
+    assert [f.name_in(i) for i in range(f.n_in())] == ["pose_des", "pose_d_des", "pose_dd_des", "theta", "theta_d"]
     assert f.size_out(0) == (4, 1)
     g = lib["inverse_dynamics"]
     assert g.size_out(2) == (2, 8) and g.size_out(3) == (2, 8)

@@ -80,7 +80,7 @@ def test_compensated_ik_puts_the_platform_on_the_commanded_pose(paper_scene):
     clear = [names.index(j) for j in mech.model.clearance_joints]
     for k in range(1, len(s.t) - 1):
         motion = (s.pose[k], s.pose_d[k], s.pose_dd[k])
-        _, _, theta_ref, _, alpha, _ = (np.array(v) for v in f(*motion, np.zeros(3), np.zeros(4), np.zeros(4)))
+        _, _, theta_ref, _, alpha, _ = (np.array(v) for v in f(*motion, np.zeros(4), np.zeros(4)))
         _, _, r_p, r_n = (np.array(v) for v in inv(*motion))
         gaps = seat_gaps(scene, r_p + alpha.item() * r_n, np.array(slip_f(*motion[:2])).ravel())
         assert np.all(np.linalg.norm(gaps, axis=0) > 0.99e-4)  # every journal on its wall
@@ -128,7 +128,7 @@ def test_unpreloaded_controller_is_the_minimum_norm_one(paper_scene):
         f = controller_function(scene)
         s = sample_path(scene.path, 10.0)
         tau_p = np.array(inverse_dynamics_function(scene)(s.pose[3], s.pose_d[3], s.pose_dd[3])[0]).ravel()
-        out = f(s.pose[3], s.pose_d[3], s.pose_dd[3], np.zeros(3), np.zeros(4), np.zeros(4))
+        out = f(s.pose[3], s.pose_d[3], s.pose_dd[3], np.zeros(4), np.zeros(4))
         np.testing.assert_allclose(np.array(out[1]).ravel(), tau_p, atol=1e-12)
         assert float(out[4]) == 0.0
 
