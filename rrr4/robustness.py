@@ -81,6 +81,10 @@ def robustness(scene: Scene, t_end: float | None = None, progress: bool = False,
     from .simulation import simulate
     from .study import arm_scene
     say = log or (lambda _m: None)
+    if scene.mechanism is None or not scene.clearance_joints:
+        raise SceneError("mechanism: robustness cases are defined for n-RRR scenes with clearance joints "
+                         f"(scene {scene.name!r} has {'a graph' if scene.mechanism is None else 'none'})")
+    _nominal_data(scene)  # refuse a scene without its YAML before simulating anything
     models = {arm: arm_scene(scene, arm) for arm in ARMS}
     rows = []
     for case in CASES:

@@ -187,3 +187,11 @@ def test_graph_compensation_by_newton_equals_the_nrrr_closed_form(paper_scene):
     assert np.max(np.abs(np.angle(np.exp(1j * (ra.theta_ref - rb.theta_ref))))) < 1e-12
     np.testing.assert_allclose(rb.tau_ff, ra.tau_ff, atol=1e-9)
     assert np.max(np.abs(ra.theta_d_ref - rb.theta_d_ref)) < 1e-3 * np.max(np.abs(ra.theta_d_ref))
+
+
+def test_robustness_cli_refuses_what_it_cannot_vary_in_one_line(capsys, tmp_path):
+    from rrr4.cli import main as cli_main
+    assert cli_main(["robustness", str(PROBLEMS / "paper_circle_graph.yaml"), "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "n-RRR scenes with clearance joints" in err
+    assert not (tmp_path / "r").exists()
