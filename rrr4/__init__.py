@@ -9,7 +9,8 @@ from .mechanism import Mechanism, Model, check_scene, load_scene
 from .preload import PreloadSolution, solve_preload
 from .scene import Scene
 from .simulation import Simulation, simulate
+from .sweeps import sweep
 
 __all__ = ["load_scene", "check_scene", "Model", "Scene", "SceneError", "SimulationError", "KinematicsError",
-           "Rrr4Error", "Mechanism", "codegen", "simulate", "Simulation", "solve_preload", "PreloadSolution"]
+           "Rrr4Error", "Mechanism", "codegen", "simulate", "Simulation", "solve_preload", "PreloadSolution", "sweep"]
 __version__ = "0.1.0"

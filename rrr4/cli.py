@@ -96,6 +96,17 @@ def _robustness(args) -> int:
     return 0
 
 
+def _sweep(args) -> int:
+    from tqdm import tqdm
+
+    from .sweeps import sweep
+    r = sweep(args.spec, out=args.out, scheduler=args.scheduler, workers=args.workers, progress=True,
+              log=lambda m: tqdm.write(f"rrr4 sweep: {m}"))
+    print(f"{r['cases']} cases: {r['skipped']} skipped (already done), {r['cases'] - r['skipped']} run, "
+          f"{r['failed']} failed; rows in {r['csv']}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="rrr4",
@@ -134,6 +145,14 @@ def build_parser() -> argparse.ArgumentParser:
                                   "replaced atomically")
     rb.add_argument("--t-end", type=float, default=None, help="simulated time [s] (default: the path duration)")
     rb.set_defaults(func=_robustness)
+    sw = sub.add_parser("sweep", help="run the study over a grid of scene values or a tolerance Monte Carlo, on "
+                                      "Dask; writes results.csv (one row per case and arm), skips finished cases")
+    sw.add_argument("spec", help="sweep spec YAML, e.g. problems/sweeps/clearance_vs_preload.yaml")
+    sw.add_argument("--out", help="directory (default results/sweeps/<spec name>/)")
+    sw.add_argument("--scheduler", help="address of a running Dask scheduler, e.g. tcp://127.0.0.1:8786 "
+                                        "(default: a local cluster on this machine)")
+    sw.add_argument("--workers", type=int, help="worker processes of the local cluster (default: the cores)")
+    sw.set_defaults(func=_sweep)
     b = sub.add_parser("bench", help="what accuracy costs in time")
     bsub = b.add_subparsers(dest="bench", metavar="BENCH", required=True)
     a = bsub.add_parser("accuracy", help="work-precision diagram (error vs CPU time per integrator) and CSV")

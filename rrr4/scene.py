@@ -1034,25 +1034,27 @@ class _UniqueKeyLoader(yaml.SafeLoader):
         return super().construct_mapping(node, deep=deep)
 
 
-def read_scene(path) -> Scene:
-    """Read and validate a YAML scene file (data only, see :func:`parse_scene`). Raises :class:`SceneError`."""
+def read_yaml(path, what: str = "scene"):
+    """The data of a YAML file (`what` names it in errors: 'scene', 'sweep spec'), with the
+    file checks: it exists, is a regular UTF-8 text file, valid YAML, no key given twice, not
+    empty. Raises :class:`SceneError`."""
     p = Path(path)
     if not p.exists():
-        raise SceneError(f"scene file '{path}' does not exist")
+        raise SceneError(f"{what} file '{path}' does not exist")
     if p.is_dir():
-        raise SceneError(f"scene file '{path}' is a directory (a YAML scene file is required)")
+        raise SceneError(f"{what} file '{path}' is a directory (a YAML {what} file is required)")
     if not p.is_file():
-        raise SceneError(f"scene file '{path}' is not a regular file (a YAML scene file is required)")
+        raise SceneError(f"{what} file '{path}' is not a regular file (a YAML {what} file is required)")
     try:
         raw = p.read_bytes()
     except OSError as e:
-        raise SceneError(f"scene file '{path}' cannot be read ({e.strerror})") from None
+        raise SceneError(f"{what} file '{path}' cannot be read ({e.strerror})") from None
     if b"\0" in raw:
-        raise SceneError(f"scene file '{path}' is binary (a YAML text file is required)")
+        raise SceneError(f"{what} file '{path}' is binary (a YAML text file is required)")
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as e:
-        raise SceneError(f"scene file '{path}' is not UTF-8 text (invalid byte at offset {e.start})") from None
+        raise SceneError(f"{what} file '{path}' is not UTF-8 text (invalid byte at offset {e.start})") from None
     try:
         data = yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 - a SafeLoader subclass
     except yaml.YAMLError as e:
@@ -1060,5 +1062,13 @@ def read_scene(path) -> Scene:
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
         raise SceneError(f"{path}: not valid YAML{where} ({getattr(e, 'problem', e)})") from None
     if data is None:
-        raise SceneError(f"scene file '{path}' is empty (a scene mapping is required: mechanism, path, ...)")
+        raise SceneError(f"{what} file '{path}' is empty (a {what} mapping is required"
+                         + (": mechanism, path, ...)" if what == "scene" else ")"))
+    return data
+
+
+def read_scene(path) -> Scene:
+    """Read and validate a YAML scene file (data only, see :func:`parse_scene`). Raises :class:`SceneError`."""
+    p = Path(path)
+    data = read_yaml(p)
     return parse_scene(data, name=p.stem, source=str(p))

@@ -1,0 +1,360 @@
+"""Parameter sweeps and tolerance Monte Carlo of the study, on Dask (DESIGN section 8).
+
+A spec (YAML) names a base ``scene`` (a path relative to the spec file, or absolute), an
+optional ``t_end`` [s], the ``arms`` to run (from :data:`rrr4.study.PRELOAD_ARMS`), and
+
+- ``grid``: scene key paths -> lists of values, run as their Cartesian product, e.g.
+  ``joints.radial_clearance: [5.0e-5, 1.0e-4]``;
+- ``monte_carlo``: ``samples``, ``seed`` and ``keys``: key path -> ``{normal: {std, mean}}``
+  or ``{uniform: [low, high]}`` (``mean`` defaults to the base scene's value at that key).
+
+Key paths are dotted, with ``[i]`` for list items: ``mechanism.chains[0].base[1]``. A grid
+and a Monte Carlo together run every Monte Carlo sample at every grid point. Every case is
+built and validated as a scene before anything runs; a bad spec or case value is one
+:class:`~rrr4.errors.SceneError` line naming the key.
+
+Cases run on ``dask.distributed``: a local cluster of worker processes on this machine by
+default, or an existing cluster (``scheduler='tcp://host:port'``). A case that fails (an
+infeasible preload, a blow-up) is recorded with its error and the sweep goes on. Each
+finished case appends its rows (one per arm) to ``results.csv`` at once, so an interrupted
+sweep loses no finished case; a re-run of the same spec into the same directory skips the
+cases already there (keyed by a hash of the case's scene).
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+import hashlib
+import io
+import itertools
+import json
+import os
+import re
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from .errors import Rrr4Error, SceneError
+from .scene import describe, parse_scene, read_yaml
+from .study import PRELOAD_ARMS
+
+__all__ = ["sweep", "load_spec", "SweepSpec", "METRICS", "DISTRIBUTIONS"]
+
+METRICS = ("contact_loss_events", "platform_error_rms_m", "platform_error_max_m", "min_contact_force_N",
+           "peak_contact_force_N", "torque_rms_Nm", "wall_time_s")
+DISTRIBUTIONS = ("normal", "uniform")
+SPEC_KEYS = ("scene", "t_end", "arms", "grid", "monte_carlo")
+MAX_CASES = 100_000
+_STEP = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[\d+\])*)$")
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """A validated sweep: the base scene's YAML data and path, t_end (None: the path's
+    duration), the arms, the varied keys, and the cases (key -> value dicts, in order)."""
+    base: dict
+    scene_path: Path
+    t_end: float | None
+    arms: tuple[str, ...]
+    keys: tuple[str, ...]
+    cases: tuple[dict, ...]
+
+
+def _steps(key: str) -> list:
+    """'a.b[0].c' -> ['a', 'b', 0, 'c']; SceneError for a malformed path."""
+    out: list = []
+    for part in key.split("."):
+        m = _STEP.match(part)
+        if not m:
+            raise SceneError(f"grid/monte_carlo key {key!r} is not allowed (a dotted scene key path, list items as "
+                             "[i], e.g. mechanism.chains[0].base[1])")
+        out.append(m.group(1))
+        out += [int(i) for i in re.findall(r"\[(\d+)\]", m.group(2))]
+    return out
+
+
+def _get(data, key: str):
+    d = data
+    for s in _steps(key):
+        try:
+            d = d[s]
+        except (KeyError, IndexError, TypeError):
+            return None
+    return d
+
+
+def _set(data, key: str, value) -> None:
+    steps = _steps(key)
+    d = data
+    for i, s in enumerate(steps[:-1]):
+        nxt = steps[i + 1]
+        try:
+            d = d[s]
+        except KeyError:
+            d[s] = [] if isinstance(nxt, int) else {}
+            d = d[s]
+        except (IndexError, TypeError):
+            raise SceneError(f"{key}: the base scene has no {'item' if isinstance(s, int) else 'section'} "
+                             f"{s!r} there") from None
+    try:
+        d[steps[-1]] = value
+    except (IndexError, TypeError):
+        raise SceneError(f"{key}: the base scene has no item {steps[-1]!r} there") from None
+
+
+def _number(key: str, v, what: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+        raise SceneError(f"{key}: {describe(v)} is not allowed ({what} must be a finite number)")
+    return float(v)
+
+
+def load_spec(path) -> SweepSpec:
+    """Read and validate a sweep spec file (every case is built as a scene)."""
+    p = Path(path)
+    data = read_yaml(p, "sweep spec")
+    if not isinstance(data, dict):
+        raise SceneError(f"sweep spec: {describe(data)} is not allowed (a mapping with keys {', '.join(SPEC_KEYS)})")
+    return parse_spec(data, p.parent)
+
+
+def parse_spec(data: dict, root: Path = Path(".")) -> SweepSpec:
+    """Validate a spec mapping; relative scene paths are taken from `root`."""
+    bad = sorted(set(data) - set(SPEC_KEYS))
+    if bad:
+        raise SceneError(f"{bad[0]}: unknown key of a sweep spec (allowed: {', '.join(SPEC_KEYS)})")
+    if not isinstance(data.get("scene"), str):
+        raise SceneError(f"scene: {describe(data.get('scene'))} is not allowed (the base scene's YAML file)")
+    scene_path = (root / data["scene"]).resolve()
+    base = read_yaml(scene_path, "scene")
+    parse_scene(copy.deepcopy(base), name=scene_path.stem, source=str(scene_path))  # the base itself is valid
+    t_end = data.get("t_end")
+    if t_end is not None:
+        t_end = _number("t_end", t_end, "t_end [s]")
+        if t_end <= 0:
+            raise SceneError(f"t_end: {t_end:g} is not allowed (must be > 0 s)")
+    arms = data.get("arms", ["with_preload", "without_preload"])
+    if not isinstance(arms, list) or not arms:
+        raise SceneError(f"arms: {describe(arms)} is not allowed (a list of: {', '.join(PRELOAD_ARMS)})")
+    for a in arms:
+        if a not in PRELOAD_ARMS:
+            raise SceneError(f"arms: unknown value {describe(a)} (choose from: {', '.join(PRELOAD_ARMS)})")
+    grid = data.get("grid") or {}
+    mc = data.get("monte_carlo")
+    if not isinstance(grid, dict):
+        raise SceneError(f"grid: {describe(grid)} is not allowed (scene key paths -> lists of values)")
+    for k, vals in grid.items():
+        _steps(str(k))
+        if not isinstance(vals, list) or not vals:
+            raise SceneError(f"grid.{k}: {describe(vals)} is not allowed (a non-empty list of values)")
+    points = [dict(zip(grid, combo, strict=True)) for combo in itertools.product(*grid.values())] or [{}]
+    samples = [{}]
+    mc_keys: list = []
+    if mc is not None:
+        samples, mc_keys = _monte_carlo(mc, base)
+    if len(points) * len(samples) > MAX_CASES:
+        raise SceneError(f"grid: {len(points) * len(samples)} cases is not allowed (at most {MAX_CASES})")
+    cases = tuple({**pt, **smp} for pt in points for smp in samples)
+    keys = tuple(grid) + tuple(k for k in mc_keys if k not in grid)
+    for case in cases:  # every case is a valid scene before anything runs
+        case_scene(base, scene_path, case)
+    return SweepSpec(base, scene_path, t_end, tuple(arms), keys, cases)
+
+
+def _monte_carlo(mc, base) -> tuple[list[dict], list[str]]:
+    if not isinstance(mc, dict) or set(mc) - {"samples", "seed", "keys"}:
+        raise SceneError(f"monte_carlo: {describe(mc)} is not allowed (samples, seed and keys)")
+    n = mc.get("samples")
+    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_CASES:
+        raise SceneError(f"monte_carlo.samples: {describe(n)} is not allowed (an integer from 1 to {MAX_CASES})")
+    seed = mc.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise SceneError(f"monte_carlo.seed: {describe(seed)} is not allowed (an integer >= 0)")
+    keys = mc.get("keys")
+    if not isinstance(keys, dict) or not keys:
+        raise SceneError(f"monte_carlo.keys: {describe(keys)} is not allowed (key path -> distribution)")
+    rng = np.random.default_rng(seed)
+    draws = {}
+    for k, dist in keys.items():
+        key = f"monte_carlo.keys.{k}"
+        _steps(str(k))
+        if not isinstance(dist, dict) or len(dist) != 1 or next(iter(dist)) not in DISTRIBUTIONS:
+            raise SceneError(f"{key}: {describe(dist)} is not allowed ({{normal: {{std, mean}}}} or "
+                             "{uniform: [low, high]})")
+        kind, par = next(iter(dist.items()))
+        if kind == "normal":
+            if not isinstance(par, dict) or "std" not in par or set(par) - {"std", "mean"}:
+                raise SceneError(f"{key}.normal: {describe(par)} is not allowed (std, and mean if the base scene "
+                                 "has no number at that key)")
+            std = _number(f"{key}.normal.std", par["std"], "std")
+            mean = par.get("mean", _get(base, str(k)))
+            mean = _number(f"{key}.normal.mean", mean, "the mean (or the base scene's value)")
+            if std < 0:
+                raise SceneError(f"{key}.normal.std: {std:g} is not allowed (must be >= 0)")
+            draws[str(k)] = mean + std * rng.standard_normal(n)
+        else:
+            if not isinstance(par, list) or len(par) != 2:
+                raise SceneError(f"{key}.uniform: {describe(par)} is not allowed ([low, high])")
+            lo, hi = (_number(f"{key}.uniform", v, "a bound") for v in par)
+            if hi < lo:
+                raise SceneError(f"{key}.uniform: [{lo:g}, {hi:g}] is not allowed (low <= high)")
+            draws[str(k)] = rng.uniform(lo, hi, n)
+    return [{k: float(v[i]) for k, v in draws.items()} for i in range(n)], list(draws)
+
+
+def case_scene(base: dict, scene_path: Path, case: dict):
+    """(Scene, YAML text) of one case: the base data with the case's values set."""
+    data = copy.deepcopy(base)
+    for k, v in case.items():
+        _set(data, k, v)
+    text = yaml.safe_dump(data, sort_keys=True)
+    try:
+        scene = parse_scene(data, name=scene_path.stem, source="")
+    except SceneError as e:
+        values = ", ".join(f"{k} = {describe(v)}" for k, v in case.items())
+        raise SceneError(f"{e} (in the case {values})") from None
+    return scene, text
+
+
+def case_id(text: str, t_end, arms) -> str:
+    """Hash of a case: its scene's YAML text, t_end and arms."""
+    return hashlib.sha256(json.dumps([text, t_end, list(arms)]).encode()).hexdigest()[:16]
+
+
+def run_case(text: str, name: str, t_end, arms) -> list[dict]:
+    """The rows (one per arm) of one case: metrics of each arm's simulation, or status
+    'failed' with the error. Runs in a Dask worker; imports nothing Dask."""
+    from .simulation import simulate
+    from .study import arm_scene
+    rows = []
+    try:
+        scene = parse_scene(yaml.safe_load(text), name=name, source="")
+    except Rrr4Error as e:
+        return [{"arm": a, "status": "failed", "error": str(e).splitlines()[0]} for a in arms]
+    for arm in arms:
+        wall = time.perf_counter()
+        try:
+            # CasADi's VM: a compiled run would compile C for every case's numbers, until the
+            # numeric parameters enter the compiled Functions as inputs
+            sim = simulate(arm_scene(scene, arm), t_end=t_end, jit=False)
+        except Exception as e:  # recorded, the sweep goes on
+            rows.append({"arm": arm, "status": "failed", "error": f"{type(e).__name__}: {str(e).splitlines()[0]}"})
+            continue
+        e = sim.platform_error
+        fn = sim.normal_force
+        rows.append({"arm": arm, "status": "ok", "error": "",
+                     "contact_loss_events": int(sum(sim.contact_loss_events.values())),
+                     "platform_error_rms_m": float(np.sqrt(np.mean(e**2))), "platform_error_max_m": float(e.max()),
+                     "min_contact_force_N": float(fn.min()) if fn.size else float("nan"),
+                     "peak_contact_force_N": float(fn.max()) if fn.size else float("nan"),
+                     "torque_rms_Nm": float(np.sqrt(np.mean(sim.tau**2))),
+                     "wall_time_s": time.perf_counter() - wall})
+    return rows
+
+
+def _columns(spec: SweepSpec) -> list[str]:
+    return ["case", *spec.keys, "arm", "status", "error", *METRICS]
+
+
+def _done(csv_path: Path, columns: list[str]) -> set[str]:
+    """Case ids already in results.csv (whose header must match this spec's columns)."""
+    if not csv_path.exists():
+        return set()
+    with csv_path.open(newline="") as f:
+        reader = csv.reader(f)
+        header = next(reader, None)
+        if header is None:
+            return set()
+        if header != columns:
+            raise SceneError(f"--out: {str(csv_path)!r} holds another sweep (columns {', '.join(header[:4])}, ...); "
+                             "choose another directory")
+        return {row[0] for row in reader if row}
+
+
+def _append(csv_path: Path, columns: list[str], rows: list[dict]) -> None:
+    """Append rows in one write, flushed to disk (a crash loses at most the case being written)."""
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=columns, lineterminator="\n")
+    if not csv_path.exists() or csv_path.stat().st_size == 0:
+        w.writeheader()
+    w.writerows(rows)
+    with csv_path.open("a", newline="") as f:
+        f.write(buf.getvalue())
+        f.flush()
+        os.fsync(f.fileno())
+
+
+def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = None, progress: bool = False,
+          log=None) -> dict:
+    """Run a sweep: `spec` is a spec file path, a mapping, or a :class:`SweepSpec`; rows go to
+    ``out/results.csv`` (default ``results/sweeps/<spec or scene name>/``). scheduler: the
+    address of an existing Dask scheduler (default: a local cluster of `workers` processes,
+    default the machine's cores). Returns {'csv': path, 'cases': n, 'skipped': n,
+    'failed': n, 'rows': list of row dicts of this run}."""
+    say = log or (lambda _m: None)
+    name = None
+    if isinstance(spec, (str, Path)):
+        name = Path(spec).stem
+        spec = load_spec(spec)
+    elif isinstance(spec, dict):
+        spec = parse_spec(spec)
+    out = Path(out) if out is not None else Path("results") / "sweeps" / (name or spec.scene_path.stem)
+    if out.exists() and not out.is_dir():
+        raise SceneError(f"--out: {str(out)!r} is a file (expected a directory)")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        raise SceneError(f"--workers: {describe(workers)} is not allowed (an integer >= 1)")
+    out.mkdir(parents=True, exist_ok=True)
+    csv_path = out / "results.csv"
+    columns = _columns(spec)
+    done = _done(csv_path, columns)
+    todo = []
+    for case in spec.cases:
+        _, text = case_scene(spec.base, spec.scene_path, case)
+        cid = case_id(text, spec.t_end, spec.arms)
+        if cid not in done:
+            todo.append((cid, case, text))
+            done.add(cid)  # a duplicate case runs once
+    skipped = len(spec.cases) - len(todo)
+    say(f"{len(spec.cases)} cases x {len(spec.arms)} arms; {skipped} already in {csv_path}, {len(todo)} to run")
+    rows_out, failed = [], 0
+    if todo:
+        from dask.distributed import Client, LocalCluster, as_completed
+        cluster = None
+        if scheduler is None:
+            cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
+                                   dashboard_address=":0")
+            client = Client(cluster)
+        else:
+            try:
+                client = Client(scheduler, timeout="10s")
+            except (OSError, TimeoutError, ValueError) as e:
+                raise SceneError(f"--scheduler: {scheduler!r} is not reachable ({type(e).__name__}: {e})") from None
+        bar = None
+        try:
+            futures = {client.submit(run_case, text, spec.scene_path.stem, spec.t_end, spec.arms, pure=False): (cid, c)
+                       for cid, c, text in todo}
+            if progress:
+                from tqdm import tqdm
+                bar = tqdm(total=len(futures), desc="sweep", unit="case")
+            for fut in as_completed(futures):
+                cid, case = futures[fut]
+                try:
+                    rows = fut.result()
+                except Exception as e:  # the worker itself died: record, go on
+                    rows = [{"arm": a, "status": "failed", "error": f"{type(e).__name__}: {e}"} for a in spec.arms]
+                rows = [{"case": cid, **case, **r} for r in rows]
+                failed += any(r["status"] != "ok" for r in rows)
+                _append(csv_path, columns, rows)
+                rows_out += rows
+                if bar is not None:
+                    bar.update()
+        finally:
+            if bar is not None:
+                bar.close()
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    return {"csv": csv_path, "cases": len(spec.cases), "skipped": skipped, "failed": failed, "rows": rows_out}

@@ -1,0 +1,149 @@
+"""Sweeps on Dask: a local cluster and a separately started one give the same rows; finished
+cases are kept and skipped; a failing case is recorded; bad specs end in one line."""
+
+import csv
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+
+from rrr4 import SceneError
+from rrr4.sweeps import METRICS, load_spec, parse_spec, sweep
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENE = str(ROOT / "problems" / "paper_circle.yaml")
+
+
+def _spec(tmp_path, **extra) -> Path:
+    spec = {"scene": SCENE, "t_end": 0.005, "arms": ["with_preload", "without_preload"],
+            "grid": {"joints.radial_clearance": [5.0e-5, 1.0e-4], "effects.contact.stiffness": [7.6e10, 1.0e15]}}
+    spec.update(extra)
+    p = tmp_path / "spec.yaml"
+    p.write_text(yaml.safe_dump(spec, sort_keys=False))
+    return p
+
+
+def _rows(csv_path: Path) -> list[dict]:
+    with csv_path.open(newline="") as f:
+        return sorted(csv.DictReader(f), key=lambda r: (r["case"], r["arm"]))
+
+
+def _same(a: list[dict], b: list[dict]) -> None:
+    assert len(a) == len(b)
+    for ra, rb in zip(a, b, strict=True):
+        assert {k: v for k, v in ra.items() if k != "wall_time_s"} == {k: v for k, v in rb.items()
+                                                                     if k != "wall_time_s"}
+
+
+@pytest.fixture(scope="module")
+def external_cluster(tmp_path_factory):
+    """A Dask scheduler and two workers started as separate processes on 127.0.0.1."""
+    d = tmp_path_factory.mktemp("dask")
+    sched_file = d / "scheduler.json"
+    bindir = Path(sys.executable).parent
+    env = {**os.environ, "RRR4_JIT": "0"}
+    procs = [subprocess.Popen([str(bindir / "dask"), "scheduler", "--host", "127.0.0.1", "--port", "0",
+                               "--no-dashboard", "--scheduler-file", str(sched_file)], env=env, cwd=d,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    try:
+        for _ in range(300):
+            if sched_file.exists() and sched_file.stat().st_size:
+                break
+            time.sleep(0.1)
+        address = json.loads(sched_file.read_text())["address"]
+        procs.append(subprocess.Popen([str(bindir / "dask"), "worker", address, "--nworkers", "2", "--nthreads", "1",
+                                       "--no-dashboard", "--host", "127.0.0.1"], env=env, cwd=d,
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        from dask.distributed import Client
+        with Client(address, timeout="30s") as c:
+            c.wait_for_workers(2, timeout=60)
+        yield address
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in procs:
+            try:
+                p.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                p.kill()
+
+
+def test_local_and_external_clusters_give_identical_rows_and_a_failing_case_is_recorded(tmp_path,
+                                                                                         external_cluster):
+    spec = _spec(tmp_path)
+    a = sweep(spec, out=tmp_path / "local", workers=2)
+    b = sweep(spec, out=tmp_path / "external", scheduler=external_cluster)
+    assert a["cases"] == b["cases"] == 4 and a["skipped"] == b["skipped"] == 0
+    ra, rb = _rows(a["csv"]), _rows(b["csv"])
+    _same(ra, rb)
+    assert list(ra[0]) == ["case", "joints.radial_clearance", "effects.contact.stiffness", "arm", "status", "error",
+                           *METRICS]
+    # the contact stiffness of 1e15 N/m^1.5 blows RK4 up at the scene's step: recorded, the others ran
+    failed = [r for r in ra if r["status"] == "failed"]
+    assert failed and all(float(r["effects.contact.stiffness"]) == 1e15 for r in failed)
+    assert all("step" in r["error"] for r in failed)
+    ok = [r for r in ra if r["status"] == "ok"]
+    assert {r["joints.radial_clearance"] for r in ok} == {"5e-05", "0.0001"}
+    assert all(int(r["contact_loss_events"]) == 0 for r in ok if r["arm"] == "with_preload")
+    assert a["failed"] == b["failed"] == len({r["case"] for r in failed})
+
+
+def test_a_rerun_skips_the_finished_cases_and_keeps_their_rows(tmp_path):
+    spec = _spec(tmp_path, grid={"joints.radial_clearance": [5.0e-5, 1.0e-4]})
+    first = sweep(spec, out=tmp_path / "o", workers=1)
+    before = (tmp_path / "o" / "results.csv").read_text()
+    again = sweep(spec, out=tmp_path / "o", workers=1)
+    assert first["skipped"] == 0 and again["skipped"] == 2 and again["rows"] == []
+    assert (tmp_path / "o" / "results.csv").read_text() == before
+    # one more grid value: only the new case runs, appended to the same file
+    more = sweep(_spec(tmp_path, grid={"joints.radial_clearance": [5.0e-5, 1.0e-4, 1.5e-4]}), out=tmp_path / "o",
+                 workers=1)
+    assert more["skipped"] == 2 and len(more["rows"]) == 2
+    assert (tmp_path / "o" / "results.csv").read_text().startswith(before)
+
+
+def test_monte_carlo_is_reproducible_from_its_seed(tmp_path):
+    mc = {"samples": 5, "seed": 3, "keys": {"mechanism.chains[0].base[0]": {"normal": {"std": 1e-4}},
+                                            "joints.radial_clearance": {"uniform": [8e-5, 1.2e-4]}}}
+    a, b = load_spec(_spec(tmp_path, grid={}, monte_carlo=mc)), load_spec(_spec(tmp_path, grid={}, monte_carlo=mc))
+    assert a.cases == b.cases and len(a.cases) == 5
+    xs = [c["mechanism.chains[0].base[0]"] for c in a.cases]
+    assert all(abs(x + 0.3) < 5e-4 for x in xs) and len(set(xs)) == 5      # around the base value -0.3 m
+    assert all(8e-5 <= c["joints.radial_clearance"] <= 1.2e-4 for c in a.cases)
+    grid_mc = load_spec(_spec(tmp_path, grid={"actuation.preload.min_force": [5, 10]}, monte_carlo=mc))
+    assert len(grid_mc.cases) == 10
+
+
+@pytest.mark.parametrize("change, match", [
+    ({"arms": ["with_preloads"]}, "arms: unknown value 'with_preloads'"),
+    ({"grid": {"joints.radial_clearance": [-1.0e-4]}}, r"joints.radial_clearance: .* \(in the case joints"),
+    ({"grid": {"joints..x": [1]}}, "key 'joints..x' is not allowed"),
+    ({"grid": {"joints.radial_clearance": []}}, "grid.joints.radial_clearance: .* non-empty list"),
+    ({"monte_carlo": {"samples": 0, "keys": {}}}, "monte_carlo.samples: 0 is not allowed"),
+    ({"monte_carlo": {"samples": 2, "keys": {"joints.radial_clearance": {"gauss": 1}}}}, "monte_carlo.keys"),
+    ({"monte_carlo": {"samples": 2, "keys": {"mechanism.chains[0].driving_link.length": {"normal": {"std": 1}}}}},
+     "mean"),
+    ({"t_end": -1}, "t_end: -1 is not allowed"),
+    ({"scenery": 1}, "scenery: unknown key of a sweep spec"),
+])
+def test_bad_specs_end_in_one_line(tmp_path, change, match):
+    spec = yaml.safe_load(_spec(tmp_path).read_text())
+    spec.update(change)
+    with pytest.raises(SceneError, match=match) as e:
+        parse_spec(spec)
+    assert "\n" not in str(e.value)
+
+
+def test_cli_sweep_reports_a_bad_spec_and_an_unreachable_scheduler_in_one_line(tmp_path, capsys):
+    from rrr4.cli import main as cli_main
+    assert cli_main(["sweep", str(tmp_path / "none.yaml")]) == 2
+    assert capsys.readouterr().err.count("\n") == 1
+    spec = _spec(tmp_path, grid={"joints.radial_clearance": [1.0e-4]})
+    assert cli_main(["sweep", str(spec), "--out", str(tmp_path / "o"), "--scheduler", "tcp://127.0.0.1:1"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--scheduler" in err
