@@ -96,6 +96,19 @@ def _robustness(args) -> int:
     return 0
 
 
+def _map(args) -> int:
+    from pathlib import Path
+
+    from .maps import write_map
+    from .mechanism import load_scene
+    scene = load_scene(args.scene)
+    out = Path(args.out) if args.out else Path("results") / f"{scene.name}_map"
+    _check_writable(out)
+    for f in write_map(scene, out, grid=args.grid):
+        print(f)
+    return 0
+
+
 def _sweep(args) -> int:
     from tqdm import tqdm
 
@@ -103,7 +116,7 @@ def _sweep(args) -> int:
     r = sweep(args.spec, out=args.out, scheduler=args.scheduler, workers=args.workers, progress=True,
               log=lambda m: tqdm.write(f"rrr4 sweep: {m}"))
     print(f"{r['cases']} cases: {r['skipped']} skipped (already done), {r['cases'] - r['skipped']} run, "
-          f"{r['failed']} failed; rows in {r['csv']}")
+          f"{r['failed']} failed; rows in {r['csv']}; figures: {', '.join(f.name for f in r['figures'])}")
     return 0
 
 
@@ -153,6 +166,13 @@ def build_parser() -> argparse.ArgumentParser:
                                         "(default: a local cluster on this machine)")
     sw.add_argument("--workers", type=int, help="worker processes of the local cluster (default: the cores)")
     sw.set_defaults(func=_sweep)
+    mp = sub.add_parser("map", help="workspace maps of an n-RRR scene: Jacobian condition number, smallest "
+                                    "transmission, and the preload torque that holds f_min at rest and under the "
+                                    "path's peak acceleration; writes map.png, map.npz, map.json")
+    mp.add_argument("scene", help="scene YAML file, e.g. problems/paper_circle.yaml")
+    mp.add_argument("--out", help="directory (default results/<scene name>_map/)")
+    mp.add_argument("--grid", type=int, default=101, help="points per axis (default 101)")
+    mp.set_defaults(func=_map)
     b = sub.add_parser("bench", help="what accuracy costs in time")
     bsub = b.add_subparsers(dest="bench", metavar="BENCH", required=True)
     a = bsub.add_parser("accuracy", help="work-precision diagram (error vs CPU time per integrator) and CSV")

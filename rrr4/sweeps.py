@@ -62,6 +62,8 @@ class SweepSpec:
     arms: tuple[str, ...]
     keys: tuple[str, ...]
     cases: tuple[dict, ...]
+    grid_keys: tuple[str, ...] = ()
+    mc_keys: tuple[str, ...] = ()
 
 
 def _steps(key: str) -> list:
@@ -161,7 +163,7 @@ def parse_spec(data: dict, root: Path = Path(".")) -> SweepSpec:
     keys = tuple(grid) + tuple(k for k in mc_keys if k not in grid)
     for case in cases:  # every case is a valid scene before anything runs
         case_scene(base, scene_path, case)
-    return SweepSpec(base, scene_path, t_end, tuple(arms), keys, cases)
+    return SweepSpec(base, scene_path, t_end, tuple(arms), keys, cases, tuple(grid), tuple(mc_keys))
 
 
 def _monte_carlo(mc, base) -> tuple[list[dict], list[str]]:
@@ -292,8 +294,9 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
     """Run a sweep: `spec` is a spec file path, a mapping, or a :class:`SweepSpec`; rows go to
     ``out/results.csv`` (default ``results/sweeps/<spec or scene name>/``). scheduler: the
     address of an existing Dask scheduler (default: a local cluster of `workers` processes,
-    default the machine's cores). Returns {'csv': path, 'cases': n, 'skipped': n,
-    'failed': n, 'rows': list of row dicts of this run}."""
+    default the machine's cores). Writes the figures of :mod:`rrr4.results.sweep_figures` from
+    all rows. Returns {'csv': path, 'cases': n, 'skipped': n, 'failed': n, 'rows': list of row
+    dicts of this run, 'figures': paths}."""
     say = log or (lambda _m: None)
     name = None
     if isinstance(spec, (str, Path)):
@@ -357,4 +360,7 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
             client.close()
             if cluster is not None:
                 cluster.close()
-    return {"csv": csv_path, "cases": len(spec.cases), "skipped": skipped, "failed": failed, "rows": rows_out}
+    from .results.sweep_figures import sweep_figures
+    figures = sweep_figures(csv_path, spec.keys, spec.grid_keys, spec.mc_keys, out, name or spec.scene_path.stem)
+    return {"csv": csv_path, "cases": len(spec.cases), "skipped": skipped, "failed": failed, "rows": rows_out,
+            "figures": figures}

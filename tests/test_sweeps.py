@@ -99,6 +99,8 @@ def test_a_rerun_skips_the_finished_cases_and_keeps_their_rows(tmp_path):
     before = (tmp_path / "o" / "results.csv").read_text()
     again = sweep(spec, out=tmp_path / "o", workers=1)
     assert first["skipped"] == 0 and again["skipped"] == 2 and again["rows"] == []
+    assert {f.name for f in first["figures"]} == {"platform_error_rms_m.png", "contact_loss_events.png",
+                                                   "min_contact_force_N.png"}
     assert (tmp_path / "o" / "results.csv").read_text() == before
     # one more grid value: only the new case runs, appended to the same file
     more = sweep(_spec(tmp_path, grid={"joints.radial_clearance": [5.0e-5, 1.0e-4, 1.5e-4]}), out=tmp_path / "o",
@@ -147,3 +149,31 @@ def test_cli_sweep_reports_a_bad_spec_and_an_unreachable_scheduler_in_one_line(t
     assert cli_main(["sweep", str(spec), "--out", str(tmp_path / "o"), "--scheduler", "tcp://127.0.0.1:1"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--scheduler" in err
+
+
+def test_workspace_map_agrees_with_the_controller_at_the_home_pose(paper_scene, tmp_path):
+    """rrr4 map: the grid is evaluated at once; at the home pose (a grid point) the preload
+    torque at rest equals the controller's own, and the condition number the Jacobian's."""
+    import numpy as np
+
+    from rrr4 import Mechanism
+    from rrr4.control import controller_function
+    from rrr4.maps import workspace_map, write_map
+    m = workspace_map(paper_scene, grid=21)
+    i = j = 10  # x = y = 0
+    assert m["x"][j] == pytest.approx(0.0, abs=1e-15) and m["y"][i] == pytest.approx(0.0, abs=1e-15)
+    mech = Mechanism.from_scene(paper_scene)
+    assert m["condition"][i, j] == pytest.approx(np.linalg.cond(mech.jacobian([0.0, 0.0, 0.0])), rel=1e-9)
+    z = np.zeros(3)
+    theta = mech.ik(z)
+    tau_ff = np.array(controller_function(paper_scene)(z, z, z, theta, np.zeros(4))[1]).ravel()
+    assert m["feasible_rest"][i, j] and m["torque_rest_Nm"][i, j] == pytest.approx(np.max(np.abs(tau_ff)), rel=1e-9)
+    assert 0.2 < m["reachable"].mean() < 1.0 and not m["reachable"][0, 0]       # the corners are out of reach
+    assert m["feasible_peak"].sum() <= m["feasible_rest"].sum()
+    files = write_map(paper_scene, tmp_path / "map", grid=11)
+    assert [f.name for f in files] == ["map.png", "map.npz", "map.json"]
+    with pytest.raises(SceneError, match="--grid: 2 is not allowed"):
+        workspace_map(paper_scene, grid=2)
+    from rrr4 import load_scene
+    with pytest.raises(SceneError, match="mechanism.kind: 'graph' is not allowed for rrr4 map"):
+        workspace_map(load_scene(ROOT / "problems" / "paper_circle_graph.yaml"), grid=5)

@@ -1,0 +1,151 @@
+"""Workspace maps of an n-RRR scene (DESIGN section 8): over a grid of platform positions at
+the scene's orientation, the Jacobian's condition number, the smallest transmission, and
+whether (and with what torque) the controller's preload holds f_min at every passive joint
+within the torque limits, at rest and under the path's peak acceleration (the worst of 8
+directions). Every quantity is evaluated for the whole grid at once with CasADi ``map``
+(:func:`rrr4.mechanism.workspace.path_kinematics`, the closed-form inverse dynamics and the
+controller's preload law), never in a Python loop over points.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .control import has_preload, preload_law
+from .dynamics.family import effort_family
+from .errors import SceneError
+from .files import write_atomic
+from .mechanism.workspace import path_kinematics
+from .scene import Scene
+from .trajectory import PathSamples, sample_path
+
+__all__ = ["workspace_map", "plot_map", "write_map", "GRID", "DIRECTIONS"]
+
+GRID = 101        # points per axis
+DIRECTIONS = 8    # directions of the peak path acceleration tried at each point
+
+
+def _extent(scene: Scene) -> tuple[float, float, float, float]:
+    bases = np.array([c.base for c in scene.mechanism.chains])
+    lo, hi = bases.min(axis=0), bases.max(axis=0)
+    c, h = (lo + hi) / 2, 0.75 * (hi - lo) / 2
+    return c[0] - h[0], c[0] + h[0], c[1] - h[1], c[1] + h[1]
+
+
+def _preload(scene: Scene, pose, pose_dd) -> tuple[np.ndarray, np.ndarray]:
+    """(feasible (N,) bool, max |tau| (N,) [N m]) of the controller's preload at poses (N, 3)
+    at rest with platform acceleration pose_dd (N, 3); NaN torque where unreachable."""
+    N = len(pose)
+    fam = effort_family(scene, pose, np.zeros_like(pose), pose_dd)
+    law = preload_law(scene)
+    if law is None:  # no preload: the minimum-norm torques, feasible if within the limits
+        tau = fam.tau_p
+        feasible = np.all(np.abs(tau) <= np.asarray(scene.actuation.torque_limit), axis=1)
+    else:
+        _, tau, feas, _ = (np.array(v) for v in law.map(N)(*fam.raw))
+        tau, feasible = tau.T, feas.ravel() > 0.5
+    peak = np.max(np.abs(tau), axis=1)
+    ok = np.all(np.isfinite(tau), axis=1)
+    return feasible & ok, np.where(ok, peak, np.nan)
+
+
+def workspace_map(scene: Scene, grid: int = GRID) -> dict:
+    """Arrays over a grid x (grid,), y (grid,) [m] at the path's orientation: reachable,
+    condition, min_transmission, feasible_rest, torque_rest_Nm, feasible_peak, torque_peak_Nm
+    (grid, grid) [y index, x index]; and a_peak [m/s^2], the path's peak acceleration."""
+    if scene.mechanism is None:
+        raise SceneError("mechanism.kind: 'graph' is not allowed for rrr4 map yet (the maps use the n-RRR's "
+                         "closed-form kinematics)")
+    if not isinstance(grid, int) or isinstance(grid, bool) or not 3 <= grid <= 1001:
+        raise SceneError(f"--grid: {grid!r} is not allowed (an integer from 3 to 1001)")
+    x0, x1, y0, y1 = _extent(scene)
+    x, y = np.linspace(x0, x1, grid), np.linspace(y0, y1, grid)
+    X, Y = np.meshgrid(x, y)
+    N = X.size
+    theta = scene.path.orientation
+    pose = np.column_stack([X.ravel(), Y.ravel(), np.full(N, theta)])
+    zero = np.zeros_like(pose)
+    pk = path_kinematics(scene, PathSamples(np.zeros(N), pose, zero, zero))
+    reachable = np.all(np.abs(pk.cos_arg) <= 1.0, axis=1)
+    cond = np.where(reachable, pk.condition, np.nan)
+    trans = np.where(reachable, np.min(np.abs(pk.sin_transmission), axis=1), np.nan)
+    s = sample_path(scene.path)
+    a_peak = float(np.max(np.linalg.norm(s.pose_dd[:, :2], axis=1)))
+    feas_rest, tau_rest = _preload(scene, pose, zero)
+    feas_peak, tau_peak = feas_rest.copy(), tau_rest.copy()
+    for k in range(DIRECTIONS):
+        phi = 2 * np.pi * k / DIRECTIONS
+        acc = np.zeros_like(pose)
+        acc[:, 0], acc[:, 1] = a_peak * np.cos(phi), a_peak * np.sin(phi)
+        f, t = _preload(scene, pose, acc)
+        feas_peak &= f
+        tau_peak = np.fmax(tau_peak, t)
+    shape = (grid, grid)
+    out = {"x": x, "y": y, "reachable": reachable.reshape(shape), "condition": cond.reshape(shape),
+           "min_transmission": trans.reshape(shape),
+           "feasible_rest": (feas_rest & reachable).reshape(shape),
+           "torque_rest_Nm": np.where(reachable, tau_rest, np.nan).reshape(shape),
+           "feasible_peak": (feas_peak & reachable).reshape(shape),
+           "torque_peak_Nm": np.where(reachable, tau_peak, np.nan).reshape(shape), "a_peak": a_peak,
+           "orientation": theta, "preload": has_preload(scene)}
+    return out
+
+
+def plot_map(m: dict, scene: Scene, path: Path) -> Path:
+    """Four heat maps (condition number, smallest transmission, preload torque at rest and under
+    the peak acceleration, blank where it cannot hold f_min) with the scene's path on top."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    s = sample_path(scene.path)
+    ext = (m["x"][0] * 1e3, m["x"][-1] * 1e3, m["y"][0] * 1e3, m["y"][-1] * 1e3)
+    panels = [("condition", "cond(J) [-] (log10)", np.log10(m["condition"]), "viridis_r"),
+              ("min_transmission", "smallest transmission |sin| [-]", m["min_transmission"], "viridis"),
+              ("torque_rest_Nm", "preload torque at rest, max |tau| [N m]",
+               np.where(m["feasible_rest"], m["torque_rest_Nm"], np.nan), "magma_r"),
+              ("torque_peak_Nm", f"... under the path's peak acceleration ({m['a_peak']:.2g} m/s^2) [N m]",
+               np.where(m["feasible_peak"], m["torque_peak_Nm"], np.nan), "magma_r")]
+    fig, axes = plt.subplots(2, 2, figsize=(10.5, 9.0))
+    for ax, (_, label, z, cmap) in zip(axes.ravel(), panels, strict=True):
+        im = ax.imshow(z, origin="lower", extent=ext, cmap=cmap, aspect="equal")
+        fig.colorbar(im, ax=ax, shrink=0.85, label=label)
+        ax.contour(m["x"] * 1e3, m["y"] * 1e3, m["reachable"].astype(float), levels=[0.5], colors="k",
+                   linewidths=0.8)
+        ax.plot(s.pose[:, 0] * 1e3, s.pose[:, 1] * 1e3, "c-", lw=2, label="the scene's path")
+        ax.set_xlabel("platform x [mm]")
+        ax.set_ylabel("platform y [mm]")
+        ax.set_title(label.split(" [")[0], fontsize=9)
+    axes[0, 0].legend(fontsize=8, loc="lower right")
+    what = "preload" if m["preload"] else "minimum-norm torques (no preload)"
+    fig.suptitle(f"{scene.name}: workspace at theta = {m['orientation']:g} rad; blank: unreachable, or the {what} "
+                 "cannot hold f_min within the limits", fontsize=10)
+    fig.tight_layout()
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, dpi=100)
+    plt.close(fig)
+    tmp.replace(path)
+    return path
+
+
+def write_map(scene: Scene, out: Path, grid: int = GRID) -> list[Path]:
+    """Compute the maps and write ``map.png``, ``map.npz`` (the arrays) and ``map.json`` (a
+    summary) into out."""
+    m = workspace_map(scene, grid)
+    out.mkdir(parents=True, exist_ok=True)
+    npz = out / "map.npz"
+    tmp = out / ".map.tmp.npz"
+    np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in m.items()})
+    tmp.replace(npz)
+    summary = {"scene": scene.name, "grid": grid, "orientation_rad": m["orientation"],
+               "extent_m": [m["x"][0], m["x"][-1], m["y"][0], m["y"][-1]], "path_peak_acceleration_m_s2": m["a_peak"],
+               "reachable_fraction": float(m["reachable"].mean()),
+               "preload_holds_at_rest_fraction": float(m["feasible_rest"].mean()),
+               "preload_holds_at_peak_acceleration_fraction": float(m["feasible_peak"].mean()),
+               "condition_min": float(np.nanmin(m["condition"])),
+               "torque_rest_min_Nm": float(np.nanmin(np.where(m["feasible_rest"], m["torque_rest_Nm"], np.nan)))}
+    js = out / "map.json"
+    write_atomic(js, json.dumps(summary, indent=1) + "\n")
+    return [plot_map(m, scene, out / "map.png"), npz, js]

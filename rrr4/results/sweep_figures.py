@@ -1,0 +1,109 @@
+"""Figures of a sweep's results.csv: each metric against each varied key (the arms in one
+plot), a heat map over the first two grid keys, and histograms of a Monte Carlo."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from .plots import STYLE  # noqa: E402
+
+__all__ = ["sweep_figures", "FIGURE_METRICS"]
+
+# metric -> (axis label, scale)
+FIGURE_METRICS = {"platform_error_rms_m": ("platform error RMS [um]", 1e6),
+                  "contact_loss_events": ("contact-loss events, all joints", 1.0),
+                  "min_contact_force_N": ("smallest contact force [N]", 1.0)}
+
+
+def _save(fig, path: Path) -> Path:
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    tmp.replace(path)  # atomic: an interrupted run keeps the earlier figure
+    return path
+
+
+def _read(csv_path: Path) -> list[dict]:
+    with Path(csv_path).open(newline="") as f:
+        return [r for r in csv.DictReader(f) if r["status"] == "ok"]
+
+
+def sweep_figures(csv_path, keys, grid_keys, mc_keys, out_dir, title: str = "") -> list[Path]:
+    """Write the figures of a sweep into out_dir; returns their paths. keys: every varied key
+    path (CSV columns); grid_keys / mc_keys: those of the grid and of the Monte Carlo."""
+    rows = _read(csv_path)
+    out_dir = Path(out_dir)
+    files: list[Path] = []
+    if not rows:
+        return files
+    arms = list(dict.fromkeys(r["arm"] for r in rows))
+    for metric, (label, scale) in FIGURE_METRICS.items():
+        cols = min(len(keys), 4)
+        nrows = -(-len(keys) // cols)
+        fig, axes = plt.subplots(nrows, cols, figsize=(3.8 * cols, 3.0 * nrows + 0.5), squeeze=False)
+        for ax in axes.ravel()[len(keys):]:
+            ax.axis("off")
+        for ax, key in zip(axes.ravel(), keys, strict=False):
+            for arm in arms:
+                sel = [r for r in rows if r["arm"] == arm]
+                x = np.array([float(r[key]) for r in sel])
+                y = np.array([float(r[metric]) for r in sel]) * scale
+                ax.plot(x, y, "o", ms=4, alpha=0.7, color=STYLE[arm]["color"], label=STYLE[arm]["label"])
+            ax.set_xlabel(key, fontsize=8)
+            ax.set_ylabel(label, fontsize=8)
+            ax.ticklabel_format(axis="x", useOffset=False, style="sci", scilimits=(-3, 4))
+            ax.tick_params(labelsize=7)
+            ax.grid(alpha=0.3)
+        axes[0][0].legend(fontsize=7)
+        fig.suptitle(f"{title}: {label} against each varied key (every case)", fontsize=10)
+        fig.tight_layout()
+        files.append(_save(fig, out_dir / f"{metric}.png"))
+    if len(grid_keys) >= 2:
+        kx, ky = grid_keys[0], grid_keys[1]
+        xs = sorted({float(r[kx]) for r in rows})
+        ys = sorted({float(r[ky]) for r in rows})
+        fig, axes = plt.subplots(1, len(arms), figsize=(4.2 * len(arms), 3.6), squeeze=False)
+        for ax, arm in zip(axes[0], arms, strict=True):
+            z = np.full((len(ys), len(xs)), np.nan)
+            for i, yv in enumerate(ys):
+                for j, xv in enumerate(xs):
+                    v = [float(r["platform_error_rms_m"]) for r in rows
+                         if r["arm"] == arm and float(r[kx]) == xv and float(r[ky]) == yv]
+                    if v:
+                        z[i, j] = np.median(v) * 1e6
+            im = ax.imshow(z, origin="lower", aspect="auto", cmap="viridis")
+            ax.set_xticks(range(len(xs)), [f"{v:g}" for v in xs], fontsize=7)
+            ax.set_yticks(range(len(ys)), [f"{v:g}" for v in ys], fontsize=7)
+            ax.set_xlabel(kx)
+            ax.set_ylabel(ky)
+            ax.set_title(STYLE[arm]["label"], fontsize=9)
+            fig.colorbar(im, ax=ax, label="platform error RMS [um] (median over other keys)")
+        fig.suptitle(f"{title}: platform error over {kx} and {ky}", fontsize=10)
+        fig.tight_layout()
+        files.append(_save(fig, out_dir / "heatmap.png"))
+    if mc_keys:
+        fig, axes = plt.subplots(1, 2, figsize=(9.0, 3.4))
+        for ax, metric, scale in ((axes[0], "platform_error_rms_m", 1e6), (axes[1], "contact_loss_events", 1.0)):
+            vals = {arm: [float(r[metric]) * scale for r in rows if r["arm"] == arm] for arm in arms}
+            every = np.concatenate([v for v in vals.values() if v])
+            bins = np.linspace(every.min() - 0.5 * scale * (metric == "contact_loss_events"), every.max() + 1e-12, 40)
+            for arm, v in vals.items():
+                ax.hist(v, bins=bins, alpha=0.7, color=STYLE[arm]["color"], label=STYLE[arm]["label"])
+        axes[0].set_xlabel("platform error RMS [um]")
+        axes[1].set_xlabel("contact-loss events, all joints")
+        for ax in axes:
+            ax.set_ylabel("cases")
+            ax.legend(fontsize=7)
+            ax.grid(alpha=0.3)
+        n = len({r["case"] for r in rows})
+        fig.suptitle(f"{title}: Monte Carlo, {n} samples of {len(mc_keys)} toleranced keys", fontsize=10)
+        fig.tight_layout()
+        files.append(_save(fig, out_dir / "histograms.png"))
+    return files
