@@ -78,13 +78,17 @@ def sweep_figures(csv_path, keys, grid_keys, mc_keys, out_dir, title: str = "") 
                          if r["arm"] == arm and float(r[kx]) == xv and float(r[ky]) == yv]
                     if v:
                         z[i, j] = np.median(v) * 1e6
-            im = ax.imshow(z, origin="lower", aspect="auto", cmap="viridis")
+            im = ax.imshow(z, origin="lower", aspect="auto", cmap="viridis",
+                           norm=matplotlib.colors.LogNorm() if np.nanmin(z) > 0 else None)
+            for (i, j), v in np.ndenumerate(z):
+                if np.isfinite(v):
+                    ax.text(j, i, f"{v:.3g}", ha="center", va="center", fontsize=7, color="w")
             ax.set_xticks(range(len(xs)), [f"{v:g}" for v in xs], fontsize=7)
             ax.set_yticks(range(len(ys)), [f"{v:g}" for v in ys], fontsize=7)
             ax.set_xlabel(kx)
             ax.set_ylabel(ky)
             ax.set_title(STYLE[arm]["label"], fontsize=9)
-            fig.colorbar(im, ax=ax, label="platform error RMS [um] (median over other keys)")
+            fig.colorbar(im, ax=ax, label="error RMS [um], median of the other keys")
         fig.suptitle(f"{title}: platform error over {kx} and {ky}", fontsize=10)
         fig.tight_layout()
         files.append(_save(fig, out_dir / "heatmap.png"))
