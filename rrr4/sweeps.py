@@ -14,9 +14,9 @@ built and validated as a scene before anything runs; a bad spec or case value is
 :class:`~rrr4.errors.SceneError` line naming the key.
 
 Cases run on ``dask.distributed``: a local cluster of worker processes on this machine by
-default, or an existing cluster (``scheduler='tcp://host:port'``). A case that fails (an
-infeasible preload, a blow-up) is recorded with its error and the sweep goes on. Each
-finished case appends its rows (one per arm) to ``results.csv`` at once, so an interrupted
+default, or an existing cluster (``scheduler='tcp://host:port'``). A case that fails (a
+blow-up; an infeasible preload only warns) is recorded with its error and the sweep goes on.
+Each finished case appends its rows (one per arm) to ``results.csv`` at once, so an interrupted
 sweep loses no finished case; a re-run of the same spec into the same directory skips the
 cases already there (keyed by a hash of the case's scene).
 """
