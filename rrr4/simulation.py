@@ -441,7 +441,7 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
 
     # initial state
     if model.task is not None:
-        pose0, pose_d0, pose_dd0 = (np.array(v).ravel() for v in trajectory_function(scene.path)(0.0)[:3])
+        pose0, pose_d0, pose_dd0 = (np.array(v).ravel() for v in trajectory_function(scene.path)(0.0))
         k = mech.n_task
         target, target_d, target_dd = (pose0[:k], (pose_d0 + np.asarray(scene.initial.platform_velocity))[:k],
                                        pose_dd0[:k])
