@@ -39,7 +39,7 @@ GROUND = "ground"
 
 def choices(what: str) -> tuple[str, ...]:
     """The allowed names of a registry, read from the registry itself: 'contact law',
-    'friction law', 'integrator', 'preload method', 'compensation' or 'qp solver'. Imported when a scene is
+    'friction law', 'integrator', 'newton', 'preload method', 'compensation' or 'qp solver'. Imported when a scene is
     parsed (the registries' modules import this one)."""
     if what == "contact law":
         from .contact.normal import NORMAL_LAWS
@@ -50,6 +50,9 @@ def choices(what: str) -> tuple[str, ...]:
     if what == "integrator":
         from .integrators import METHODS
         return tuple(METHODS)
+    if what == "newton":
+        from .integrators.implicit import NEWTON
+        return NEWTON
     if what == "preload method":
         from .preload.solve import PRELOAD_METHODS
         return ("none", *PRELOAD_METHODS)
@@ -307,6 +310,7 @@ class IntegratorSettings:
     newton_tol: float
     max_newton: int
     refine: int = 1  # sub-steps that re-take a fixed step across a contact onset or loss (1: off)
+    newton: str = "simplified"  # implicit methods: reuse the iteration matrix's factors, or 'full'
 
 
 @dataclass(frozen=True)
@@ -948,6 +952,7 @@ def _integrator(sec: _Section) -> IntegratorSettings:
         newton_tol=sec.number("newton_tol", 1e-10, positive=True),
         max_newton=sec.integer("max_newton", 20, positive=True),
         refine=sec.integer("refine", 1, positive=True),
+        newton=sec.choice("newton", choices("newton"), "simplified"),
     )
     sec.done()
     return s

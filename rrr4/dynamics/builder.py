@@ -68,7 +68,7 @@ from ..contact import (
     normal_force,
     stiffness_internal_cylinder,
 )
-from ..contact.normal import V_MIN
+from ..contact.normal import V_MIN, power
 from ..errors import SceneError
 from ..mechanism.graph import Model
 from ..scene import Scene, argument
@@ -208,7 +208,7 @@ def _build(scene: Scene, v_min: float, omega: float) -> Equations:
         Qc, f = contact_generalized_forces(kin, fn, ft, g_b, g_j, i_b, i_j, spec.journal_radius,
                                            spec.bearing_radius, nq)
         Q = Q + Qc
-        V_contact += K * ca.fmax(kin.penetration, 0.0) ** (ce.exponent + 1) / (ce.exponent + 1)
+        V_contact += K * power(ca.fmax(kin.penetration, 0.0), ce.exponent + 1) / (ce.exponent + 1)
         if ce.law != "hertz":
             p_damp += (fn - f_el) * kin.delta_dot
         if fe.law != "none":

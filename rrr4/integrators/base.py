@@ -133,14 +133,24 @@ class FixedStepIntegrator(ABC):
     def frame_function(self, system: System, h: float, steps_per_frame: int) -> ca.Function:
         """MX Function 'frame': x, u -> x after `steps_per_frame` steps (mapaccum)."""
         step = self.refined_step_function(system, h)
-        roll = step.mapaccum("roll", steps_per_frame)
-        x, u = ca.MX.sym("x", step.size1_in(0)), ca.MX.sym("u", system.nu_frame)
-        xs = roll(x, ca.repmat(system.held(x[1:1 + system.ny], u), 1, steps_per_frame))
-        return ca.Function("frame", [x, u], [xs[:, -1]], ["x", "u"], ["x_next"])
+        x, u, x_k = ca.MX.sym("x", step.size1_in(0)), ca.MX.sym("u", system.nu_frame), ca.MX.sym("x", step.size1_in(0))
+        u_held = ca.MX.sym("u", system.nu)
+        # fold: only the frame's last state is stored (moving states costs as much as computing them)
+        roll = ca.Function("held_step", [x_k, u_held], [step(x_k, u_held)], ["x", "u"], ["x_next"]).fold(
+            steps_per_frame)
+        x1 = roll(x, ca.repmat(system.held(x[1:1 + system.ny], u), 1, steps_per_frame))
+        return ca.Function("frame", [x, u], [x1], ["x", "u"], ["x_next"])
 
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,
             progress: bool = False) -> Run:
         """States at the end of each frame, (n_frames, nx), and statistics; u_frames (n_frames, nu)."""
+        return Run(self.roll(system, x0, u_frames, h, steps_per_frame, chunk, progress)[0], {})
+
+    def roll(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,
+             progress: bool = False, keep: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(the first `keep` entries of the state at the end of each frame (n_frames, keep), the
+        last full state): what a run keeps grows with the frames, never with a method's own
+        state (Newton factors) or with the steps."""
         settings = tuple(sorted((k, repr(v)) for k, v in vars(self).items()))
         key = (type(self).__name__, settings, float(h), int(steps_per_frame))
         if key not in system.frames:
@@ -153,7 +163,9 @@ class FixedStepIntegrator(ABC):
         u_frames = np.atleast_2d(np.asarray(u_frames, float))
         n_frames = u_frames.shape[0]
         rolls: dict[int, ca.Function] = {}
-        out, x = [], np.asarray(x0, float)
+        x = np.asarray(x0, float)
+        keep = x.size if keep is None else keep
+        out = np.empty((n_frames, keep))
         bar = None
         if progress:
             from tqdm import tqdm
@@ -161,14 +173,16 @@ class FixedStepIntegrator(ABC):
         try:
             for k0 in range(0, n_frames, chunk):
                 k = min(chunk, n_frames - k0)
-                if k not in rolls:
-                    rolls[k] = frame.mapaccum("frames", k)
-                xs = np.array(rolls[k](x, u_frames[k0:k0 + k].T))
-                out.append(xs.T)
-                x = xs[:, -1]
+                if k not in rolls:  # the kept rows of every frame and the last full state
+                    xm, um = ca.MX.sym("x", x.size), ca.MX.sym("u", u_frames.shape[1], k)
+                    xs = frame.mapaccum("frames", k)(xm, um)
+                    rolls[k] = ca.Function("chunk", [xm, um], [xs[:keep, :], xs[:, -1]])
+                kept, last = rolls[k](x, u_frames[k0:k0 + k].T)
+                out[k0:k0 + k] = np.array(kept).T
+                x = np.array(last).ravel()
                 if bar is not None:
                     bar.update(k)
         finally:  # an error or interrupt must not leave a half-drawn bar under its message
             if bar is not None:
                 bar.close()
-        return Run(np.vstack(out), {})
+        return out, x

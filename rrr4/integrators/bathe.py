@@ -30,9 +30,8 @@ class Bathe(ImplicitIntegrator):
     name = "bathe"
     order = 2
 
-    def __init__(self, jit: bool = False, gamma: float = 0.5, rho_inf: float = 0.0, newton_tol: float = 1e-10,
-                 max_newton: int = 8, refine: int = 1):
-        super().__init__(jit=jit, newton_tol=newton_tol, max_newton=max_newton, refine=refine)
+    def __init__(self, jit: bool = False, gamma: float = 0.5, rho_inf: float = 0.0, **newton):
+        super().__init__(jit=jit, **newton)
         if not 0 < gamma < 1:
             raise Rrr4Error(f"integrator.gamma: {gamma!r} is not allowed (must be in (0, 1))")
         if not 0 <= rho_inf <= 1:
@@ -42,11 +41,12 @@ class Bathe(ImplicitIntegrator):
         if self.weights[2] <= 1e-6:
             raise Rrr4Error(f"integrator.gamma: {gamma!r} with rho_inf {rho_inf!r} makes the second sub-step "
                             "explicit (q2 = 0); use a smaller gamma")
+        # both sub-steps share one iteration matrix when gamma h / 2 = q2 h (gamma = 2 - sqrt 2 at rho_inf = 0)
+        self.matrices = 1 if abs(self.gamma / 2 - self.weights[2]) < 1e-12 else 2
 
     @classmethod
     def from_settings(cls, settings, jit: bool = False):
-        return cls(jit=jit, gamma=settings.gamma, rho_inf=settings.rho_inf, newton_tol=settings.newton_tol,
-                   max_newton=settings.max_newton, refine=settings.refine)
+        return cls(jit=jit, gamma=settings.gamma, rho_inf=settings.rho_inf, **cls.newton_settings(settings))
 
     def advance_implicit(self, stage, ode, t, y, z, u, h, memory, nq):
         q0, q1, q2 = self.weights

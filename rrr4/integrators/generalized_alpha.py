@@ -33,9 +33,8 @@ class GeneralizedAlpha(ImplicitIntegrator):
     name = "generalized-alpha"
     order = 2
 
-    def __init__(self, jit: bool = False, rho_inf: float = 0.0, newton_tol: float = 1e-10, max_newton: int = 8,
-                 refine: int = 1):
-        super().__init__(jit=jit, newton_tol=newton_tol, max_newton=max_newton, refine=refine)
+    def __init__(self, jit: bool = False, rho_inf: float = 0.0, **newton):
+        super().__init__(jit=jit, **newton)
         if not 0 <= rho_inf <= 1:
             raise Rrr4Error(f"integrator.rho_inf: {rho_inf!r} is not allowed (must be in [0, 1])")
         self.rho_inf = float(rho_inf)
@@ -43,8 +42,7 @@ class GeneralizedAlpha(ImplicitIntegrator):
 
     @classmethod
     def from_settings(cls, settings, jit: bool = False):
-        return cls(jit=jit, rho_inf=settings.rho_inf, newton_tol=settings.newton_tol, max_newton=settings.max_newton,
-                   refine=settings.refine)
+        return cls(jit=jit, rho_inf=settings.rho_inf, **cls.newton_settings(settings))
 
     def memory_size(self, nq: int) -> int:
         return nq

@@ -7,12 +7,29 @@ here has the form
 
     q = r_q + c_q v,    v = r_v + c_v a(t, q, v),    e = r_e + c_e p(t, q, v),
 
-so Newton runs on the nq velocities only, with the exact Jacobian
-I - c_v (A_v + c_q A_q) (A_q = da/dq, A_v = da/dv). Each Newton iteration is one SX
-Function (symbolic Jacobian and sparse solve); the iterations sit behind
-``Function.if_else`` switches, so the compiled code skips them once the update is below
-``newton_tol`` (relative to 1 + max|v|). The state carries two extra counters over the
-run: Newton iterations and sub-steps that hit ``max_newton`` without converging.
+so Newton runs on the nq velocities only, with the iteration matrix
+G = I - c_v (A_v + c_q A_q) (A_q = da/dq, A_v = da/dv). G is sparse (about a third of it
+for the 4-RRR); it is factorised by a sparse Householder QR whose pattern is fixed when the
+step is built (``casadi.qr_sparse``), so a factorisation and a solve are straight-line code.
+
+Two Newton variants (``integrator.newton``, :data:`NEWTON`):
+
+- ``simplified`` (default): the factors of G are part of the integrator's state and are
+  reused across iterations and steps. They are renewed at the start of a stage when the
+  stage's (c_q, c_v) differ from those they were built with (a step-size change, e.g. the
+  refined sub-steps of a contact event), after a step in which a contact opened or closed,
+  and after a stage that converged slowly (contraction rate above :data:`SLOW`). A stage
+  whose simplified iterations diverge or do not converge within :data:`SIMPLIFIED` falls
+  back to full Newton from its predictor, and the factors are renewed at the next step.
+  Convergence: the update is below ``newton_tol`` (relative to 1 + max|v|), or the
+  estimated remaining error theta / (1 - theta) |dv| is (theta: contraction rate).
+- ``full``: a new Jacobian and factorisation at every iteration (quadratic convergence,
+  the most work per step).
+
+Each iteration is one Function behind a ``Function.if_else`` switch, so the compiled code
+skips the iterations a converged stage does not need. The state carries counters over the
+run: Newton iterations, stages that hit ``max_newton`` without converging, and Jacobian
+evaluations (each Jacobian is factorised once, so it also counts factorisations).
 """
 
 from __future__ import annotations
@@ -25,7 +42,12 @@ import numpy as np
 from ..errors import Rrr4Error
 from .base import FixedStepIntegrator, Run, System
 
-__all__ = ["ImplicitIntegrator", "second_order_split"]
+__all__ = ["ImplicitIntegrator", "second_order_split", "NEWTON"]
+
+NEWTON = ("simplified", "full")  # the choices of integrator.newton
+SIMPLIFIED = 6  # simplified iterations of a stage before it falls back to full Newton
+SLOW = 0.1  # contraction rate above which the factors are renewed for the next step
+COUNTERS = ("newton_iterations", "newton_failures", "jacobians")
 
 
 def second_order_split(system: System) -> int:
@@ -39,27 +61,92 @@ def second_order_split(system: System) -> int:
     raise Rrr4Error("implicit integrators need a second-order system y = [q, v, quadratures] with q' = v")
 
 
+def _skippable(name: str, f: ca.Function, skipped) -> ca.Function:
+    """``Function.if_else`` of f and a cheap stand-in: switch(skip, *f's inputs); skipped(*inputs) -> outputs."""
+    ins = [ca.MX.sym(f.name_in(i), f.sparsity_in(i)) for i in range(f.n_in())]
+    skip = ca.Function(f"{name}_skip", ins, list(skipped(*ins)), f.name_in(), f.name_out())
+    return ca.Function.if_else(name, skip, f)
+
+
+class _Newton:
+    """The SX pieces of a stage's Newton iterations for one system (see the module docstring).
+
+    pars = [t, r_q, r_v, c_q, c_v, z, u]. full: v, pars -> v_next, converged. factor: v, pars
+    -> the QR factors of G at v, flattened (size n_factors). simplified: v, factors, pars ->
+    v_next, |dv| and 1 + |v_next| (max norms). Each comes with an if_else skip (`*_switch`)."""
+
+    def __init__(self, system: System, nq: int, tol: float):
+        ne = system.ny - 2 * nq
+        v, tt, w = ca.SX.sym("v", nq), ca.SX.sym("t"), ca.SX.sym("p", ne)
+        rq, rv, cq, cv = ca.SX.sym("r_q", nq), ca.SX.sym("r_v", nq), ca.SX.sym("c_q"), ca.SX.sym("c_v")
+        z, u = ca.SX.sym("z", system.nz), ca.SX.sym("u", system.nu)
+        pars = ca.vertcat(tt, rq, rv, cq, cv, z, u)
+        f = system.ode(tt, ca.vertcat(rq + cq * v, v, ca.SX.zeros(ne)), z, u)
+        a, p = f[nq:2 * nq], f[2 * nq:]  # p: the quadratures' rates at the iterate (no extra RHS)
+        res = v - rv - cv * a
+        jac = ca.jacobian(res, v)
+        V, R, beta, prinv, pc = ca.qr_sparse(jac)
+        self.n_pars = pars.shape[0]
+
+        v1 = v - ca.solve(jac, res)
+        done = ca.norm_inf(v1 - v) <= tol * (1 + ca.norm_inf(v1))
+        full = ca.Function("newton_full", [v, w, pars], ca.cse([v1, p, done]), ["v", "p", "pars"],
+                           ["v_next", "p_next", "converged"])
+        self.full = _skippable("newton_full_switch", full, lambda v, w, _: (v, w, ca.MX(1)))
+
+        factors = ca.vertcat(*V.nonzeros(), *R.nonzeros(), beta)
+        self.n_factors = factors.shape[0]
+        factor = ca.Function("newton_factor", [v, pars], ca.cse([factors]), ["v", "pars"], ["factors"])
+        f_in = ca.SX.sym("factors", self.n_factors)
+        nv, nr = V.nnz(), R.nnz()
+        Vs = ca.SX(V.sparsity(), f_in[:nv])
+        Rs = ca.SX(R.sparsity(), f_in[nv:nv + nr])
+        dv = -ca.qr_solve(res, Vs, Rs, f_in[nv + nr:], prinv, pc)
+        v1 = v + dv
+        simplified = ca.Function("newton_simplified", [v, w, f_in, pars],
+                                 ca.cse([v1, p, ca.norm_inf(dv), 1 + ca.norm_inf(v1)]),
+                                 ["v", "p", "factors", "pars"], ["v_next", "p_next", "step", "scale"])
+        self.factor_switch = _skippable("newton_factor_switch", ca.Function(
+            "newton_factor_kept", [v, f_in, pars], [factor(v, pars)], ["v", "factors", "pars"], ["factors_next"]),
+            lambda v, f, _: (f,))
+        self.simplified = _skippable("newton_simplified_switch", simplified,
+                                     lambda v, w, f, _: (v, w, ca.MX(0), ca.MX(1)))
+
+
 class ImplicitIntegrator(FixedStepIntegrator):
     """Base of the implicit methods: subclasses implement :meth:`advance_implicit` with :meth:`stage`.
 
-    newton_tol: relative velocity-update tolerance; max_newton: iterations per stage.
-    A method may keep `memory_size` extra state entries between steps (e.g. the
-    acceleration-like variable of generalised-alpha), initialised by :meth:`initial_memory`.
+    newton: 'simplified' or 'full' (see the module docstring); newton_tol: relative
+    velocity-update tolerance; max_newton: full Newton iterations per stage. A method may
+    keep `memory_size` extra state entries between steps (e.g. the acceleration-like
+    variable of generalised-alpha), initialised by :meth:`initial_memory`, and says how many
+    distinct stage matrices (c_q, c_v) one step uses (`matrices`).
     """
 
-    def __init__(self, jit: bool = False, newton_tol: float = 1e-10, max_newton: int = 8, refine: int = 1):
+    def __init__(self, jit: bool = False, newton: str = "simplified", newton_tol: float = 1e-10,
+                 max_newton: int = 8, refine: int = 1):
         super().__init__(jit=jit, refine=refine)
+        if newton not in NEWTON:
+            raise Rrr4Error(f"integrator.newton: {newton!r} is not allowed (choose from {', '.join(NEWTON)})")
         if not (np.isfinite(newton_tol) and newton_tol > 0):
             raise Rrr4Error(f"integrator.newton_tol: {newton_tol!r} is not allowed (must be > 0)")
         if int(max_newton) < 1:
             raise Rrr4Error(f"integrator.max_newton: {max_newton!r} is not allowed (must be >= 1)")
-        self.newton_tol, self.max_newton = float(newton_tol), int(max_newton)
+        self.newton, self.newton_tol, self.max_newton = newton, float(newton_tol), int(max_newton)
+
+    @staticmethod
+    def newton_settings(settings) -> dict:
+        """The Newton keywords of a scene's IntegratorSettings."""
+        return {"newton": settings.newton, "newton_tol": settings.newton_tol, "max_newton": settings.max_newton,
+                "refine": settings.refine}
 
     @classmethod
     def from_settings(cls, settings, jit: bool = False):
-        return cls(jit=jit, newton_tol=settings.newton_tol, max_newton=settings.max_newton, refine=settings.refine)
+        return cls(jit=jit, **cls.newton_settings(settings))
 
     # ---- what a method implements
+    matrices = 1  # distinct (c_q, c_v) among the stages of one step
+
     def memory_size(self, nq: int) -> int:
         return 0
 
@@ -76,65 +163,129 @@ class ImplicitIntegrator(FixedStepIntegrator):
         raise NotImplementedError("implicit methods step through step_function")
 
     # ---- machinery
-    def _newton_functions(self, system: System, nq: int) -> tuple[ca.Function, ca.Function]:
-        """'newton_update': v, pars -> v_next, converged; and the same behind an if_else skip."""
-        v, tt = ca.SX.sym("v", nq), ca.SX.sym("t")
-        rq, rv, cq, cv = ca.SX.sym("r_q", nq), ca.SX.sym("r_v", nq), ca.SX.sym("c_q"), ca.SX.sym("c_v")
-        z, u = ca.SX.sym("z", system.nz), ca.SX.sym("u", system.nu)
-        q = rq + cq * v
-        ne = system.ny - 2 * nq
-        a = system.ode(tt, ca.vertcat(q, v, ca.SX.zeros(ne)), z, u)[nq:2 * nq]
-        res = v - rv - cv * a
-        jac = ca.jacobian(res, v)
-        dv = -ca.solve(jac, res)
-        v1 = v + dv
-        done = ca.norm_inf(dv) <= self.newton_tol * (1 + ca.norm_inf(v1))
-        pars = ca.vertcat(tt, rq, rv, cq, cv, z, u)
-        upd = ca.Function("newton_update", [v, pars], ca.cse([v1, done]), ["v", "pars"], ["v_next", "converged"])
-        v_in, p_in = ca.MX.sym("v", nq), ca.MX.sym("pars", pars.shape[0])
-        skip = ca.Function("newton_skip", [v_in, p_in], [v_in, ca.MX(1)], ["v", "pars"], ["v_next", "converged"])
-        return upd, ca.Function.if_else("newton_iteration", skip, upd)
+    def _layout(self, system: System, nq: int) -> tuple[int, int, int]:
+        """(size of the method's memory, factors per matrix slot, extra state entries after
+        [t, y, z]): memory, the counters, a renew flag, then per slot (c_q, c_v, factors)."""
+        nm = self.memory_size(nq)
+        nf = _newton(system, nq, self.newton_tol).n_factors if self.newton == "simplified" else 0
+        slots = self.matrices * (2 + nf) if nf else 0
+        return nm, nf, nm + len(COUNTERS) + 1 + slots
 
     def step_function(self, system: System, h: float) -> ca.Function:
-        """MX Function 'step': x = [t, y, z, memory, newton_iterations, newton_failures], u -> x_next."""
+        """MX Function 'step': x = [t, y, z, memory, counters, renew, matrix slots], u -> x_next."""
         nq = second_order_split(system)
-        ny, nz, nm = system.ny, system.nz, self.memory_size(nq)
-        _, iteration = self._newton_functions(system, nq)
-        x, u = ca.MX.sym("x", 1 + ny + nz + nm + 2), ca.MX.sym("u", system.nu)
+        ny, nz = system.ny, system.nz
+        nm, nf, extra = self._layout(system, nq)
+        newton = _newton(system, nq, self.newton_tol)
+        x, u = ca.MX.sym("x", 1 + ny + nz + extra), ca.MX.sym("u", system.nu)
         t, y, z = x[0], x[1:1 + ny], x[1 + ny:1 + ny + nz]
-        mem, iters, fails = x[1 + ny + nz:1 + ny + nz + nm], x[-2], x[-1]
-        count = {"iters": iters, "fails": fails}
+        o = 1 + ny + nz
+        mem = x[o:o + nm]
+        o += nm
+        count = dict(zip(COUNTERS, ca.vertsplit(x[o:o + len(COUNTERS)]), strict=True))
+        renew = x[o + len(COUNTERS)]
+        o += len(COUNTERS) + 1
+        slots = [x[o + k * (2 + nf):o + (k + 1) * (2 + nf)] for k in range(self.matrices)] if nf else []
+        used: list[tuple[float, float]] = []
+        flags = {"renew_next": ca.MX(0)}
+
+        ne = ny - 2 * nq
+
+        def full_newton(pars, v_guess, p_guess, done):
+            vk, pk = v_guess, p_guess
+            for _ in range(self.max_newton):
+                count["newton_iterations"] += 1 - done
+                count["jacobians"] += 1 - done
+                vk, pk, conv = newton.full(done, vk, pk, pars)
+                done = ca.fmax(done, conv)
+            count["newton_failures"] += 1 - done
+            return vk, pk
+
+        def simplified_newton(pars, v_guess, c_q, c_v):
+            key = next((c for c in used if np.allclose(c, (c_q, c_v), rtol=1e-9, atol=0)), (float(c_q), float(c_v)))
+            if key not in used:
+                used.append(key)
+            k = used.index(key)
+            if k >= len(slots):
+                raise AssertionError(f"{type(self).__name__}.matrices is too small")
+            tag, factors = slots[k][:2], slots[k][2:]
+            stale = ca.fmax(renew, ca.norm_inf(tag - ca.DM(key)) > 0)
+            factors = newton.factor_switch(1 - stale, v_guess, factors, pars)
+            count["jacobians"] += stale
+            vk, pk = v_guess, ca.MX.zeros(ne)
+            done, bad, slow, prev = ca.MX(0), ca.MX(0), ca.MX(0), ca.MX(np.inf)
+            for i in range(SIMPLIFIED):
+                go = (1 - done) * (1 - bad)
+                count["newton_iterations"] += go
+                vk, pk, step, scale = newton.simplified(1 - go, vk, pk, factors, pars)
+                conv = step <= self.newton_tol * scale
+                if i:
+                    theta = step / prev
+                    conv = ca.logic_or(conv, ca.logic_and(theta < 1, theta / (1 - theta) * step
+                                                          <= self.newton_tol * scale))
+                    bad = ca.fmax(bad, go * (1 - conv) * ca.logic_not(theta < 1))  # diverging (or NaN)
+                    slow = ca.fmax(slow, go * (theta > SLOW))
+                done = ca.fmax(done, go * conv)
+                prev = ca.if_else(go, step, prev)
+            # not converged: full Newton from the predictor, and new factors at the next step
+            fallback = 1 - done
+            flags["renew_next"] = ca.fmax(flags["renew_next"], ca.fmax(slow, fallback))
+            v_full, p_full = full_newton(pars, v_guess, pk, done)
+            slots[k] = ca.vertcat(ca.DM(key), factors)
+            return ca.if_else(fallback, v_full, vk), ca.if_else(fallback, p_full, pk)
 
         def stage(ts, r, c, v_guess):
+            """(Y, f(Y)): the stage's state and its rate, a = (v - r_v) / c_v from the stage's own
+            equation and the quadrature rates of the last iterate (no further RHS)."""
             (r_q, r_v, r_e), (c_q, c_v, c_e) = r, c
             pars = ca.vertcat(ts, r_q, r_v, c_q, c_v, z, u)
-            vk, done = v_guess, ca.MX(0)
-            for _ in range(self.max_newton):
-                count["iters"] = count["iters"] + (1 - done)
-                vk, conv = iteration(done, vk, pars)
-                done = ca.fmax(done, conv)
-            count["fails"] = count["fails"] + (1 - done)
+            if nf:
+                vk, pk = simplified_newton(pars, v_guess, c_q, c_v)
+            else:
+                vk, pk = full_newton(pars, v_guess, ca.MX.zeros(ne), ca.MX(0))
             qk = r_q + c_q * vk
-            fk = system.ode(ts, ca.vertcat(qk, vk, ca.MX.zeros(ny - 2 * nq)), z, u)
-            return ca.vertcat(qk, vk, r_e + c_e * fk[2 * nq:]), fk
+            return ca.vertcat(qk, vk, r_e + c_e * pk), ca.vertcat(vk, (vk - r_v) / c_v, pk)
 
         y1, mem1 = self.advance_implicit(stage, system.ode, t, y, z, u, h, mem, nq)
         z1 = system.discrete(t + h, y1, z)
-        x1 = ca.vertcat(t + h, y1, z1, mem1, count["iters"], count["fails"])
+        contact_changed = ca.norm_inf(z1 - z) > 0 if nz else ca.MX(0)
+        renew1 = ca.fmax(flags["renew_next"], contact_changed)
+        x1 = ca.vertcat(t + h, y1, z1, mem1, *count.values(), renew1, *slots)
         return ca.Function("step", [x, u], [x1], ["x", "u"], ["x_next"])
+
+    def initial_extra(self, system: System, x0, u0) -> np.ndarray:
+        """The entries after [t, y, z] at the start of a run: memory, zero counters, renew on."""
+        nq = second_order_split(system)
+        ny, nz = system.ny, system.nz
+        y0 = x0[1:1 + ny]
+        f0 = np.array(system.ode(x0[0], y0, x0[1 + ny:1 + ny + nz], system.held(y0, u0))).ravel() if self.memory_size(nq) else np.zeros(0)
+        mem0 = np.asarray(self.initial_memory(f0, nq), float).ravel()
+        _, _, extra = self._layout(system, nq)
+        out = np.zeros(extra)
+        out[:mem0.size] = mem0
+        out[mem0.size + len(COUNTERS)] = 1.0  # renew at the first stage
+        return out
 
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,
             progress: bool = False) -> Run:
         """As :meth:`FixedStepIntegrator.run`, with the Newton counters in the statistics."""
-        nq = second_order_split(system)
-        ny, nz = system.ny, system.nz
         x0 = np.asarray(x0, float)
         u0 = np.atleast_2d(np.asarray(u_frames, float))[0]
-        y0 = x0[1:1 + ny]
-        f0 = np.array(system.ode(x0[0], y0, x0[1 + ny:1 + ny + nz], system.held(y0, u0))).ravel()
-        mem0 = np.asarray(self.initial_memory(f0, nq), float).ravel()
-        X = super().run(system, np.r_[x0, mem0, 0.0, 0.0], u_frames, h, steps_per_frame, chunk, progress).states
-        n_steps = steps_per_frame * X.shape[0]
-        return Run(X[:, :x0.size], {"newton_iterations": int(round(X[-1, -2])),
-                                    "newton_failures": int(round(X[-1, -1])),
-                                    "newton_iterations_per_step": float(X[-1, -2]) / max(n_steps, 1)})
+        nq = second_order_split(system)
+        nm = self.memory_size(nq)
+        states, last = self.roll(system, np.r_[x0, self.initial_extra(system, x0, u0)], u_frames, h,
+                                 steps_per_frame, chunk, progress, keep=x0.size)
+        counts = dict(zip(COUNTERS, (int(round(c)) for c in last[x0.size + nm:x0.size + nm + len(COUNTERS)]),
+                          strict=True))
+        n_steps = steps_per_frame * states.shape[0]
+        stats = {"newton": self.newton, **counts}
+        stats.update({f"{k}_per_step": counts[k] / max(n_steps, 1) for k in ("newton_iterations", "jacobians")})
+        return Run(states, stats)
+
+
+def _newton(system: System, nq: int, tol: float) -> _Newton:
+    """The Newton pieces of a system (built once per system and tolerance, kept on the system)."""
+    key = ("newton", nq, tol)
+    if key not in system.frames:
+        system.frames[key] = _Newton(system, nq, tol)
+    return system.frames[key]
