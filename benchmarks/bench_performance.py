@@ -2,19 +2,26 @@
 
 The reference scene (problems/paper_circle.yaml): all 8 clearance joints, Lankarani-Nikravesh
 contact, Ambrosio friction, the scene's QP preload, journals seated at t = 0, the full 1 s
-circle. The runs, the common reference solution and its cross-checks are those of
-``rrr4 bench accuracy`` (:func:`rrr4.bench.work_precision`), on the ladders below.
+circle, the controller sampled at 10 kHz. Everything runs in one process on one core (BLAS
+threads limited to 1); times are medians of --repeat runs after a warm-up that builds and
+compiles (the libraries are cached on disk); the real-time factor (RTF) is simulated s per
+wall s of the stepping (stats['wall_time']); 'total' is the whole simulate call, with the
+output processing. Error: max platform-position distance to RK4 at 1e-6 s of the same
+physics and controller. Sections:
 
-For each method the settings ladder runs from the cheapest (largest step, loosest tolerance)
-to the most expensive; the first setting whose max platform-position error against the
-reference is <= 1e-6 m is the method's cost at that accuracy. Reported: error, stepping wall
-time (build and compilation excluded: compiled methods get a warm-up run first), real-time
-factor (simulated / wall) and the ratio scipy time / method time at the same accuracy, all in
-one process on one core (BLAS threads limited to 1).
+1. paths: the default call ``rrr4.simulate(scene)``; the same with the controller evaluated
+   continuously inside every right-hand side (the exact-reference path: no control rate,
+   references='exact'); compiled RK4 at 2.5e-5 s (its cheapest step within 1 um); Bathe with
+   full Newton at the default's step (a new Jacobian and factorisation per iteration);
+2. ns per right-hand side (RHS) of the held (default) and the exact-reference ODE, and the
+   implicit methods' Newton figures per step;
+3. peak memory (max RSS of a child process) of a 1 s and a 60 s run (60 revolutions);
+4. cost against the number of clearance joints: the 4-RRR with 0, 4 and 8 and the
+   slider-crank, each at its scene's own settings;
+5. (--ladders) the integrators' ladders of ``rrr4 bench accuracy``: the cheapest setting of
+   each method within 1 um, against scipy.
 
-    .venv/bin/python benchmarks/bench_performance.py [T_END]
-
-T_END defaults to 1 s (the full path).
+    .venv/bin/python benchmarks/bench_performance.py [--repeat 5] [--ladders]
 """
 
 import argparse
@@ -22,11 +29,20 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from dataclasses import replace  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import casadi as ca  # noqa: E402
 import numpy as np  # noqa: E402
 
 import rrr4  # noqa: E402
 from rrr4.bench import machine, work_precision  # noqa: E402
 
+ROOT = Path(__file__).resolve().parents[1]
+PAPER = ROOT / "problems" / "paper_circle.yaml"
 TARGET = 1e-6   # m, max platform-position error
 LADDERS = {     # method -> ('step' | 'rtol', settings cheapest first)
     "rk4": ("step", [1e-4, 8e-5, 6.25e-5, 5e-5, 4e-5, 2.5e-5, 1e-5]),
@@ -36,40 +52,167 @@ LADDERS = {     # method -> ('step' | 'rtol', settings cheapest first)
     "radau": ("rtol", [1e-3, 1e-4, 1e-5, 1e-6, 1e-7]),
 }
 SCIPY = ("rk45", "radau")
+MEMORY = """
+import resource, sys, time
+import rrr4
+from dataclasses import replace
+scene = rrr4.load_scene(sys.argv[1])
+T = float(sys.argv[2])
+scene = replace(scene, path=replace(scene.path, duration=T, revolutions=round(T)))
+before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+t0 = time.perf_counter()
+sim = rrr4.simulate(scene)
+print(before, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, len(sim.t), sim.stats["steps"],
+      time.perf_counter() - t0)
+"""
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("t_end", nargs="?", type=float, default=1.0)
-    T = ap.parse_args().t_end
-    scene = rrr4.load_scene("problems/paper_circle.yaml")
-    print(f"machine: {machine()}, one used; {T:g} s simulated")
+def timed(runs: dict, repeat: int) -> dict:
+    """{name: (median stepping wall, median total wall, last Simulation)}, runs interleaved."""
+    for kw in runs.values():
+        rrr4.simulate(**kw)  # warm-up: build and compile
+    walls = {k: [] for k in runs}
+    sims = {}
+    for _ in range(repeat):
+        for k, kw in runs.items():
+            t0 = time.perf_counter()
+            sims[k] = rrr4.simulate(**kw)
+            walls[k].append((sims[k].stats["wall_time"], time.perf_counter() - t0))
+    return {k: (*np.median(np.array(w), axis=0), sims[k]) for k, w in walls.items()}
+
+
+def error(sim, ref) -> float:
+    return float(np.max(np.linalg.norm(sim.pose[:, :2] - ref.pose[:, :2], axis=1)))
+
+
+def paths(scene, repeat: int) -> dict:
+    T = scene.path.duration
+    cont = replace(scene, actuation=replace(scene.actuation, control_rate=None))
+    step = scene.integrator.step
+    full = replace(scene, integrator=replace(scene.integrator, newton="full"))
+    runs = {
+        f"default: {scene.integrator.method} at {step:g} s (simplified Newton)": dict(scene=scene),
+        "exact references: controller in every RHS, same method and step": dict(scene=cont, references="exact"),
+        "compiled RK4 at 2.5e-5 s": dict(scene=scene, integrator="rk4", step=2.5e-5),
+        f"bathe at {step:g} s, full Newton": dict(scene=full, integrator="bathe"),
+    }
+    refs = {id(scene): rrr4.simulate(scene, "rk4", step=1e-6), id(cont): rrr4.simulate(cont, "rk4", step=1e-6)}
+    out = timed(runs, repeat)
+    base = out["compiled RK4 at 2.5e-5 s"][0]
+    print(f"\n1. paths ({T:g} s; medians of {repeat}; RTF = simulated / stepping wall)")
+    print("| path | error [m] | stepping [s] | RTF | total [s] | RTF / RK4 2.5e-5 |")
+    print("|---|---|---|---|---|---|")
+    for k, (w, tot, sim) in out.items():
+        ref = refs[id(runs[k]["scene"])] if runs[k]["scene"] is not full else refs[id(scene)]
+        print(f"| {k} | {error(sim, ref):.1e} | {w:.3f} | {T / w:.2f} | {tot:.3f} | {base / w:.2f} |")
+    return out
+
+
+def rhs_and_newton(scene, out: dict) -> None:
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from bench_rhs import chain, inputs
+
+    from rrr4.integrators.compiled import compiled
+    from rrr4.simulation import scene_system
+    cont = replace(scene, actuation=replace(scene.actuation, control_rate=None))
+    odes = {"held efforts (default)": scene_system(scene).ode, "exact references": scene_system(cont, "exact").ode}
+    K, reps = 2000, 21
+    fs = {k: compiled(chain(f, K)) for k, f in odes.items()}
+    ins = {k: inputs(f, PAPER) for k, f in odes.items()}
+    times = {k: [] for k in fs}
+    for _ in range(reps):
+        for k, f in fs.items():
+            t0 = time.perf_counter()
+            f(*ins[k])
+            times[k].append((time.perf_counter() - t0) / K * 1e9)
+    print(f"\n2. right-hand side (compiled chain of {K}, medians of {reps}) and Newton per step")
+    print("| ODE | SX instructions | ns per RHS |")
+    print("|---|---|---|")
+    for k, f in odes.items():
+        print(f"| {k} | {f.n_instructions()} | {np.median(times[k]):.0f} |")
+    print("| run | Newton iterations / step | Jacobians = factorisations / step | stages not converged |")
+    print("|---|---|---|---|")
+    for k, (_, _, sim) in out.items():
+        st = sim.stats
+        if "newton_iterations_per_step" in st:
+            print(f"| {k} | {st['newton_iterations_per_step']:.2f} | {st['jacobians_per_step']:.3f} | "
+                  f"{st['newton_failures']} |")
+
+
+def memory() -> None:
+    print("\n3. peak memory of the default call (max RSS of a child process)")
+    print("| simulated | outputs | steps | RSS before [MB] | peak RSS [MB] | growth [MB] | wall [s] |")
+    print("|---|---|---|---|---|---|---|")
+    for T in (1.0, 60.0):
+        r = subprocess.run([sys.executable, "-c", MEMORY, str(PAPER), str(T)], capture_output=True, text=True,
+                           check=True, cwd=ROOT)
+        before, peak, n, steps, wall = r.stdout.split()
+        print(f"| {T:g} s | {n} | {steps} | {int(before) / 1024:.0f} | {int(peak) / 1024:.0f} | "
+              f"{(int(peak) - int(before)) / 1024:.0f} | {float(wall):.1f} |")
+
+
+def scaling(scene, repeat: int) -> None:
+    slider = rrr4.load_scene(ROOT / "problems" / "flores_slider_crank.yaml")
+    variants = {}
+    for clear in ((), ("B1", "B2", "B3", "B4"), ("B1", "B2", "B3", "B4", "C1", "C2", "C3", "C4")):
+        data = rrr4.scene.read_yaml(PAPER)
+        data["joints"]["clearance"] = list(clear)
+        variants[f"4-RRR, {len(clear)} clearance joints"] = dict(scene=rrr4.scene.parse_scene(data))
+    variants["slider-crank (Flores), 1 clearance joint"] = dict(scene=slider)
+    out = timed(variants, repeat)
+    print(f"\n4. cost against clearance joints (each scene's own settings; medians of {repeat})")
+    print("| scene | method, step | RHS SX instructions | stepping [s] / simulated s | RTF |")
+    print("|---|---|---|---|---|")
+    for k, (w, _, sim) in out.items():
+        T = sim.t[-1]
+        st = sim.stats
+        print(f"| {k} | {st['method']}, {st['step']:g} s | {st['graph']['ode']['instructions']} | {w / T:.3f} | "
+              f"{T / w:.2f} |")
+
+
+def ladders(scene) -> None:
+    T = scene.path.duration
     rows = work_precision(scene, t_end=T, plan=LADDERS, progress=True)
+    print("\n5. ladders (controller continuous, as in rrr4 bench accuracy)")
     for r in rows:
         if r["status"] == "cross-check":
             print(f"reference {r['reference']}: distance to {r['method']} = {r['error_m']:.1e} m")
     best = {}
     for method in LADDERS:
         for r in (r for r in rows if r["method"] == method and r["status"] != "cross-check"):
-            wall = r["cpu_s"]
             ok = r["status"] == "ok" and r["error_m"] <= TARGET
             print(f"  {method:8s} {r['kind']} {r['setting']:8.2e}: {r['status']:8s} error {r['error_m']:8.2e} m, "
-                  f"wall {wall:8.3f} s, {r['steps']} steps{'  <= 1 um' if ok else ''}")
+                  f"wall {r['cpu_s']:8.3f} s, {r['steps']} steps{'  <= 1 um' if ok else ''}")
             if ok:
                 best[method] = r
                 break
         else:
             print(f"  {method}: no setting of the ladder reaches {TARGET:g} m")
-
-    print(f"\ncheapest setting with max platform error <= {TARGET:g} m over {T:g} s:")
     scipy = {k: v["cpu_s"] for k, v in best.items() if k in SCIPY}
     base = min(scipy, key=scipy.get) if scipy else None
+    print(f"cheapest setting with max platform error <= {TARGET:g} m over {T:g} s:")
     for method, r in best.items():
         ratio = f"{scipy[base] / r['cpu_s']:8.1f}x" if base else "     n/a"
         print(f"  {method:8s} {r['kind']} {r['setting']:8.2e}  error {r['error_m']:8.2e} m  wall {r['cpu_s']:8.3f} s  "
               f"real-time factor {T / r['cpu_s']:7.2f}  {base} / method {ratio}")
-    return 0 if np.isfinite([r["cpu_s"] for r in best.values()]).all() else 1
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--ladders", action="store_true", help="also run the integrators' ladders (minutes)")
+    args = ap.parse_args(argv)
+    os.environ.pop("RRR4_JIT", None)
+    scene = rrr4.load_scene(PAPER)
+    print(f"machine: {machine()}, one core used; load average {os.getloadavg()[0]:.2f}; casadi {ca.__version__}")
+    out = paths(scene, args.repeat)
+    rhs_and_newton(scene, out)
+    memory()
+    scaling(scene, args.repeat)
+    if args.ladders:
+        ladders(scene)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -54,8 +54,16 @@ def _preload(scene: Scene):
 
 
 def machine() -> str:
-    """'x86_64 Linux, 2 cores' (where the times were measured)."""
-    return f"{platform.machine()} {platform.system()}, {os.cpu_count()} cores"
+    """'AMD EPYC 7B13 (x86_64 Linux), 2 cores': the CPU where the times were measured."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return f"{cpu} ({platform.machine()} {platform.system()}), {os.cpu_count()} cores"
 
 
 def work_precision(scene: Scene, t_end: float | None = None, plan: dict | None = None,

@@ -471,9 +471,9 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
 
     system = _system(eqs, loop, refs)
     wall = time.perf_counter()
-    run = method.run(system, x0, u, h, spf, progress=bool(overrides.get("progress", False)))
+    run = method.run(system, x0, u, h, spf, progress=bool(overrides.get("progress", False)), every=every)
     wall = time.perf_counter() - wall
-    X = np.vstack([x0, run.states])[::every]
+    X = np.vstack([x0, run.states])
     nq = eqs.nq
     q, qd = X[:, 1:1 + nq], X[:, 1 + nq:1 + 2 * nq]
     W, Dd, Df = X[:, 1 + 2 * nq], X[:, 2 + 2 * nq], X[:, 3 + 2 * nq]

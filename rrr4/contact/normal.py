@@ -47,11 +47,13 @@ def hysteresis_factor(law: str, c_r):
 
 def power(x, n):
     """x^n for x >= 0, as products and one sqrt when 2n is an integer (Hertz's 1.5, its
-    potential's 2.5): a pow costs several times a product and a sqrt in the compiled RHS."""
+    potential's 2.5): a pow costs several times a product and a sqrt in the compiled RHS.
+    The sqrt's argument is floored at 1e-300 so that its derivative stays finite at x = 0
+    (x sqrt(x) differentiates to 0/0 there; the value is unchanged, 0)."""
     twice = 2 * float(n)
     if twice == int(twice) and 0 < twice <= 8:
         whole, half = divmod(int(twice), 2)
-        out = ca.sqrt(x) if half else None
+        out = ca.sqrt(ca.fmax(x, 1e-300)) if half else None
         for _ in range(whole):
             out = x if out is None else out * x
         return out

@@ -47,9 +47,9 @@ class AdaptiveIntegrator(ABC):
         """(y at t_b, counters of this frame: steps, rejected, rhs, jacobians)."""
 
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,
-            progress: bool = False) -> Run:
-        """States at the end of each frame, (n_frames, nx), and the solver's counters; frame k
-        spans [u[k, 0], u[k, 1]]."""
+            progress: bool = False, every: int = 1) -> Run:
+        """States at the end of every `every`-th frame, (n_frames / every, nx), and the solver's
+        counters; frame k spans [u[k, 0], u[k, 1]]."""
         self.prepare(system, h)
         u_frames = np.atleast_2d(np.asarray(u_frames, float))
         ny = system.ny
@@ -78,4 +78,4 @@ class AdaptiveIntegrator(ABC):
                 frames.close()
         while len(out) < u_frames.shape[0]:
             out.append(np.full_like(x, np.nan))
-        return Run(np.vstack(out), {**totals, "rtol": self.rtol, "atol": self.atol})
+        return Run(np.vstack(out)[every - 1::every], {**totals, "rtol": self.rtol, "atol": self.atol})

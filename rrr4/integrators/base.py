@@ -142,15 +142,17 @@ class FixedStepIntegrator(ABC):
         return ca.Function("frame", [x, u], [x1], ["x", "u"], ["x_next"])
 
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,
-            progress: bool = False) -> Run:
-        """States at the end of each frame, (n_frames, nx), and statistics; u_frames (n_frames, nu)."""
-        return Run(self.roll(system, x0, u_frames, h, steps_per_frame, chunk, progress)[0], {})
+            progress: bool = False, every: int = 1) -> Run:
+        """States at the end of every `every`-th frame, (n_frames / every, nx), and statistics;
+        u_frames (n_frames, nu), n_frames a multiple of `every`."""
+        return Run(self.roll(system, x0, u_frames, h, steps_per_frame, chunk, progress, every=every)[0], {})
 
     def roll(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,
-             progress: bool = False, keep: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """(the first `keep` entries of the state at the end of each frame (n_frames, keep), the
-        last full state): what a run keeps grows with the frames, never with a method's own
-        state (Newton factors) or with the steps."""
+             progress: bool = False, keep: int | None = None, every: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        """(the first `keep` entries of the state at the end of every `every`-th frame, the last
+        full state): what a run keeps grows with the outputs, never with the frames, the steps
+        or a method's own state (Newton factors). Converting results out of CasADi costs about
+        as much per number as a right-hand side per instruction, so the rest stays inside."""
         settings = tuple(sorted((k, repr(v)) for k, v in vars(self).items()))
         key = (type(self).__name__, settings, float(h), int(steps_per_frame))
         if key not in system.frames:
@@ -162,10 +164,13 @@ class FixedStepIntegrator(ABC):
         frame = system.frames[key]
         u_frames = np.atleast_2d(np.asarray(u_frames, float))
         n_frames = u_frames.shape[0]
+        if n_frames % every:
+            raise ValueError(f"{n_frames} frames are not a multiple of every = {every}")
+        chunk = every * max(1, chunk // every)  # whole output intervals per chunk
         rolls: dict[int, ca.Function] = {}
         x = np.asarray(x0, float)
         keep = x.size if keep is None else keep
-        out = np.empty((n_frames, keep))
+        out = np.empty((n_frames // every, keep))
         bar = None
         if progress:
             from tqdm import tqdm
@@ -176,9 +181,9 @@ class FixedStepIntegrator(ABC):
                 if k not in rolls:  # the kept rows of every frame and the last full state
                     xm, um = ca.MX.sym("x", x.size), ca.MX.sym("u", u_frames.shape[1], k)
                     xs = frame.mapaccum("frames", k)(xm, um)
-                    rolls[k] = ca.Function("chunk", [xm, um], [xs[:keep, :], xs[:, -1]])
+                    rolls[k] = ca.Function("chunk", [xm, um], [xs[:keep, every - 1::every], xs[:, -1]])
                 kept, last = rolls[k](x, u_frames[k0:k0 + k].T)
-                out[k0:k0 + k] = np.array(kept).T
+                out[k0 // every:(k0 + k) // every] = np.array(kept).T
                 x = np.array(last).ravel()
                 if bar is not None:
                     bar.update(k)

@@ -47,6 +47,7 @@ __all__ = ["ImplicitIntegrator", "second_order_split", "NEWTON"]
 NEWTON = ("simplified", "full")  # the choices of integrator.newton
 SIMPLIFIED = 6  # simplified iterations of a stage before it falls back to full Newton
 SLOW = 0.1  # contraction rate above which the factors are renewed for the next step
+ETA_MIN = 0.01  # floor of the carried error estimate: one update is accepted only if 100 x below tolerance
 COUNTERS = ("newton_iterations", "newton_failures", "jacobians")
 
 
@@ -59,6 +60,13 @@ def second_order_split(system: System) -> int:
         if all(ca.is_equal(f[i], y[nq + i]) for i in range(nq)) and not ca.depends_on(f, y[2 * nq:]):
             return nq
     raise Rrr4Error("implicit integrators need a second-order system y = [q, v, quadratures] with q' = v")
+
+
+def _norm(dv):
+    """max |dv|, and +inf if dv holds a NaN or an inf (norm_inf alone is 0 for NaN: C's fmax
+    drops NaN, so a NaN update would pass for a converged one)."""
+    total = ca.sum1(dv)
+    return ca.if_else(total - total == 0, ca.norm_inf(dv), np.inf)
 
 
 def _skippable(name: str, f: ca.Function, skipped) -> ca.Function:
@@ -88,8 +96,9 @@ class _Newton:
         V, R, beta, prinv, pc = ca.qr_sparse(jac)
         self.n_pars = pars.shape[0]
 
-        v1 = v - ca.solve(jac, res)
-        done = ca.norm_inf(v1 - v) <= tol * (1 + ca.norm_inf(v1))
+        dv = -ca.solve(jac, res)
+        v1 = v + dv
+        done = _norm(dv) <= tol * (1 + ca.norm_inf(v1))
         full = ca.Function("newton_full", [v, w, pars], ca.cse([v1, p, done]), ["v", "p", "pars"],
                            ["v_next", "p_next", "converged"])
         self.full = _skippable("newton_full_switch", full, lambda v, w, _: (v, w, ca.MX(1)))
@@ -104,13 +113,20 @@ class _Newton:
         dv = -ca.qr_solve(res, Vs, Rs, f_in[nv + nr:], prinv, pc)
         v1 = v + dv
         simplified = ca.Function("newton_simplified", [v, w, f_in, pars],
-                                 ca.cse([v1, p, ca.norm_inf(dv), 1 + ca.norm_inf(v1)]),
+                                 ca.cse([v1, p, _norm(dv), 1 + ca.norm_inf(v1)]),
                                  ["v", "p", "factors", "pars"], ["v_next", "p_next", "step", "scale"])
         self.factor_switch = _skippable("newton_factor_switch", ca.Function(
             "newton_factor_kept", [v, f_in, pars], [factor(v, pars)], ["v", "factors", "pars"], ["factors_next"]),
             lambda v, f, _: (f,))
         self.simplified = _skippable("newton_simplified_switch", simplified,
                                      lambda v, w, f, _: (v, w, ca.MX(0), ca.MX(1)))
+        # a stage's rate: from its own equation when Newton converged, else the RHS at the iterate
+        ts, ys, zs, us = (ca.MX.sym(k, n) for k, n in (("t", 1), ("y", system.ny), ("z", system.nz), ("u", system.nu)))
+        vs, rvs, cvs, ps = ca.MX.sym("v", nq), ca.MX.sym("r_v", nq), ca.MX.sym("c_v"), ca.MX.sym("p", ne)
+        ins = [ts, ys, zs, us, vs, rvs, cvs, ps]
+        self.rate = ca.Function.if_else(
+            "stage_rate", ca.Function("rate_converged", ins, [ca.vertcat(vs, (vs - rvs) / cvs, ps)]),
+            ca.Function("rate_evaluated", ins, [system.ode(ts, ys, zs, us)]))
 
 
 class ImplicitIntegrator(FixedStepIntegrator):
@@ -165,10 +181,10 @@ class ImplicitIntegrator(FixedStepIntegrator):
     # ---- machinery
     def _layout(self, system: System, nq: int) -> tuple[int, int, int]:
         """(size of the method's memory, factors per matrix slot, extra state entries after
-        [t, y, z]): memory, the counters, a renew flag, then per slot (c_q, c_v, factors)."""
+        [t, y, z]): memory, the counters, a renew flag, then per slot (c_q, c_v, eta, factors)."""
         nm = self.memory_size(nq)
         nf = _newton(system, nq, self.newton_tol).n_factors if self.newton == "simplified" else 0
-        slots = self.matrices * (2 + nf) if nf else 0
+        slots = self.matrices * (3 + nf) if nf else 0
         return nm, nf, nm + len(COUNTERS) + 1 + slots
 
     def step_function(self, system: System, h: float) -> ca.Function:
@@ -185,7 +201,7 @@ class ImplicitIntegrator(FixedStepIntegrator):
         count = dict(zip(COUNTERS, ca.vertsplit(x[o:o + len(COUNTERS)]), strict=True))
         renew = x[o + len(COUNTERS)]
         o += len(COUNTERS) + 1
-        slots = [x[o + k * (2 + nf):o + (k + 1) * (2 + nf)] for k in range(self.matrices)] if nf else []
+        slots = [x[o + k * (3 + nf):o + (k + 1) * (3 + nf)] for k in range(self.matrices)] if nf else []
         used: list[tuple[float, float]] = []
         flags = {"renew_next": ca.MX(0)}
 
@@ -199,7 +215,7 @@ class ImplicitIntegrator(FixedStepIntegrator):
                 vk, pk, conv = newton.full(done, vk, pk, pars)
                 done = ca.fmax(done, conv)
             count["newton_failures"] += 1 - done
-            return vk, pk
+            return vk, pk, done
 
         def simplified_newton(pars, v_guess, c_q, c_v):
             key = next((c for c in used if np.allclose(c, (c_q, c_v), rtol=1e-9, atol=0)), (float(c_q), float(c_v)))
@@ -208,43 +224,48 @@ class ImplicitIntegrator(FixedStepIntegrator):
             k = used.index(key)
             if k >= len(slots):
                 raise AssertionError(f"{type(self).__name__}.matrices is too small")
-            tag, factors = slots[k][:2], slots[k][2:]
+            tag, eta, factors = slots[k][:2], slots[k][2], slots[k][3:]
             stale = ca.fmax(renew, ca.norm_inf(tag - ca.DM(key)) > 0)
             factors = newton.factor_switch(1 - stale, v_guess, factors, pars)
             count["jacobians"] += stale
+            # eta = theta / (1 - theta) of the slot's last stage (Hairer & Wanner's estimate of the
+            # remaining error per update), 1 on new factors; it lets a stage stop after one update
+            eta = ca.if_else(stale, 1.0, eta)
             vk, pk = v_guess, ca.MX.zeros(ne)
             done, bad, slow, prev = ca.MX(0), ca.MX(0), ca.MX(0), ca.MX(np.inf)
             for i in range(SIMPLIFIED):
                 go = (1 - done) * (1 - bad)
                 count["newton_iterations"] += go
                 vk, pk, step, scale = newton.simplified(1 - go, vk, pk, factors, pars)
-                conv = step <= self.newton_tol * scale
                 if i:
                     theta = step / prev
-                    conv = ca.logic_or(conv, ca.logic_and(theta < 1, theta / (1 - theta) * step
-                                                          <= self.newton_tol * scale))
-                    bad = ca.fmax(bad, go * (1 - conv) * ca.logic_not(theta < 1))  # diverging (or NaN)
+                    ok = theta < 1
+                    eta = ca.if_else(go * ok, ca.fmax(theta / (1 - theta), ETA_MIN), eta)
+                    bad = ca.fmax(bad, go * ca.logic_not(ok))  # diverging (or NaN)
                     slow = ca.fmax(slow, go * (theta > SLOW))
-                done = ca.fmax(done, go * conv)
+                conv = ca.logic_or(step <= self.newton_tol * scale, eta * step <= self.newton_tol * scale)
+                done = ca.fmax(done, go * (1 - bad) * conv)
                 prev = ca.if_else(go, step, prev)
             # not converged: full Newton from the predictor, and new factors at the next step
             fallback = 1 - done
             flags["renew_next"] = ca.fmax(flags["renew_next"], ca.fmax(slow, fallback))
-            v_full, p_full = full_newton(pars, v_guess, pk, done)
-            slots[k] = ca.vertcat(ca.DM(key), factors)
-            return ca.if_else(fallback, v_full, vk), ca.if_else(fallback, p_full, pk)
+            v_full, p_full, converged = full_newton(pars, v_guess, pk, done)
+            slots[k] = ca.vertcat(ca.DM(key), eta, factors)
+            return ca.if_else(fallback, v_full, vk), ca.if_else(fallback, p_full, pk), converged
 
         def stage(ts, r, c, v_guess):
-            """(Y, f(Y)): the stage's state and its rate, a = (v - r_v) / c_v from the stage's own
-            equation and the quadrature rates of the last iterate (no further RHS)."""
+            """(Y, f(Y)): the stage's state and its rate. Converged, a = (v - r_v) / c_v from the
+            stage's own equation and the quadrature rates of the last iterate (no further RHS);
+            not converged, the RHS at Y."""
             (r_q, r_v, r_e), (c_q, c_v, c_e) = r, c
             pars = ca.vertcat(ts, r_q, r_v, c_q, c_v, z, u)
             if nf:
-                vk, pk = simplified_newton(pars, v_guess, c_q, c_v)
+                vk, pk, converged = simplified_newton(pars, v_guess, c_q, c_v)
             else:
-                vk, pk = full_newton(pars, v_guess, ca.MX.zeros(ne), ca.MX(0))
+                vk, pk, converged = full_newton(pars, v_guess, ca.MX.zeros(ne), ca.MX(0))
             qk = r_q + c_q * vk
-            return ca.vertcat(qk, vk, r_e + c_e * pk), ca.vertcat(vk, (vk - r_v) / c_v, pk)
+            yk = ca.vertcat(qk, vk, r_e + c_e * pk)
+            return yk, newton.rate(converged, ts, yk, z, u, vk, r_v, c_v, pk)
 
         y1, mem1 = self.advance_implicit(stage, system.ode, t, y, z, u, h, mem, nq)
         z1 = system.discrete(t + h, y1, z)
@@ -267,17 +288,17 @@ class ImplicitIntegrator(FixedStepIntegrator):
         return out
 
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,
-            progress: bool = False) -> Run:
+            progress: bool = False, every: int = 1) -> Run:
         """As :meth:`FixedStepIntegrator.run`, with the Newton counters in the statistics."""
         x0 = np.asarray(x0, float)
         u0 = np.atleast_2d(np.asarray(u_frames, float))[0]
         nq = second_order_split(system)
         nm = self.memory_size(nq)
         states, last = self.roll(system, np.r_[x0, self.initial_extra(system, x0, u0)], u_frames, h,
-                                 steps_per_frame, chunk, progress, keep=x0.size)
+                                 steps_per_frame, chunk, progress, keep=x0.size, every=every)
         counts = dict(zip(COUNTERS, (int(round(c)) for c in last[x0.size + nm:x0.size + nm + len(COUNTERS)]),
                           strict=True))
-        n_steps = steps_per_frame * states.shape[0]
+        n_steps = steps_per_frame * np.atleast_2d(u_frames).shape[0]
         stats = {"newton": self.newton, **counts}
         stats.update({f"{k}_per_step": counts[k] / max(n_steps, 1) for k in ("newton_iterations", "jacobians")})
         return Run(states, stats)
