@@ -279,7 +279,7 @@ class ImplicitIntegrator(FixedStepIntegrator):
         nq = second_order_split(system)
         ny, nz = system.ny, system.nz
         y0 = x0[1:1 + ny]
-        f0 = np.array(system.ode(x0[0], y0, x0[1 + ny:1 + ny + nz], system.held(y0, u0))).ravel() if self.memory_size(nq) else np.zeros(0)
+        f0 = np.array(system.ode(x0[0], y0, x0[1 + ny:1 + ny + nz], system.held(y0, u0))).ravel()
         mem0 = np.asarray(self.initial_memory(f0, nq), float).ravel()
         _, _, extra = self._layout(system, nq)
         out = np.zeros(extra)
