@@ -77,13 +77,20 @@ def _skippable(name: str, f: ca.Function, skipped) -> ca.Function:
 
 
 class _Newton:
-    """The SX pieces of a stage's Newton iterations for one system (see the module docstring).
+    """A stage's Newton solvers for one system (see the module docstring), built once.
 
-    pars = [t, r_q, r_v, c_q, c_v, z, u]. full: v, pars -> v_next, converged. factor: v, pars
-    -> the QR factors of G at v, flattened (size n_factors). simplified: v, factors, pars ->
-    v_next, |dv| and 1 + |v_next| (max norms). Each comes with an if_else skip (`*_switch`)."""
+    pars = [t, r_q, r_v, c_q, c_v, z, u]; p: the quadratures' rates at the last iterate.
 
-    def __init__(self, system: System, nq: int, tol: float):
+    - factor_switch(keep, v, factors, pars) -> factors: the QR factors of G at v (size
+      n_factors), or the given ones when keep;
+    - simplified(v_guess, factors, eta, pars) -> v, p, converged, slow, eta, iterations;
+    - full_switch(skip, v_guess, p, pars) -> v, p, converged, iterations (a new Jacobian and
+      factorisation per iteration; skipped entirely when skip).
+
+    Iterations past the first sit behind ``Function.if_else`` switches nested so that a
+    converged stage costs one switch, not one per unrolled iteration."""
+
+    def __init__(self, system: System, nq: int, tol: float, max_newton: int):
         ne = system.ny - 2 * nq
         v, tt, w = ca.SX.sym("v", nq), ca.SX.sym("t"), ca.SX.sym("p", ne)
         rq, rv, cq, cv = ca.SX.sym("r_q", nq), ca.SX.sym("r_v", nq), ca.SX.sym("c_q"), ca.SX.sym("c_v")
@@ -98,28 +105,26 @@ class _Newton:
 
         dv = -ca.solve(jac, res)
         v1 = v + dv
-        done = _norm(dv) <= tol * (1 + ca.norm_inf(v1))
-        full = ca.Function("newton_full", [v, w, pars], ca.cse([v1, p, done]), ["v", "p", "pars"],
-                           ["v_next", "p_next", "converged"])
-        self.full = _skippable("newton_full_switch", full, lambda v, w, _: (v, w, ca.MX(1)))
+        full = ca.Function("newton_full", [v, w, pars], ca.cse([v1, p, _norm(dv) <= tol * (1 + ca.norm_inf(v1))]),
+                           ["v", "p", "pars"], ["v_next", "p_next", "converged"])
 
         factors = ca.vertcat(*V.nonzeros(), *R.nonzeros(), beta)
         self.n_factors = factors.shape[0]
-        factor = ca.Function("newton_factor", [v, pars], ca.cse([factors]), ["v", "pars"], ["factors"])
         f_in = ca.SX.sym("factors", self.n_factors)
         nv, nr = V.nnz(), R.nnz()
         Vs = ca.SX(V.sparsity(), f_in[:nv])
         Rs = ca.SX(R.sparsity(), f_in[nv:nv + nr])
         dv = -ca.qr_solve(res, Vs, Rs, f_in[nv + nr:], prinv, pc)
         v1 = v + dv
-        simplified = ca.Function("newton_simplified", [v, w, f_in, pars],
-                                 ca.cse([v1, p, _norm(dv), 1 + ca.norm_inf(v1)]),
-                                 ["v", "p", "factors", "pars"], ["v_next", "p_next", "step", "scale"])
+        one = ca.Function("newton_simplified", [v, w, f_in, pars],
+                          ca.cse([v1, p, _norm(dv), 1 + ca.norm_inf(v1)]),
+                          ["v", "p", "factors", "pars"], ["v_next", "p_next", "step", "scale"])
         self.factor_switch = _skippable("newton_factor_switch", ca.Function(
-            "newton_factor_kept", [v, f_in, pars], [factor(v, pars)], ["v", "factors", "pars"], ["factors_next"]),
+            "newton_factor", [v, f_in, pars], ca.cse([factors]), ["v", "factors", "pars"], ["factors_next"]),
             lambda v, f, _: (f,))
-        self.simplified = _skippable("newton_simplified_switch", simplified,
-                                     lambda v, w, f, _: (v, w, ca.MX(0), ca.MX(1)))
+        self.simplified = self._simplified(one, nq, ne, tol)
+        self.full_switch = self._full(full, nq, ne, max_newton)
+
         # a stage's rate: from its own equation when Newton converged, else the RHS at the iterate
         ts, ys, zs, us = (ca.MX.sym(k, n) for k, n in (("t", 1), ("y", system.ny), ("z", system.nz), ("u", system.nu)))
         vs, rvs, cvs, ps = ca.MX.sym("v", nq), ca.MX.sym("r_v", nq), ca.MX.sym("c_v"), ca.MX.sym("p", ne)
@@ -127,6 +132,60 @@ class _Newton:
         self.rate = ca.Function.if_else(
             "stage_rate", ca.Function("rate_converged", ins, [ca.vertcat(vs, (vs - rvs) / cvs, ps)]),
             ca.Function("rate_evaluated", ins, [system.ode(ts, ys, zs, us)]))
+
+    def _simplified(self, one: ca.Function, nq: int, ne: int, tol: float) -> ca.Function:
+        """Simplified iterations with fixed factors. Stops when the update, or the estimated
+        remaining error eta |dv| (eta = theta / (1 - theta), carried from the last stage and
+        floored at ETA_MIN), is below tol (1 + |v|); gives up (converged = 0) when an update
+        grows (theta >= 1, or NaN) or after SIMPLIFIED iterations; slow: theta > SLOW."""
+        v, w, fac, pars = (ca.MX.sym(k, n) for k, n in (("v", nq), ("p", ne), ("factors", self.n_factors),
+                                                       ("pars", self.n_pars)))
+        eta, prev = ca.MX.sym("eta"), ca.MX.sym("prev")
+        names_in = ["v", "p", "factors", "pars", "eta", "prev"]
+        names_out = ["v_next", "p_next", "eta_next", "prev_next", "converged", "bad", "slow", "iterations"]
+
+        def later(i, inner):
+            """Iterations i.. (i >= 1): one update, then the rest behind a switch."""
+            v1, p1, step, scale = one(v, w, fac, pars)
+            theta = step / prev
+            ok = theta < 1
+            eta1 = ca.if_else(ok, ca.fmax(theta / (1 - theta), ETA_MIN), eta)
+            conv = ok * ca.logic_or(step <= tol * scale, eta1 * step <= tol * scale)
+            bad, slow = ca.logic_not(ok), theta > SLOW
+            outs = [v1, p1, eta1, step, conv, bad, slow, ca.MX(1)]
+            if inner is not None:
+                r = inner(ca.logic_or(conv, bad), v1, p1, fac, pars, eta1, step)
+                outs = [*r[:4], ca.fmax(conv, r[4]), ca.fmax(bad, r[5]), ca.fmax(slow, r[6]), 1 + r[7]]
+            f = ca.Function(f"newton_simplified_{i}", [v, w, fac, pars, eta, prev], outs, names_in, names_out)
+            return _skippable(f"newton_simplified_{i}_switch", f,
+                              lambda v, w, f_, p_, e, s: (v, w, e, s, ca.MX(0), ca.MX(0), ca.MX(0), ca.MX(0)))
+
+        inner = None
+        for i in range(SIMPLIFIED - 1, 0, -1):
+            inner = later(i, inner)
+        # the first update: always taken; converged on its own size or on eta carried over
+        v1, p1, step, scale = one(v, ca.MX.zeros(ne), fac, pars)
+        conv = ca.logic_or(step <= tol * scale, eta * step <= tol * scale)
+        r = inner(conv, v1, p1, fac, pars, eta, step)
+        converged = ca.fmax(conv, r[4] * (1 - r[5]))
+        return ca.Function("newton_simplified_stage", [v, fac, eta, pars],
+                           [r[0], r[1], converged, r[6], r[2], 1 + r[7]],
+                           ["v", "factors", "eta", "pars"], ["v_next", "p_next", "converged", "slow", "eta_next",
+                                                             "iterations"])
+
+    @staticmethod
+    def _full(full: ca.Function, nq: int, ne: int, max_newton: int) -> ca.Function:
+        """Up to max_newton full Newton iterations (each skipped once converged), as one switch."""
+        v, w, pars = ca.MX.sym("v", nq), ca.MX.sym("p", ne), ca.MX.sym("pars", full.size1_in(2))
+        step = _skippable("newton_full_switch", full, lambda v, w, _: (v, w, ca.MX(1)))
+        vk, pk, done, iters = v, w, ca.MX(0), ca.MX(0)
+        for _ in range(max_newton):
+            iters += 1 - done
+            vk, pk, conv = step(done, vk, pk, pars)
+            done = ca.fmax(done, conv)
+        solve = ca.Function("newton_full_stage", [v, w, pars], [vk, pk, done, iters], ["v", "p", "pars"],
+                            ["v_next", "p_next", "converged", "iterations"])
+        return _skippable("newton_full_stage_switch", solve, lambda v, w, _: (v, w, ca.MX(1), ca.MX(0)))
 
 
 class ImplicitIntegrator(FixedStepIntegrator):
@@ -183,7 +242,7 @@ class ImplicitIntegrator(FixedStepIntegrator):
         """(size of the method's memory, factors per matrix slot, extra state entries after
         [t, y, z]): memory, the counters, a renew flag, then per slot (c_q, c_v, eta, factors)."""
         nm = self.memory_size(nq)
-        nf = _newton(system, nq, self.newton_tol).n_factors if self.newton == "simplified" else 0
+        nf = _newton(system, nq, self.newton_tol, self.max_newton).n_factors if self.newton == "simplified" else 0
         slots = self.matrices * (3 + nf) if nf else 0
         return nm, nf, nm + len(COUNTERS) + 1 + slots
 
@@ -192,7 +251,7 @@ class ImplicitIntegrator(FixedStepIntegrator):
         nq = second_order_split(system)
         ny, nz = system.ny, system.nz
         nm, nf, extra = self._layout(system, nq)
-        newton = _newton(system, nq, self.newton_tol)
+        newton = _newton(system, nq, self.newton_tol, self.max_newton)
         x, u = ca.MX.sym("x", 1 + ny + nz + extra), ca.MX.sym("u", system.nu)
         t, y, z = x[0], x[1:1 + ny], x[1 + ny:1 + ny + nz]
         o = 1 + ny + nz
@@ -207,13 +266,10 @@ class ImplicitIntegrator(FixedStepIntegrator):
 
         ne = ny - 2 * nq
 
-        def full_newton(pars, v_guess, p_guess, done):
-            vk, pk = v_guess, p_guess
-            for _ in range(self.max_newton):
-                count["newton_iterations"] += 1 - done
-                count["jacobians"] += 1 - done
-                vk, pk, conv = newton.full(done, vk, pk, pars)
-                done = ca.fmax(done, conv)
+        def full_newton(pars, v_guess, p_guess, skip):
+            vk, pk, done, iters = newton.full_switch(skip, v_guess, p_guess, pars)
+            count["newton_iterations"] += iters
+            count["jacobians"] += iters
             count["newton_failures"] += 1 - done
             return vk, pk, done
 
@@ -228,24 +284,8 @@ class ImplicitIntegrator(FixedStepIntegrator):
             stale = ca.fmax(renew, ca.norm_inf(tag - ca.DM(key)) > 0)
             factors = newton.factor_switch(1 - stale, v_guess, factors, pars)
             count["jacobians"] += stale
-            # eta = theta / (1 - theta) of the slot's last stage (Hairer & Wanner's estimate of the
-            # remaining error per update), 1 on new factors; it lets a stage stop after one update
-            eta = ca.if_else(stale, 1.0, eta)
-            vk, pk = v_guess, ca.MX.zeros(ne)
-            done, bad, slow, prev = ca.MX(0), ca.MX(0), ca.MX(0), ca.MX(np.inf)
-            for i in range(SIMPLIFIED):
-                go = (1 - done) * (1 - bad)
-                count["newton_iterations"] += go
-                vk, pk, step, scale = newton.simplified(1 - go, vk, pk, factors, pars)
-                if i:
-                    theta = step / prev
-                    ok = theta < 1
-                    eta = ca.if_else(go * ok, ca.fmax(theta / (1 - theta), ETA_MIN), eta)
-                    bad = ca.fmax(bad, go * ca.logic_not(ok))  # diverging (or NaN)
-                    slow = ca.fmax(slow, go * (theta > SLOW))
-                conv = ca.logic_or(step <= self.newton_tol * scale, eta * step <= self.newton_tol * scale)
-                done = ca.fmax(done, go * (1 - bad) * conv)
-                prev = ca.if_else(go, step, prev)
+            vk, pk, done, slow, eta, iters = newton.simplified(v_guess, factors, ca.if_else(stale, 1.0, eta), pars)
+            count["newton_iterations"] += iters
             # not converged: full Newton from the predictor, and new factors at the next step
             fallback = 1 - done
             flags["renew_next"] = ca.fmax(flags["renew_next"], ca.fmax(slow, fallback))
@@ -304,9 +344,9 @@ class ImplicitIntegrator(FixedStepIntegrator):
         return Run(states, stats)
 
 
-def _newton(system: System, nq: int, tol: float) -> _Newton:
-    """The Newton pieces of a system (built once per system and tolerance, kept on the system)."""
-    key = ("newton", nq, tol)
+def _newton(system: System, nq: int, tol: float, max_newton: int) -> _Newton:
+    """The Newton solvers of a system (built once per system and settings, kept on the system)."""
+    key = ("newton", nq, tol, max_newton)
     if key not in system.frames:
-        system.frames[key] = _Newton(system, nq, tol)
+        system.frames[key] = _Newton(system, nq, tol, max_newton)
     return system.frames[key]
