@@ -33,7 +33,7 @@ def test_seated_coordinates_open_each_joint_by_its_eccentricity(paper_scene):
 def test_seated_start_begins_at_the_ideal_reactions(paper_scene, preload):
     """At t = 0 the contact force of every seated joint equals the ideal reaction of the
     preloaded torque program (direction and magnitude): the journal starts in equilibrium."""
-    sim = rrr4.simulate(_with_journals(paper_scene, "seated"), "rk4", t_end=1e-3, preload=preload,
+    sim = rrr4.simulate(_with_journals(paper_scene, "seated"), "rk4", t_end=1e-3, step=1e-5, preload=preload,
                         output_rate=1e4)
     r0 = preload.reactions[0]
     assert sim.clearance_joints == tuple(j.name for j in paper_scene.joints)
@@ -42,7 +42,8 @@ def test_seated_start_begins_at_the_ideal_reactions(paper_scene, preload):
 
 
 def test_seated_preloaded_start_loses_no_contact_where_centred_start_rattles(paper_scene, preload):
-    runs = {j: rrr4.simulate(_with_journals(paper_scene, j), "rk4", t_end=0.03, preload=preload, output_rate=2e4)
+    runs = {j: rrr4.simulate(_with_journals(paper_scene, j), "rk4", t_end=0.03, step=1e-5, preload=preload,
+                             output_rate=2e4)
             for j in ("centred", "seated")}
     assert sum(runs["seated"].contact_loss_events.values()) == 0
     assert runs["seated"].normal_force.min() > 0.5 * paper_scene.actuation.preload.min_force

@@ -20,7 +20,12 @@ SCENE = str(ROOT / "problems" / "paper_circle.yaml")
 
 
 def _spec(tmp_path, **extra) -> Path:
-    spec = {"scene": SCENE, "t_end": 0.005, "arms": ["with_preload", "without_preload"],
+    """A 2 x 2 grid on the reference scene stepped by RK4 at 1e-5 s, whose stability limit the
+    contact stiffness of 1e15 N/m^1.5 breaks: that case fails on purpose."""
+    scene = yaml.safe_load(Path(SCENE).read_text())
+    scene["integrator"] = {"method": "rk4", "step": 1.0e-5}
+    (tmp_path / "rk4_scene.yaml").write_text(yaml.safe_dump(scene, sort_keys=False))
+    spec = {"scene": str(tmp_path / "rk4_scene.yaml"), "t_end": 0.005, "arms": ["with_preload", "without_preload"],
             "grid": {"joints.radial_clearance": [5.0e-5, 1.0e-4], "effects.contact.stiffness": [7.6e10, 1.0e15]}}
     spec.update(extra)
     p = tmp_path / "spec.yaml"

@@ -153,40 +153,45 @@ class FixedStepIntegrator(ABC):
         full state): what a run keeps grows with the outputs, never with the frames, the steps
         or a method's own state (Newton factors). Converting results out of CasADi costs about
         as much per number as a right-hand side per instruction, so the rest stays inside."""
-        settings = tuple(sorted((k, repr(v)) for k, v in vars(self).items()))
-        key = (type(self).__name__, settings, float(h), int(steps_per_frame))
-        if key not in system.frames:
-            frame = self.frame_function(system, h, steps_per_frame)
-            if self.jit:  # generated C of the whole frame loop, cached on disk (see .compiled)
-                from .compiled import compiled
-                frame = compiled(frame, system.c_sources)
-            system.frames[key] = frame
-        frame = system.frames[key]
         u_frames = np.atleast_2d(np.asarray(u_frames, float))
         n_frames = u_frames.shape[0]
         if n_frames % every:
             raise ValueError(f"{n_frames} frames are not a multiple of every = {every}")
-        chunk = every * max(1, chunk // every)  # whole output intervals per chunk
+        settings = tuple(sorted((k, repr(v)) for k, v in vars(self).items()))
+        key = (type(self).__name__, settings, float(h), int(steps_per_frame), int(every))
+        if key not in system.frames:
+            # the unit of work is one output interval: `every` frames folded in one Function,
+            # so the virtual machine calls it once per output, not once per frame
+            unit = self.frame_function(system, h, steps_per_frame)
+            if every > 1:
+                xu, uu = ca.MX.sym("x", unit.size1_in(0)), ca.MX.sym("u", unit.size1_in(1), every)
+                unit = ca.Function("interval", [xu, uu], [unit.fold(every)(xu, uu)], ["x", "u"], ["x_next"])
+            if self.jit:  # generated C of the whole loop, cached on disk (see .compiled)
+                from .compiled import compiled
+                unit = compiled(unit, system.c_sources)
+            system.frames[key] = unit
+        unit = system.frames[key]
+        n_units, chunk = n_frames // every, max(1, chunk // every)  # output intervals per chunk
         rolls: dict[int, ca.Function] = {}
         x = np.asarray(x0, float)
         keep = x.size if keep is None else keep
-        out = np.empty((n_frames // every, keep))
+        out = np.empty((n_units, keep))
         bar = None
         if progress:
             from tqdm import tqdm
             bar = tqdm(total=n_frames, desc=f"simulate ({self.name})", unit="frame")
         try:
-            for k0 in range(0, n_frames, chunk):
-                k = min(chunk, n_frames - k0)
-                if k not in rolls:  # the kept rows of every frame and the last full state
-                    xm, um = ca.MX.sym("x", x.size), ca.MX.sym("u", u_frames.shape[1], k)
-                    xs = frame.mapaccum("frames", k)(xm, um)
-                    rolls[k] = ca.Function("chunk", [xm, um], [xs[:keep, every - 1::every], xs[:, -1]])
-                kept, last = rolls[k](x, u_frames[k0:k0 + k].T)
-                out[k0 // every:(k0 + k) // every] = np.array(kept).T
+            for k0 in range(0, n_units, chunk):
+                k = min(chunk, n_units - k0)
+                if k not in rolls:  # the kept rows at each output and the last full state
+                    xm, um = ca.MX.sym("x", x.size), ca.MX.sym("u", u_frames.shape[1], k * every)
+                    xs = unit.mapaccum("outputs", k)(xm, um)
+                    rolls[k] = ca.Function("chunk", [xm, um], [xs[:keep, :], xs[:, -1]])
+                kept, last = rolls[k](x, u_frames[k0 * every:(k0 + k) * every].T)
+                out[k0:k0 + k] = np.array(kept).T
                 x = np.array(last).ravel()
                 if bar is not None:
-                    bar.update(k)
+                    bar.update(k * every)
         finally:  # an error or interrupt must not leave a half-drawn bar under its message
             if bar is not None:
                 bar.close()
