@@ -21,7 +21,7 @@ physics and controller. Sections:
 5. (--ladders) the integrators' ladders of ``rrr4 bench accuracy``: the cheapest setting of
    each method within 1 um, against scipy.
 
-    .venv/bin/python benchmarks/bench_performance.py [--repeat 5] [--ladders]
+    .venv/bin/python benchmarks/bench_performance.py [--repeat 5] [--sections 1234] [--ladders]
 """
 
 import argparse
@@ -200,16 +200,22 @@ def ladders(scene) -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
-    ap.add_argument("--ladders", action="store_true", help="also run the integrators' ladders (minutes)")
+    ap.add_argument("--sections", default="1234", help="which of sections 1-5 to run (default 1234)")
+    ap.add_argument("--ladders", action="store_true", help="also run section 5, the ladders (minutes)")
     args = ap.parse_args(argv)
+    run = set(args.sections) | ({"5"} if args.ladders else set())
     os.environ.pop("RRR4_JIT", None)
     scene = rrr4.load_scene(PAPER)
     print(f"machine: {machine()}, one core used; load average {os.getloadavg()[0]:.2f}; casadi {ca.__version__}")
-    out = paths(scene, args.repeat)
-    rhs_and_newton(scene, out)
-    memory()
-    scaling(scene, args.repeat)
-    if args.ladders:
+    if run & {"1", "2"}:
+        out = paths(scene, args.repeat)
+        if "2" in run:
+            rhs_and_newton(scene, out)
+    if "3" in run:
+        memory()
+    if "4" in run:
+        scaling(scene, args.repeat)
+    if "5" in run:
         ladders(scene)
     return 0
 

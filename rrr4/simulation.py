@@ -279,8 +279,8 @@ def _tabulated(scene: Scene, t: np.ndarray, given) -> GraphReferences:
 
 def _path_rows(scene: Scene, t: np.ndarray) -> np.ndarray:
     """(N, 9) [pose, pose_d, pose_dd] of the path at the times t (N,)."""
-    out = trajectory_function(scene.path).map(len(t))(np.asarray(t, float)[None, :])
-    return np.vstack([np.array(v) for v in out]).T
+    out = _mapped(trajectory_function(scene.path), t=np.asarray(t, float)[None, :])
+    return np.vstack(list(out.values())).T
 
 
 def _loop(scene: Scene, eqs: Equations, controller: str, references: str, given) -> _Loop:
@@ -498,9 +498,8 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
             th, th_d, th_dd = (np.vstack([v, last]) for v, last in
                                zip((th, th_d, th_dd), (at["th"][-1:], at["thd"][-1:], at["thdd"][-1:]), strict=True))
             th, th_d, th_dd = th[::every], th_d[::every], th_dd[::every]
-    acc = eqs.acceleration.map(N)
-    out = acc(q=q.T, qd=qd.T, effort=effort.T, theta_ref=th.T, theta_d_ref=th_d.T, theta_dd_ref=th_dd.T,
-              delta_dot0=z[:, :nc].T, in_contact=z[:, nc:2 * nc].T, t=t_out[None, :])
+    out = _mapped(eqs.acceleration, q=q.T, qd=qd.T, effort=effort.T, theta_ref=th.T, theta_d_ref=th_d.T,
+                  theta_dd_ref=th_dd.T, delta_dot0=z[:, :nc].T, in_contact=z[:, nc:2 * nc].T, t=t_out[None, :])
     k = len(eqs.passive_ideal_joints)
 
     def per_joint(a, rows):
@@ -531,6 +530,22 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
         driver_effort=np.array(out["driver_effort"]).T.reshape(N, -1),
         contact_loss_events=losses, energy=energy, energy_audit_residual=energy_audit_residual(energy),
         stats=stats)
+
+
+def _mapped(f: ca.Function, block: int = 4096, **inputs) -> dict:
+    """f's outputs at each column of `inputs` (numpy arrays, one column per output instant),
+    evaluated `block` columns at a time: the memory a long run's outputs take while they are
+    converted out of CasADi stays bounded by the block, not by the run."""
+    n = next(iter(inputs.values())).shape[1]
+    maps: dict[int, ca.Function] = {}
+    parts: dict[str, list] = {}
+    for a in range(0, n, block):
+        m = min(block, n - a)
+        if m not in maps:
+            maps[m] = f.map(m)
+        for k, v in maps[m](**{k: v[:, a:a + m] for k, v in inputs.items()}).items():
+            parts.setdefault(k, []).append(np.array(v))
+    return {k: np.hstack(v) for k, v in parts.items()}
 
 
 def _controller_efforts(scene: Scene, loop: _Loop, model: Model, t: np.ndarray, q: np.ndarray, qd: np.ndarray,
