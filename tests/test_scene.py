@@ -50,6 +50,8 @@ BAD = [
     ("joints.radial_clearance", 0.005, "joints.radial_clearance: 0.005 m is not allowed (must be smaller than"),
     ("joints.clearance", ["B1", "D2"], "joints.clearance: unknown joint 'D2'"),
     ("integrator.method", "bathee", "did you mean 'bathe'?"),
+    ("integrator.newton", "quasi", "integrator.newton: unknown value 'quasi' (choose one of: simplified, full)"),
+    ("integrator.newton_tol", -1, "integrator.newton_tol: -1 is not allowed (must be > 0)"),
     ("path.radius", 0.4, "path: leaves the workspace at t ="),
     ("path.max_condition_number", 5.0, "path: passes through a parallel singularity at t ="),
     ("actuation.torque_limit", [1, 2, 3], "actuation.torque_limit: [1, 2, 3] is not allowed (a list of 4 numbers"),
