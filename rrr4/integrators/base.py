@@ -11,10 +11,11 @@ z <- g(t, y, z) after each step (contact onset/loss). A method only implements
   step; the switch is a ``Function.if_else``, so the compiled code pays for the k sub-steps
   only at those steps. The onset approach velocity is then captured within h/k of the
   crossing instead of h (the onset rule is first order in the capture delay),
-- rolls ``steps_per_frame`` steps with ``mapaccum`` into ``frame``, which returns the
-  state at the frame end (a sampled controller, ``System.control``, runs once at the
-  frame start and holds its output over the frame's steps), and rolls frames with
-  ``mapaccum`` again (optionally JIT-compiled),
+- folds ``steps_per_frame`` steps into ``frame``, which returns the state at the frame end
+  (a sampled controller, ``System.control``, runs once at the frame start and holds its
+  output over the frame's steps), folds the frames of one output interval into one unit
+  (optionally JIT-compiled) and rolls the units with ``mapaccum``, keeping only each
+  output's public state,
 - runs frames in chunks so that long runs show a progress bar,
 - keeps the built (and compiled) frame Function on the system (per method settings, step
   and steps per frame), so a second run of the same scene builds nothing, and dropping the
@@ -54,8 +55,9 @@ class System:
     discrete: ca.Function
     control: ca.Function | None = None
     c_sources: tuple = ()  # C files that must be compiled with the frames (e.g. an external controller's)
-    # (method, settings, h, steps per frame) -> the built (and compiled) frame Function: the
-    # system owns them, so they live exactly as long as it does
+    # (method, settings, h, steps per frame, frames per output) -> the built (and compiled)
+    # unit of work, and the implicit methods' Newton solvers: the system owns them, so they
+    # live exactly as long as it does
     frames: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
