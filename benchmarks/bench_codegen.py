@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
 import subprocess
 import sys
 import tempfile
@@ -141,17 +140,10 @@ def _ns_per_call(f, arg_list, seconds: float = 0.3) -> float:
 
 
 def _machine() -> str:
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
+    from rrr4.bench import machine
     gcc = subprocess.run(["gcc", "--version"], capture_output=True, text=True).stdout.splitlines()[0]
     load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
-    return f"{platform.system()} {platform.machine()}, {os.cpu_count()} cores, {cpu}; {gcc}; load average {load}"
+    return f"{machine()}; {gcc}; load average {load}"
 
 
 # The controller step of the scene under these settings, compared in one run: the exact preload
