@@ -19,9 +19,11 @@ physics and controller. Sections:
 4. cost against the number of clearance joints: the 4-RRR with 0, 4 and 8 and the
    slider-crank, each at its scene's own settings;
 5. (--ladders) the integrators' ladders of ``rrr4 bench accuracy``: the cheapest setting of
-   each method within 1 um, against scipy.
+   each method within 1 um, against scipy;
+6. error control: Bathe with a tolerance against fixed steps, on the reference scene and on
+   the scene without preload (journals flying and hitting their bearings).
 
-    .venv/bin/python benchmarks/bench_performance.py [--repeat 5] [--sections 1234] [--ladders]
+    .venv/bin/python benchmarks/bench_performance.py [--repeat 5] [--sections 12346] [--ladders]
 """
 
 import argparse
@@ -197,10 +199,46 @@ def ladders(scene) -> None:
               f"real-time factor {T / r['cpu_s']:7.2f}  {base} / method {ratio}")
 
 
+def error_control(scene, repeat: int) -> None:
+    """Bathe with a tolerance (its step the largest) against fixed steps: on the reference
+    scene, whose preload keeps every journal in contact, and on the scene without preload,
+    whose journals fly and hit their bearings hundreds of times (0.3 s of it)."""
+    def bathe(sc, step, tolerance=None):
+        return replace(sc, integrator=replace(sc.integrator, method="bathe", step=step, gamma=2 - np.sqrt(2),
+                                              newton_tol=1e-7, newton="simplified", tolerance=tolerance))
+
+    impacts = rrr4.load_scene(ROOT / "problems" / "no_preload_circle.yaml")
+    T = 0.3
+    cases = {
+        "reference scene, default (fixed 1e-4 s)": (dict(scene=scene), scene.path.duration),
+        "reference scene, tolerance 1e-7 m, largest step 1e-4 s": (dict(scene=bathe(scene, 1e-4, 1e-7)),
+                                                                   scene.path.duration),
+        "no preload, RK4 at 2.5e-5 s": (dict(scene=impacts, integrator="rk4", step=2.5e-5, t_end=T), T),
+        "no preload, Bathe fixed 1e-4 s": (dict(scene=bathe(impacts, 1e-4), t_end=T), T),
+        "no preload, Bathe fixed 1e-5 s": (dict(scene=bathe(impacts, 1e-5), t_end=T), T),
+    }
+    for step, tol in ((1e-4, 1e-8), (1e-5, 1e-8), (1e-5, 1e-10)):
+        cases[f"no preload, tolerance {tol:g} m, largest step {step:g} s"] = (
+            dict(scene=bathe(impacts, step, tol), t_end=T), T)
+    refs = {id(scene): rrr4.simulate(scene, "rk4", step=1e-6),
+            id(impacts): rrr4.simulate(impacts, "rk4", step=2.5e-7, t_end=T)}
+    out = timed({k: kw for k, (kw, _) in cases.items()}, repeat)
+    print(f"\n6. error control (medians of {repeat}; error against RK4 at 1e-6 s (reference scene) and 2.5e-7 s "
+          "(no preload))")
+    print("| run | error [m] | steps | rejected | smallest step [s] | stepping [s] | RTF |")
+    print("|---|---|---|---|---|---|---|")
+    for k, (w, _, sim) in out.items():
+        kw, dur = cases[k]
+        ref = refs[id(scene) if "reference" in k else id(impacts)]
+        st = sim.stats
+        print(f"| {k} | {error(sim, ref):.1e} | {st['steps']} | {st.get('rejected_steps', '-')} | "
+              f"{st.get('smallest_step', st['step']):.3g} | {w:.3f} | {dur / w:.2f} |")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
-    ap.add_argument("--sections", default="1234", help="which of sections 1-5 to run (default 1234)")
+    ap.add_argument("--sections", default="12346", help="which of sections 1-6 to run (default 12346)")
     ap.add_argument("--ladders", action="store_true", help="also run section 5, the ladders (minutes)")
     args = ap.parse_args(argv)
     run = set(args.sections) | ({"5"} if args.ladders else set())
@@ -217,6 +255,8 @@ def main(argv=None) -> int:
         scaling(scene, args.repeat)
     if "5" in run:
         ladders(scene)
+    if "6" in run:
+        error_control(scene, args.repeat)
     return 0
 
 

@@ -39,8 +39,9 @@ GROUND = "ground"
 
 def choices(what: str) -> tuple[str, ...]:
     """The allowed names of a registry, read from the registry itself: 'contact law',
-    'friction law', 'integrator', 'newton', 'preload method', 'compensation' or 'qp solver'. Imported when a scene is
-    parsed (the registries' modules import this one)."""
+    'friction law', 'integrator', 'error control' (the methods integrator.tolerance applies to),
+    'newton', 'preload method', 'compensation' or 'qp solver'. Imported when a scene is parsed
+    (the registries' modules import this one)."""
     if what == "contact law":
         from .contact.normal import NORMAL_LAWS
         return tuple(NORMAL_LAWS)
@@ -50,6 +51,10 @@ def choices(what: str) -> tuple[str, ...]:
     if what == "integrator":
         from .integrators import METHODS
         return tuple(METHODS)
+    if what == "error control":  # the methods integrator.tolerance applies to
+        from .integrators import METHODS
+        from .integrators.implicit import ImplicitIntegrator
+        return tuple(k for k, m in METHODS.items() if issubclass(m, ImplicitIntegrator))
     if what == "newton":
         from .integrators.implicit import NEWTON
         return NEWTON
@@ -311,6 +316,7 @@ class IntegratorSettings:
     max_newton: int
     refine: int = 1  # sub-steps that re-take a fixed step across a contact onset or loss (1: off)
     newton: str = "simplified"  # implicit methods: reuse the iteration matrix's factors, or 'full'
+    tolerance: float | None = None  # [m] implicit methods: local position error per step (adaptive); None: fixed step
 
 
 @dataclass(frozen=True)
@@ -953,7 +959,11 @@ def _integrator(sec: _Section) -> IntegratorSettings:
         max_newton=sec.integer("max_newton", 20, positive=True),
         refine=sec.integer("refine", 1, positive=True),
         newton=sec.choice("newton", choices("newton"), "simplified"),
+        tolerance=sec.number("tolerance", positive=True) if sec.raw("tolerance") is not None else None,
     )
+    if s.tolerance is not None and s.method not in choices("error control"):
+        raise SceneError(f"{sec.key('tolerance')}: {s.tolerance:g} is not allowed with method '{s.method}' (error "
+                         f"control is for {', '.join(choices('error control'))}; the adaptive methods take rtol, atol)")
     sec.done()
     return s
 

@@ -500,6 +500,9 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
             th, th_d, th_dd = th[::every], th_d[::every], th_dd[::every]
     out = _mapped(eqs.acceleration, q=q.T, qd=qd.T, effort=effort.T, theta_ref=th.T, theta_d_ref=th_d.T,
                   theta_dd_ref=th_dd.T, delta_dot0=z[:, :nc].T, in_contact=z[:, nc:2 * nc].T, t=t_out[None, :])
+    if "failure" in run.stats:
+        raise SimulationError(_failure_message(run.stats["failure"], method.name, eqs.clearance_joints,
+                                               np.array(out["penetration"])[:, -1] if nc else np.zeros(0)))
     k = len(eqs.passive_ideal_joints)
 
     def per_joint(a, rows):
@@ -530,6 +533,19 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
         driver_effort=np.array(out["driver_effort"]).T.reshape(N, -1),
         contact_loss_events=losses, energy=energy, energy_audit_residual=energy_audit_residual(energy),
         stats=stats)
+
+
+def _failure_message(failure: dict, method: str, joints, penetration) -> str:
+    """One line for an error-controlled run that could not go on: the time, the last step and
+    the clearance joint pressed deepest there (where such failures start: stiff contact)."""
+    where = ""
+    if len(joints):
+        j = int(np.argmax(penetration))
+        where = (f" at joint {joints[j]} (penetration {penetration[j]:.3g} m)" if penetration[j] > 0 else
+                 " with no journal in contact")
+    return (f"integrator.tolerance: {method} cannot go on at t = {failure['t']:.9g} s{where}: even its smallest "
+            f"step, {failure['step']:.3g} s, did not converge or stay finite (try a smaller integrator.step or a "
+            "larger integrator.max_newton)")
 
 
 def _mapped(f: ca.Function, block: int = 4096, **inputs) -> dict:

@@ -57,6 +57,6 @@ class Bathe(ImplicitIntegrator):
                        y[nq:2 * nq] + 2 * c * f0[nq:2 * nq])
         c = q2 * h
         r = y + h * (q0 * f0 + q1 * fg)
-        y1, _ = stage(t + h, (r[:nq], r[nq:2 * nq], r[2 * nq:]), (c, c, c),
+        y1, f1 = stage(t + h, (r[:nq], r[nq:2 * nq], r[2 * nq:]), (c, c, c),
                       yg[nq:2 * nq] + (1 - self.gamma) * h * fg[nq:2 * nq])
-        return y1, memory
+        return y1, memory, f0, f1

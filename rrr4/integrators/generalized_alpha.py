@@ -61,6 +61,6 @@ class GeneralizedAlpha(ImplicitIntegrator):
         r_q = q + h * v + h * h * (0.5 - beta) * w - c_q * base_v
         c_v = h * g * (1 - af) / (1 - am)
         r_v = base_v + h * g * (af * a0 - am * w) / (1 - am)
-        y1, _ = stage(t + h, (r_q, r_v, e + h / 2 * f0[2 * nq:]), (c_q, c_v, h / 2), v + h * a0)
+        y1, f1 = stage(t + h, (r_q, r_v, e + h / 2 * f0[2 * nq:]), (c_q, c_v, h / 2), v + h * a0)
         w1 = (y1[nq:2 * nq] - base_v) / (h * g)
-        return y1, w1
+        return y1, w1, f0, f1

@@ -34,6 +34,7 @@ evaluations (each Jacobian is factorised once, so it also counts factorisations)
 
 from __future__ import annotations
 
+import copy
 from abc import abstractmethod
 
 import casadi as ca
@@ -41,6 +42,7 @@ import numpy as np
 
 from ..errors import Rrr4Error
 from .base import FixedStepIntegrator, Run, System
+from .error_control import ADAPTIVE, adaptive_frame, initial_adaptive
 
 __all__ = ["ImplicitIntegrator", "second_order_split", "NEWTON"]
 
@@ -64,9 +66,9 @@ def second_order_split(system: System) -> int:
 
 def _norm(dv):
     """max |dv|, and +inf if dv holds a NaN or an inf (norm_inf alone is 0 for NaN: C's fmax
-    drops NaN, so a NaN update would pass for a converged one)."""
-    total = ca.sum1(dv)
-    return ca.if_else(total - total == 0, ca.norm_inf(dv), np.inf)
+    drops NaN, so a NaN update would pass for a converged one). |sum| < inf is false for NaN
+    and inf; the obvious sum - sum == 0 is not, as CasADi simplifies x - x to 0."""
+    return ca.if_else(ca.fabs(ca.sum1(dv)) < np.inf, ca.norm_inf(dv), np.inf)
 
 
 def _skippable(name: str, f: ca.Function, skipped) -> ca.Function:
@@ -199,8 +201,13 @@ class ImplicitIntegrator(FixedStepIntegrator):
     """
 
     def __init__(self, jit: bool = False, newton: str = "simplified", newton_tol: float = 1e-10,
-                 max_newton: int = 8, refine: int = 1):
+                 max_newton: int = 8, refine: int = 1, tolerance: float | None = None):
         super().__init__(jit=jit, refine=refine)
+        if tolerance is not None and not (isinstance(tolerance, (int, float)) and np.isfinite(tolerance)
+                                          and tolerance > 0):
+            raise Rrr4Error(f"integrator.tolerance: {tolerance!r} is not allowed (a local position error per "
+                            "step > 0 [m], or none for fixed steps)")
+        self.tolerance = None if tolerance is None else float(tolerance)
         if newton not in NEWTON:
             raise Rrr4Error(f"integrator.newton: {newton!r} is not allowed (choose from {', '.join(NEWTON)})")
         if not (np.isfinite(newton_tol) and newton_tol > 0):
@@ -213,7 +220,7 @@ class ImplicitIntegrator(FixedStepIntegrator):
     def newton_settings(settings) -> dict:
         """The Newton keywords of a scene's IntegratorSettings."""
         return {"newton": settings.newton, "newton_tol": settings.newton_tol, "max_newton": settings.max_newton,
-                "refine": settings.refine}
+                "refine": settings.refine, "tolerance": settings.tolerance}
 
     @classmethod
     def from_settings(cls, settings, jit: bool = False):
@@ -231,8 +238,8 @@ class ImplicitIntegrator(FixedStepIntegrator):
 
     @abstractmethod
     def advance_implicit(self, stage, ode, t, y, z, u, h, memory, nq):
-        """(y_next, memory_next) of one step; `stage(t, r, c, v_guess)` solves one implicit stage
-        (r = (r_q, r_v, r_e), c = (c_q, c_v, c_e)) and returns (Y, f(Y))."""
+        """(y_next, memory_next, f(y), f(y_next)) of one step; `stage(t, r, c, v_guess)` solves
+        one implicit stage (r = (r_q, r_v, r_e), c = (c_q, c_v, c_e)) and returns (Y, f(Y))."""
 
     def advance(self, ode, t, y, z, u, h):  # the memory-free interface of FixedStepIntegrator
         raise NotImplementedError("implicit methods step through step_function")
@@ -248,11 +255,41 @@ class ImplicitIntegrator(FixedStepIntegrator):
 
     def step_function(self, system: System, h: float) -> ca.Function:
         """MX Function 'step': x = [t, y, z, memory, counters, renew, matrix slots], u -> x_next."""
+        step = self.estimated_step_function(system, h)
+        x, u = ca.MX.sym("x", step.size1_in(0)), ca.MX.sym("u", step.size1_in(1))
+        return ca.Function("step", [x, u], [step(x, u)[0]], ["x", "u"], ["x_next"])
+
+    def error_constant(self) -> float:
+        """C of the local position error C h^3 q''' of one step, measured on q'' = t from the
+        exact state at t = 0 with h = 1 (exact: q(1) = 1/6); 1/12 for the trapezoidal rule."""
+        if "_error_constant" not in vars(self):
+            t, y, z, u = ca.SX.sym("t"), ca.SX.sym("y", 2), ca.SX.sym("z", 0), ca.SX.sym("u", 0)
+            test = System(ca.Function("ode", [t, y, z, u], [ca.vertcat(y[1], t)]),
+                          ca.Function("discrete", [t, y, z], [z]))
+            method = copy.copy(self)
+            method.newton, method.tolerance = "full", None
+            x0 = np.r_[0.0, 0.0, 0.0, method.initial_extra(test, np.zeros(3), np.zeros(0))]
+            x1 = np.array(method.step_function(test, 1.0)(x0, np.zeros(0))).ravel()
+            self._error_constant = abs(float(x1[1]) - 1.0 / 6.0)
+        return self._error_constant
+
+    def estimated_step_function(self, system: System, h: float | None) -> ca.Function:
+        """MX Function 'estimated_step': x, u (, h) -> x_next, error (h an input when None, as
+        error control needs, else fixed in the graph): one step and, with a tolerance, the
+        estimate of its local position error max |C h^2 (a(t + h) - a(t))| over the
+        coordinates [m or rad] (C: :meth:`error_constant`; Zienkiewicz & Xie 1991 for the
+        trapezoidal rule); +inf if the step is not finite."""
         nq = second_order_split(system)
         ny, nz = system.ny, system.nz
         nm, nf, extra = self._layout(system, nq)
         newton = _newton(system, nq, self.newton_tol, self.max_newton)
         x, u = ca.MX.sym("x", 1 + ny + nz + extra), ca.MX.sym("u", system.nu)
+        h_in = [ca.MX.sym("h")] if h is None else []
+        h = h_in[0] if h_in else h
+
+        def per_h(c) -> float:
+            """c / h as a number (the stage coefficients are multiples of h)."""
+            return float(ca.Function("per_h", h_in, [c / h])(1.0)) if h_in else float(c) / h
         t, y, z = x[0], x[1:1 + ny], x[1 + ny:1 + ny + nz]
         o = 1 + ny + nz
         mem = x[o:o + nm]
@@ -274,14 +311,16 @@ class ImplicitIntegrator(FixedStepIntegrator):
             return vk, pk, done
 
         def simplified_newton(pars, v_guess, c_q, c_v):
-            key = next((c for c in used if np.allclose(c, (c_q, c_v), rtol=1e-9, atol=0)), (float(c_q), float(c_v)))
+            sig = (per_h(c_q), per_h(c_v))
+            key = next((c for c in used if np.allclose(c, sig, rtol=1e-9, atol=0)), sig)
             if key not in used:
                 used.append(key)
             k = used.index(key)
             if k >= len(slots):
                 raise AssertionError(f"{type(self).__name__}.matrices is too small")
             tag, eta, factors = slots[k][:2], slots[k][2], slots[k][3:]
-            stale = ca.fmax(renew, ca.norm_inf(tag - ca.DM(key)) > 0)
+            key_h = ca.vertcat(key[0] * h, key[1] * h)  # one expression per slot: equal stages compare equal
+            stale = ca.fmax(renew, ca.norm_inf(tag - key_h) > 0)
             factors = newton.factor_switch(1 - stale, v_guess, factors, pars)
             count["jacobians"] += stale
             vk, pk, done, slow, eta, iters = newton.simplified(v_guess, factors, ca.if_else(stale, 1.0, eta), pars)
@@ -290,7 +329,7 @@ class ImplicitIntegrator(FixedStepIntegrator):
             fallback = 1 - done
             flags["renew_next"] = ca.fmax(flags["renew_next"], ca.fmax(slow, fallback))
             v_full, p_full, converged = full_newton(pars, v_guess, pk, done)
-            slots[k] = ca.vertcat(ca.DM(key), eta, factors)
+            slots[k] = ca.vertcat(key_h, eta, factors)
             return ca.if_else(fallback, v_full, vk), ca.if_else(fallback, p_full, pk), converged
 
         def stage(ts, r, c, v_guess):
@@ -307,12 +346,27 @@ class ImplicitIntegrator(FixedStepIntegrator):
             yk = ca.vertcat(qk, vk, r_e + c_e * pk)
             return yk, newton.rate(converged, ts, yk, z, u, vk, r_v, c_v, pk)
 
-        y1, mem1 = self.advance_implicit(stage, system.ode, t, y, z, u, h, mem, nq)
+        y1, mem1, f0, f1 = self.advance_implicit(stage, system.ode, t, y, z, u, h, mem, nq)
         z1 = system.discrete(t + h, y1, z)
         contact_changed = ca.norm_inf(z1 - z) > 0 if nz else ca.MX(0)
         renew1 = ca.fmax(flags["renew_next"], contact_changed)
         x1 = ca.vertcat(t + h, y1, z1, mem1, *count.values(), renew1, *slots)
-        return ca.Function("step", [x, u], [x1], ["x", "u"], ["x_next"])
+        error = ca.MX(0)
+        if self.tolerance is not None:
+            error = ca.if_else(_norm(y1) < np.inf,
+                               self.error_constant() * h * h * _norm(f1[nq:2 * nq] - f0[nq:2 * nq]), np.inf)
+        return ca.Function("estimated_step", [x, u, *h_in], [x1, error], ["x", "u", *(["h"] if h_in else [])],
+                           ["x_next", "error"])
+
+    def frame_function(self, system: System, h: float, steps_per_frame: int) -> ca.Function:
+        """As :meth:`FixedStepIntegrator.frame_function`, or with a tolerance the adaptive frame of
+        :mod:`.error_control` (h: the largest step)."""
+        if self.tolerance is None:
+            return super().frame_function(system, h, steps_per_frame)
+        nq = second_order_split(system)
+        counters = 1 + system.ny + system.nz + self.memory_size(nq)
+        return adaptive_frame(self, system, h, steps_per_frame, counters, len(COUNTERS),
+                              counters + COUNTERS.index("newton_failures"))
 
     def initial_extra(self, system: System, x0, u0) -> np.ndarray:
         """The entries after [t, y, z] at the start of a run: memory, zero counters, renew on."""
@@ -325,7 +379,7 @@ class ImplicitIntegrator(FixedStepIntegrator):
         out = np.zeros(extra)
         out[:mem0.size] = mem0
         out[mem0.size + len(COUNTERS)] = 1.0  # renew at the first stage
-        return out
+        return out if self.tolerance is None else np.r_[out, initial_adaptive()]
 
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,
             progress: bool = False, every: int = 1) -> Run:
@@ -340,6 +394,14 @@ class ImplicitIntegrator(FixedStepIntegrator):
                           strict=True))
         n_steps = steps_per_frame * np.atleast_2d(u_frames).shape[0]
         stats = {"newton": self.newton, **counts}
+        if self.tolerance is not None:
+            a = dict(zip(ADAPTIVE, last[-len(ADAPTIVE):], strict=True))
+            n_steps = int(a["accepted_steps"])
+            stats.update({"tolerance": self.tolerance, "steps": n_steps, "rejected_steps": int(a["rejected_steps"]),
+                          "steps_above_tolerance": int(a["steps_above_tolerance"]),
+                          "smallest_step": h / 2 ** a["deepest_level"]})
+            if a["failed"]:
+                stats["failure"] = {"t": float(last[0]), "step": h / 2 ** a["level"]}
         stats.update({f"{k}_per_step": counts[k] / max(n_steps, 1) for k in ("newton_iterations", "jacobians")})
         return Run(states, stats)
 

@@ -20,5 +20,5 @@ class NewmarkTrapezoidal(ImplicitIntegrator):
         f0 = ode(t, y, z, u)
         c = h / 2
         r = y + c * f0
-        y1, _ = stage(t + h, (r[:nq], r[nq:2 * nq], r[2 * nq:]), (c, c, c), y[nq:2 * nq] + h * f0[nq:2 * nq])
-        return y1, memory
+        y1, f1 = stage(t + h, (r[:nq], r[nq:2 * nq], r[2 * nq:]), (c, c, c), y[nq:2 * nq] + h * f0[nq:2 * nq])
+        return y1, memory, f0, f1
