@@ -1,10 +1,12 @@
-"""Workspace maps of an n-RRR scene (DESIGN section 8): over a grid of platform positions at
-the scene's orientation, the Jacobian's condition number, the smallest transmission, and
+"""Workspace maps of a scene with a task body (DESIGN section 8): over a grid of platform
+positions at the scene's orientation, the Jacobian's condition number, the smallest
+transmission (n-RRR: the closed form; a graph has none), and
 whether (and with what torque) the controller's preload holds f_min at every passive joint
 within the torque limits, at rest and under the path's peak acceleration (the worst of 8
 directions). Every quantity is evaluated for the whole grid at once with CasADi ``map``
 (:func:`rrr4.mechanism.workspace.path_kinematics`, the closed-form inverse dynamics and the
-controller's preload law), never in a Python loop over points.
+controller's preload law), never in a Python loop over points; a graph is assembled at every
+point by one continuation (``mapaccum``) over the grid.
 """
 
 from __future__ import annotations
@@ -18,8 +20,9 @@ from .control import has_preload, preload_law
 from .dynamics.family import effort_family
 from .errors import SceneError
 from .files import write_atomic
-from .mechanism.workspace import path_kinematics
-from .scene import Scene
+from .mechanism import Mechanism
+from .mechanism.workspace import condition_number, path_kinematics
+from .scene import GROUND, Scene
 from .trajectory import PathSamples, sample_path
 
 __all__ = ["workspace_map", "plot_map", "write_map", "GRID", "DIRECTIONS"]
@@ -29,21 +32,32 @@ DIRECTIONS = 8    # directions of the peak path acceleration tried at each point
 
 
 def _extent(scene: Scene) -> tuple[float, float, float, float]:
-    bases = np.array([c.base for c in scene.mechanism.chains])
-    lo, hi = bases.min(axis=0), bases.max(axis=0)
+    """The square-ish region around the ground anchors (an n-RRR's bases): their centre, 0.75 of
+    their half-span; anchors on one line also span the path."""
+    if scene.mechanism is not None:
+        anchors = np.array([c.base for c in scene.mechanism.chains])
+    else:
+        anchors = np.array([j.points[k] for j in scene.graph.joints for k in (0, 1) if j.bodies[k] == GROUND])
+    lo, hi = anchors.min(axis=0), anchors.max(axis=0)
+    if np.min(hi - lo) < 1e-9:
+        pts = np.vstack([anchors, sample_path(scene.path).pose[:, :2]])
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
     c, h = (lo + hi) / 2, 0.75 * (hi - lo) / 2
     return c[0] - h[0], c[0] + h[0], c[1] - h[1], c[1] + h[1]
 
 
-def _preload(scene: Scene, pose, pose_dd) -> tuple[np.ndarray, np.ndarray]:
+def _preload(scene: Scene, pose, pose_dd, q=None) -> tuple[np.ndarray, np.ndarray]:
     """(feasible (N,) bool, max |tau| (N,) [N m]) of the controller's preload at poses (N, 3)
-    at rest with platform acceleration pose_dd (N, 3); NaN torque where unreachable."""
+    at rest with platform acceleration pose_dd (N, 3); NaN torque where unreachable. q: a
+    graph's coordinates at the poses."""
     N = len(pose)
-    fam = effort_family(scene, pose, np.zeros_like(pose), pose_dd)
+    fam = effort_family(scene, pose, np.zeros_like(pose), pose_dd, q=q)
     law = preload_law(scene)
+    limits = (np.asarray(scene.actuation.torque_limit) if scene.mechanism is not None else
+              np.array([a.limit for a in scene.graph.actuators]))
     if law is None:  # no preload: the minimum-norm torques, feasible if within the limits
         tau = fam.tau_p
-        feasible = np.all(np.abs(tau) <= np.asarray(scene.actuation.torque_limit), axis=1)
+        feasible = np.all(np.abs(tau) <= limits, axis=1)
     else:
         _, tau, feas, _ = (np.array(v) for v in law.map(N)(*fam.raw))
         tau, feasible = tau.T, feas.ravel() > 0.5
@@ -52,15 +66,40 @@ def _preload(scene: Scene, pose, pose_dd) -> tuple[np.ndarray, np.ndarray]:
     return feasible & ok, np.where(ok, peak, np.nan)
 
 
+def _snake(grid: int) -> np.ndarray:
+    """Indices of a grid x grid raster (row-major) in boustrophedon order: each point next to
+    the one before, so that continuation carries the assembly from point to point."""
+    idx = np.arange(grid * grid).reshape(grid, grid)
+    idx[1::2] = idx[1::2, ::-1]
+    return idx.ravel()
+
+
+def _graph_coordinates(scene: Scene, pose: np.ndarray, grid: int) -> tuple[np.ndarray, np.ndarray]:
+    """(q (N, nq), reachable (N,)) of a graph at the grid's poses (row-major), by continuation
+    from the path's start assembly: 50 steps to the first grid point, then along the rows in
+    boustrophedon order; each point's Newton starts from the last one that closed."""
+    mech = Mechanism.from_scene(scene)
+    k = mech.n_task
+    start = sample_path(scene.path).pose[0, :k]
+    order = _snake(grid)
+    lead = np.linspace(start, pose[order[0], :k], 50)
+    Q, ok = mech.tracked_coordinates(np.vstack([lead, pose[order, :k]]), mech.assemble(start))
+    q, reachable = np.empty((len(pose), mech.nq)), np.empty(len(pose), bool)
+    q[order], reachable[order] = Q[len(lead):], ok[len(lead):]
+    return q, reachable
+
+
 def workspace_map(scene: Scene, grid: int = GRID) -> dict:
     """Arrays over a grid x (grid,), y (grid,) [m] at the path's orientation: reachable,
-    condition, min_transmission, feasible_rest, torque_rest_Nm, feasible_peak, torque_peak_Nm
-    (grid, grid) [y index, x index]; and a_peak [m/s^2], the path's peak acceleration."""
-    if scene.mechanism is None:
-        raise SceneError("mechanism.kind: 'graph' is not allowed for rrr4 map yet (the maps use the n-RRR's "
-                         "closed-form kinematics)")
+    condition, min_transmission (n-RRR only; NaN for a graph), feasible_rest, torque_rest_Nm,
+    feasible_peak, torque_peak_Nm (grid, grid) [y index, x index]; and a_peak [m/s^2], the
+    path's peak acceleration. A graph scene is assembled at each point by continuation from the
+    path's start (see :func:`_graph_coordinates`), so its maps show that assembly branch."""
     if not isinstance(grid, int) or isinstance(grid, bool) or not 3 <= grid <= 1001:
         raise SceneError(f"--grid: {grid!r} is not allowed (an integer from 3 to 1001)")
+    if scene.mechanism is None and scene.graph.task is None:
+        raise SceneError(f"path.type: 'none' is not allowed for rrr4 map (scene {scene.name!r} has no task body: "
+                         "its drivers set the motion, so there is no workspace to map)")
     x0, x1, y0, y1 = _extent(scene)
     x, y = np.linspace(x0, x1, grid), np.linspace(y0, y1, grid)
     X, Y = np.meshgrid(x, y)
@@ -68,21 +107,31 @@ def workspace_map(scene: Scene, grid: int = GRID) -> dict:
     theta = scene.path.orientation
     pose = np.column_stack([X.ravel(), Y.ravel(), np.full(N, theta)])
     zero = np.zeros_like(pose)
-    pk = path_kinematics(scene, PathSamples(np.zeros(N), pose, zero, zero))
-    reachable = np.all(np.abs(pk.cos_arg) <= 1.0, axis=1)
-    cond = np.where(reachable, pk.condition, np.nan)
-    trans = np.where(reachable, np.min(np.abs(pk.sin_transmission), axis=1), np.nan)
+    if scene.mechanism is not None:
+        pk = path_kinematics(scene, PathSamples(np.zeros(N), pose, zero, zero))
+        reachable = np.all(np.abs(pk.cos_arg) <= 1.0, axis=1)
+        cond = np.where(reachable, pk.condition, np.nan)
+        trans = np.where(reachable, np.min(np.abs(pk.sin_transmission), axis=1), np.nan)
+        q, at = None, slice(None)
+    else:
+        q_all, reachable = _graph_coordinates(scene, pose, grid)
+        order = _snake(grid)
+        at = order[reachable[order]]  # the reachable points in continuation order: the effort
+        q = q_all[at]                 # basis is kept continuous from one to the next
+        cond, trans = np.full(N, np.nan), np.full(N, np.nan)
+        cond[at] = condition_number(Mechanism.from_scene(scene).path_jacobians(q))
     s = sample_path(scene.path)
     a_peak = float(np.max(np.linalg.norm(s.pose_dd[:, :2], axis=1)))
-    feas_rest, tau_rest = _preload(scene, pose, zero)
+    feas_rest, tau_rest = np.zeros(N, bool), np.full(N, np.nan)
+    feas_rest[at], tau_rest[at] = _preload(scene, pose[at], zero[at], q)
     feas_peak, tau_peak = feas_rest.copy(), tau_rest.copy()
     for k in range(DIRECTIONS):
         phi = 2 * np.pi * k / DIRECTIONS
         acc = np.zeros_like(pose)
         acc[:, 0], acc[:, 1] = a_peak * np.cos(phi), a_peak * np.sin(phi)
-        f, t = _preload(scene, pose, acc)
-        feas_peak &= f
-        tau_peak = np.fmax(tau_peak, t)
+        f, t = _preload(scene, pose[at], acc[at], q)
+        feas_peak[at] &= f
+        tau_peak[at] = np.fmax(tau_peak[at], t)
     shape = (grid, grid)
     out = {"x": x, "y": y, "reachable": reachable.reshape(shape), "condition": cond.reshape(shape),
            "min_transmission": trans.reshape(shape),
@@ -95,8 +144,9 @@ def workspace_map(scene: Scene, grid: int = GRID) -> dict:
 
 
 def plot_map(m: dict, scene: Scene, path: Path) -> Path:
-    """Four heat maps (condition number, smallest transmission, preload torque at rest and under
-    the peak acceleration, blank where it cannot hold f_min) with the scene's path on top."""
+    """Four heat maps (condition number, smallest transmission (n-RRR only), preload torque at
+    rest and under the peak acceleration, blank where it cannot hold f_min) with the scene's path
+    on top."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -108,7 +158,9 @@ def plot_map(m: dict, scene: Scene, path: Path) -> Path:
                np.where(m["feasible_rest"], m["torque_rest_Nm"], np.nan), "magma_r"),
               ("torque_peak_Nm", f"... under the path's peak acceleration ({m['a_peak']:.2g} m/s^2) [N m]",
                np.where(m["feasible_peak"], m["torque_peak_Nm"], np.nan), "magma_r")]
-    fig, axes = plt.subplots(2, 2, figsize=(10.5, 9.0))
+    if np.all(np.isnan(m["min_transmission"])):  # a graph: no transmission angle defined
+        panels.pop(1)
+    fig, axes = plt.subplots(2, 2, figsize=(10.5, 9.0)) if len(panels) == 4 else plt.subplots(1, 3, figsize=(15, 5))
     for ax, (_, label, z, cmap) in zip(axes.ravel(), panels, strict=True):
         im = ax.imshow(z, origin="lower", extent=ext, cmap=cmap, aspect="equal")
         fig.colorbar(im, ax=ax, shrink=0.85, label=label)
@@ -118,7 +170,7 @@ def plot_map(m: dict, scene: Scene, path: Path) -> Path:
         ax.set_xlabel("platform x [mm]")
         ax.set_ylabel("platform y [mm]")
         ax.set_title(label.split(" [")[0], fontsize=9)
-    axes[0, 0].legend(fontsize=8, loc="lower right")
+    axes.ravel()[0].legend(fontsize=8, loc="lower right")
     what = "preload" if m["preload"] else "minimum-norm torques (no preload)"
     fig.suptitle(f"{scene.name}: workspace at theta = {m['orientation']:g} rad; blank: unreachable, or the {what} "
                  "cannot hold f_min within the limits", fontsize=10)

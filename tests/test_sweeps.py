@@ -180,5 +180,27 @@ def test_workspace_map_agrees_with_the_controller_at_the_home_pose(paper_scene, 
     with pytest.raises(SceneError, match="--grid: 2 is not allowed"):
         workspace_map(paper_scene, grid=2)
     from rrr4 import load_scene
-    with pytest.raises(SceneError, match="mechanism.kind: 'graph' is not allowed for rrr4 map"):
-        workspace_map(load_scene(ROOT / "problems" / "paper_circle_graph.yaml"), grid=5)
+    with pytest.raises(SceneError, match="path.type: 'none' is not allowed for rrr4 map"):
+        workspace_map(load_scene(ROOT / "problems" / "flores_slider_crank.yaml"), grid=5)
+
+
+def test_workspace_map_of_the_graph_form_equals_the_closed_form(paper_scene, tmp_path):
+    """The reference scene as a body/joint graph, assembled at every grid point by one
+    continuation (Newton from the last point that closed), maps the same workspace as the
+    closed form: the same reachable and feasible points, condition numbers and preload
+    torques to 1e-8 relative; a point task (the five-bar) maps too."""
+    import numpy as np
+
+    from rrr4 import load_scene
+    from rrr4.maps import workspace_map, write_map
+    closed = workspace_map(paper_scene, grid=15)
+    graph = workspace_map(load_scene(ROOT / "problems" / "paper_circle_graph.yaml"), grid=15)
+    for k in ("reachable", "feasible_rest", "feasible_peak"):
+        assert np.array_equal(closed[k], graph[k]), k
+    assert closed["reachable"].sum() > 50 and closed["feasible_rest"].sum() > 10
+    both = closed["reachable"]
+    for k in ("condition", "torque_rest_Nm", "torque_peak_Nm"):
+        np.testing.assert_allclose(graph[k][both], closed[k][both], rtol=1e-8, err_msg=k)
+    assert np.all(np.isnan(graph["min_transmission"]))
+    files = write_map(load_scene(ROOT / "problems" / "redundant_five_bar.yaml"), tmp_path / "five_bar", grid=9)
+    assert files[0].stat().st_size > 0

@@ -58,8 +58,9 @@ class EffortFamily:
                             rn.reshape(2, N, m, nj).transpose(1, 3, 0, 2))
 
 
-def effort_family(scene: Scene, pose, pose_d, pose_dd) -> EffortFamily:
-    """The family at task poses (N, 3) and their rates (N, 3) of `scene`'s ideal mechanism."""
+def effort_family(scene: Scene, pose, pose_d, pose_dd, q=None) -> EffortFamily:
+    """The family at task poses (N, 3) and their rates (N, 3) of `scene`'s ideal mechanism.
+    q: a graph's coordinates (N, nq) at the poses, if known (default: tracked along the poses)."""
     pose, pose_d, pose_dd = (np.atleast_2d(np.asarray(v, float)) for v in (pose, pose_d, pose_dd))
     if scene.mechanism is not None:
         from .inverse import inverse_dynamics_function
@@ -67,7 +68,7 @@ def effort_family(scene: Scene, pose, pose_d, pose_dd) -> EffortFamily:
         return EffortFamily.from_raw(inverse_dynamics_function(scene).map(N)(pose.T, pose_d.T, pose_dd.T))
     mech = Mechanism.from_scene(scene)
     k = mech.n_task
-    q = mech.path_coordinates(pose[:, :k])
+    q = mech.path_coordinates(pose[:, :k]) if q is None else np.asarray(q, float)
     _, qdd, _, _ = mech.motion(q, pose_d[:, :k], pose_dd[:, :k])
     return graph_family(mech, q, qdd, scene.effects.gravity)
 

@@ -111,17 +111,30 @@ class Mechanism:
                                   "guesses; check the geometry, or give bodies[].pose closer to an assembly)")
         return q
 
+    def tracked_coordinates(self, targets, q0) -> tuple[np.ndarray, np.ndarray]:
+        """(q (N, nq), closed (N,) bool) along targets (N, n_task), by continuation from q0:
+        each Newton solve starts from the last solution that closed (one ``mapaccum``, no Python
+        loop); q is NaN where the mechanism does not close (residual above 1e-9)."""
+        targets = np.atleast_2d(np.asarray(targets, float))
+        N = targets.shape[0]
+        qs, t = ca.MX.sym("q", self.nq), ca.MX.sym("t", self.n_task)
+        p = ca.vertcat(t, ca.MX.zeros(self._n_rows))
+        q1 = self.assemble_function(qs, p)
+        res = ca.norm_inf(self.closure_function(q1, p))
+        closed = ca.logic_and(ca.fabs(ca.sum1(q1)) < np.inf, res <= 1e-9)  # |sum| < inf: finite
+        track = ca.Function("track", [qs, t], [ca.if_else(closed, q1, qs), q1, closed])
+        _, Q, ok = (np.array(v) for v in track.mapaccum(N)(np.asarray(q0, float), targets.T))
+        ok = ok.ravel() > 0.5
+        Q = Q.T
+        Q[~ok] = np.nan
+        return Q, ok
+
     def path_coordinates(self, targets, guess=None) -> np.ndarray:
         """q (N, nq) along targets (N, n_task), each Newton solve started from the previous
         solution (one ``mapaccum``, no Python loop). Raises KinematicsError where it fails."""
         targets = np.atleast_2d(np.asarray(targets, float))
-        N = targets.shape[0]
-        qs, t = ca.MX.sym("q", self.nq), ca.MX.sym("t", self.n_task)
-        track = ca.Function("track", [qs, t], [self.assemble_function(qs, ca.vertcat(t, ca.MX.zeros(self._n_rows)))])
-        q0 = self.assemble(targets[0], guess=guess)
-        Q = np.array(track.mapaccum(N)(q0, targets.T)).T
-        res = np.array(self.closure_function.map(N)(Q.T, np.vstack([targets.T, np.zeros((self._n_rows, N))])))
-        bad = np.flatnonzero(~(np.max(np.abs(res), axis=0) <= 1e-9))
+        Q, ok = self.tracked_coordinates(targets, self.assemble(targets[0], guess=guess))
+        bad = np.flatnonzero(~ok)
         if bad.size:
             raise KinematicsError(f"the mechanism does not assemble along the path from sample {bad[0]} "
                                   f"(target {np.round(targets[bad[0]], 6).tolist()})")

@@ -30,7 +30,8 @@ class PathKinematics:
         return float(self.condition[k]), float(self.t[k])
 
 
-def _condition(J: np.ndarray) -> np.ndarray:
+def condition_number(J: np.ndarray) -> np.ndarray:
+    """cond(J) (N,) of Jacobians J (N, n, k); inf where J is not finite."""
     with np.errstate(all="ignore"):
         return np.where(np.all(np.isfinite(J), axis=(1, 2)), np.linalg.cond(np.nan_to_num(J)), np.inf)
 
@@ -45,12 +46,12 @@ def path_kinematics(scene: Scene, samples=None) -> PathKinematics:
         _, cos_arg = mech.ik_function.map(N)(s.pose.T, np.tile(mech.modes[:, None], (1, N)))
         J, _, _, sin_tr = mech.jacobian_function.map(N)(s.pose.T)
         J = np.array(J).T.reshape(N, 3, mech.n).transpose(0, 2, 1)
-        return PathKinematics(s.t, _condition(J), np.array(cos_arg).T, np.array(sin_tr).T)
+        return PathKinematics(s.t, condition_number(J), np.array(cos_arg).T, np.array(sin_tr).T)
     if scene.graph.task is None:
         mech.path_coordinates(mech.driver_targets(s.t))
         return PathKinematics(s.t, np.ones(N), None, None)
     J = mech.path_jacobians(mech.path_coordinates(s.pose[:, :mech.n_task]))
-    return PathKinematics(s.t, _condition(J), None, None)
+    return PathKinematics(s.t, condition_number(J), None, None)
 
 
 def near_singular(scene: Scene, pk: PathKinematics) -> np.ndarray:
