@@ -76,7 +76,11 @@ def inputs(ode: ca.Function, scene_path: Path, seed: int = 0):
     y = np.zeros(ode.size1_in(1))
     y[:nq] = q + 5e-5 * rng.normal(size=nq)
     y[nq:2 * nq] = qd + 1e-2 * rng.normal(size=nq)
-    z = np.r_[np.full(nz // 3, 0.05), rng.integers(0, 2, nz // 3), np.zeros(nz - 2 * (nz // 3))]
+    nc = len(scene.clearance_joints)
+    z = np.r_[np.full(nc, 0.05), rng.integers(0, 2, nc), np.zeros(nc)]
+    if nz > 3 * nc:  # this tree's ODE carries the contact parameters after the contact state
+        from rrr4.dynamics.builder import contact_parameters
+        z = np.r_[z, contact_parameters(scene)]
     u = np.r_[0.0, 1e-3, rng.normal(size=nu - 2)]
     return 5e-4, y, z, u
 

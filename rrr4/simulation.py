@@ -160,7 +160,10 @@ def _measured(model: Model, q, qd):
 
 def _system(eqs: Equations, loop: _Loop, refs: ca.Function | None) -> System:
     """The ODE y = [q, qd, W_in, D_damping, D_friction] with discrete z = [delta_dot0,
-    in_contact, losses] (nc each) and the frame inputs of `loop` (see :class:`_Loop`).
+    in_contact, losses] (nc each) followed by the contact parameters (constant: the discrete
+    update keeps them; see :func:`rrr4.dynamics.builder.contact_parameters`), and the frame
+    inputs of `loop` (see :class:`_Loop`). The parameters are state, not constants, so every
+    scene that differs only in them steps with the same compiled code.
     refs: the prescribed mode's closed-form references (or None). Built once per (equations,
     loop, references) and kept by the equations (the entry holds them, so its key stays unique)."""
     key = (loop.kind, id(loop.control), loop.path if loop.kind == "exact" else None, id(refs))
@@ -172,11 +175,12 @@ def _system(eqs: Equations, loop: _Loop, refs: ca.Function | None) -> System:
 def _build_system(eqs: Equations, loop: _Loop, refs: ca.Function | None) -> System:
     model = Model.of(eqs.scene.graph)
     nq, n, nc = eqs.nq, eqs.n_actuators, len(eqs.clearance_joints)
-    t, y, z = ca.SX.sym("t"), ca.SX.sym("y", 2 * nq + 3), ca.SX.sym("z", 3 * nc)
+    t, y, z = ca.SX.sym("t"), ca.SX.sym("y", 2 * nq + 3), ca.SX.sym("z", 3 * nc + len(eqs.contact))
     width = {"exact": 0, "sampled": 10 * n, "held": n}[loop.kind]
     u = ca.SX.sym("u", 2 + width)
     q, qd = y[:nq], y[nq:2 * nq]
-    dd0, inc, losses = z[:nc], z[nc:2 * nc], z[2 * nc:]
+    dd0, inc, losses, contact = z[:nc], z[nc:2 * nc], z[2 * nc:3 * nc], z[3 * nc:]
+    par = eqs.parametric
     zeros = ca.SX.zeros(n)
     th, th_d, th_dd, effort = zeros, zeros, zeros, zeros
     if loop.kind == "held":
@@ -195,12 +199,13 @@ def _build_system(eqs: Equations, loop: _Loop, refs: ca.Function | None) -> Syst
         effort = loop.control(*trajectory_function(loop.path)(t), *_measured(model, q, qd))[0]
     elif refs is not None:
         _, th, th_d, th_dd = refs(t)
-    out = eqs.acceleration(q=q, qd=qd, effort=effort, theta_ref=th, theta_d_ref=th_d, theta_dd_ref=th_dd,
-                           delta_dot0=dd0, in_contact=inc, t=t)
+    out = par.acceleration(q=q, qd=qd, effort=effort, theta_ref=th, theta_d_ref=th_d, theta_dd_ref=th_dd,
+                           delta_dot0=dd0, in_contact=inc, t=t, contact=contact)
     ydot = ca.vertcat(qd, out["qdd"], out["power_in"], out["power_damping"], out["power_friction"])
     ode = ca.Function("ode", [t, y, z, u], [ydot], ["t", "y", "z", "u"], ["y_dot"])
-    dd0n, incn, loss = eqs.contact_update(q, qd, dd0, inc)
-    disc = ca.Function("discrete", [t, y, z], [ca.vertcat(dd0n, incn, losses + loss)], ["t", "y", "z"], ["z_next"])
+    dd0n, incn, loss = par.contact_update(q, qd, dd0, inc, contact)
+    disc = ca.Function("discrete", [t, y, z], [ca.vertcat(dd0n, incn, losses + loss, contact)], ["t", "y", "z"],
+                       ["z_next"])
     control = None
     if loop.kind == "held":
         k = loop.control.size1_in(0)  # pose derivatives (3 each) or actuator references (n each): 3 blocks
@@ -467,7 +472,7 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
         else:
             q0 = mech.assemble(target, offsets, guess=q0)
         seated = np.any(offsets != 0, axis=1).astype(float)
-    x0 = np.r_[0.0, q0, qd0, 0.0, 0.0, 0.0, np.full(nc, eqs.v_min), seated, np.zeros(nc)]
+    x0 = np.r_[0.0, q0, qd0, 0.0, 0.0, 0.0, np.full(nc, eqs.v_min), seated, np.zeros(nc), eqs.contact]
 
     system = _system(eqs, loop, refs)
     wall = time.perf_counter()
@@ -510,7 +515,7 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
 
     pose = np.array(model.task_pose_function.map(N)(q.T)).T if model.task else np.zeros((N, 3))
     losses = {j.name: 0 for j in scene.joints}
-    losses.update({j: int(round(v)) for j, v in zip(eqs.clearance_joints, z[-1, 2 * nc:], strict=True)})
+    losses.update({j: int(round(v)) for j, v in zip(eqs.clearance_joints, z[-1, 2 * nc:3 * nc], strict=True)})
     energy = energy_terms(eqs.energy, q, qd, W, Dd, Df)
     stats = {"method": method.name, "step": h, "steps": spf * n_frames, "frames": N - 1, "wall_time": wall,
              "jit": method.jit, "graph": {f.name(): graph_size(f) for f in (eqs.acceleration, system.ode)},

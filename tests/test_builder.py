@@ -183,3 +183,28 @@ def test_sampled_references_interpolate_the_exact_ones_and_cut_the_right_hand_si
     assert b.stats["graph"]["ode"]["instructions"] < a.stats["graph"]["ode"]["instructions"]
     with pytest.raises(SceneError, match="references: unknown value 'sampeld'"):
         simulate(paper_scene, t_end=0.01, references="sampeld")
+
+
+def test_scenes_that_differ_only_in_contact_numbers_share_their_compiled_code(paper_scene, tmp_path, monkeypatch):
+    """Clearance, stiffness, restitution and friction coefficients enter the equations as an
+    input (the contact parameters, carried in the discrete state), so a second clearance
+    steps with the first one's compiled code: no new compilation, and a different motion
+    (the journals sit deeper in a larger bearing)."""
+    from rrr4.dynamics.builder import contact_parameters
+    from rrr4.integrators.compiled import compilations
+    monkeypatch.setenv("RRR4_CACHE", str(tmp_path))
+    other = _with(paper_scene, radial_clearance=2e-4)
+    other = dataclasses.replace(other, effects=dataclasses.replace(other.effects, contact=dataclasses.replace(
+        other.effects.contact, restitution=0.5), friction=dataclasses.replace(other.effects.friction,
+                                                                             coefficient=0.2)))
+    assert build_equations(other).parametric is build_equations(paper_scene).parametric
+    assert not np.array_equal(contact_parameters(other), contact_parameters(paper_scene))
+    n0 = compilations()
+    a = simulate(paper_scene, t_end=0.01, jit=True)
+    n1 = compilations()
+    b = simulate(other, t_end=0.01, jit=True)
+    assert n1 > n0 and compilations() == n1
+    assert np.max(np.linalg.norm(b.eccentricity[-1], axis=1)) > 1.5e-4 > np.max(np.linalg.norm(a.eccentricity[-1],
+                                                                                                  axis=1))
+    vm = simulate(other, t_end=0.01, jit=False)
+    assert np.max(np.abs(vm.q - b.q)) < 1e-12

@@ -64,7 +64,7 @@ def contact_generalized_forces(k: ClearanceKinematics, f_n, f_t, g_bearing, g_jo
     """
     f = -f_n * k.normal + f_t * k.tangent
     Q = g_journal.T @ f - g_bearing.T @ f
-    arm = ca.DM.zeros(nq, 1)
+    arm = ca.SX.zeros(nq, 1)  # SX: the radii may be symbols (the contact parameters)
     if i_journal is not None:  # None: the ground carries it
         arm[i_journal] += journal_radius
     if i_bearing is not None:

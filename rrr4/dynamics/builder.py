@@ -73,7 +73,8 @@ from ..errors import SceneError
 from ..mechanism.graph import Model
 from ..scene import Scene, argument
 
-__all__ = ["Equations", "build_equations", "joint_stiffness", "graph_size", "BAUMGARTE_OMEGA"]
+__all__ = ["Equations", "build_equations", "joint_stiffness", "contact_parameters", "graph_size",
+           "BAUMGARTE_OMEGA", "JOINT_PARAMETERS", "EFFECT_PARAMETERS"]
 
 # Baumgarte stabilisation frequency omega_b [rad/s] (alpha = omega_b, beta = omega_b).
 BAUMGARTE_OMEGA = 100.0
@@ -99,9 +100,51 @@ class Equations:
     v_min: float
     baumgarte: float
     mass: np.ndarray = field(repr=False)
+    # the contact parameters (see CONTACT_PARAMETERS) of this scene, and the same equations
+    # with them as the last input "contact" of every Function: shared by every scene of the
+    # same structure, so that compiled code built on them is too
+    contact: np.ndarray = field(default_factory=lambda: np.zeros(0), compare=False, repr=False)
+    parametric: Equations | None = field(default=None, compare=False, repr=False)
     # references Function (or None) -> the ODE System built on these equations: owned here,
     # freed with them
     systems: dict = field(default_factory=dict, compare=False, repr=False)
+
+
+# The numbers of the contact that enter the equations as an input (``contact``) rather than
+# as constants: per clearance joint, then the effects'.
+JOINT_PARAMETERS = ("stiffness", "journal_radius", "bearing_radius")
+EFFECT_PARAMETERS = ("restitution", "damping", "friction_coefficient", "static_coefficient", "v0", "v1",
+                     "stribeck_velocity")
+
+
+def contact_parameters(scene: Scene) -> np.ndarray:
+    """The scene's values of the ``contact`` input: JOINT_PARAMETERS of each clearance joint
+    (graph order), then EFFECT_PARAMETERS."""
+    per = [(joint_stiffness(scene, j), scene.joint(j).journal_radius, scene.joint(j).bearing_radius)
+           for j in Model.of(scene.graph).clearance_joints]
+    ce, fe = scene.effects.contact, scene.effects.friction
+    return np.array([*(v for row in per for v in row), ce.restitution, ce.damping, fe.coefficient,
+                     fe.static_coefficient, fe.v0, fe.v1, fe.stribeck_velocity], float)
+
+
+def _structure(scene: Scene) -> Scene:
+    """physics(scene) without the numbers of :func:`contact_parameters`: scenes that differ
+    only in those share one set of parametric equations."""
+    joints = tuple(replace(j, journal_radius=1.0, radial_clearance=1.0) if j.clearance else j
+                   for j in scene.graph.joints)
+    ce, fe = scene.effects.contact, scene.effects.friction
+    effects = replace(scene.effects, contact=replace(ce, restitution=1.0, damping=0.0, stiffness=None),
+                      friction=replace(fe, coefficient=0.0, static_coefficient=0.0, v0=1.0, v1=2.0,
+                                       stribeck_velocity=1.0))
+    return replace(scene, graph=replace(scene.graph, joints=joints), effects=effects)
+
+
+def _fixed(f: ca.Function, values: np.ndarray) -> ca.Function:
+    """f with its last input ("contact") fixed to `values`: the same SX graph, the numbers
+    folded in as constants."""
+    ins = [ca.SX.sym(f.name_in(i), f.sparsity_in(i)) for i in range(f.n_in() - 1)]
+    out = f.call([*ins, ca.DM(values)])
+    return ca.Function(f.name(), ins, out, f.name_in()[:-1], f.name_out())
 
 
 def joint_stiffness(scene: Scene, name: str) -> float:
@@ -130,6 +173,17 @@ def build_equations(scene: Scene, v_min: float = V_MIN, baumgarte: float = BAUMG
     return _build(physics(scene), float(v_min), float(baumgarte))
 
 
+@functools.lru_cache(maxsize=16)
+def _build(scene: Scene, v_min: float, omega: float) -> Equations:
+    """The equations of one scene: the parametric equations of its structure with its contact
+    parameters fixed."""
+    par = _parametric(_structure(scene), v_min, omega)
+    p = contact_parameters(scene)
+    nc = len(par.clearance_joints)
+    return replace(par, scene=scene, stiffness=tuple(p[:3 * nc:3]), contact=p, parametric=par, systems={},
+                   **{k: _fixed(getattr(par, k), p) for k in ("acceleration", "residual", "contact_update", "energy")})
+
+
 def physics(scene: Scene) -> Scene:
     """The part of `scene` the equations depend on (graph, effects, actuation mode): the key
     under which they are built once. Changing the path, the integrator, the initial state,
@@ -141,7 +195,9 @@ def physics(scene: Scene) -> Scene:
 
 
 @functools.lru_cache(maxsize=16)
-def _build(scene: Scene, v_min: float, omega: float) -> Equations:
+def _parametric(scene: Scene, v_min: float, omega: float) -> Equations:
+    """The equations of a structure scene (:func:`_structure`), every Function with the input
+    ``contact`` (:func:`contact_parameters`) last."""
     model = Model.of(scene.graph)
     graph = scene.graph
     n, nq, nd = model.n_actuators, model.nq, len(graph.drivers)
@@ -183,7 +239,9 @@ def _build(scene: Scene, v_min: float, omega: float) -> Equations:
     # ---- contacts
     ce = scene.effects.contact
     fe = scene.effects.friction
-    stiff = tuple(joint_stiffness(scene, j) for j in clear)
+    P = ca.SX.sym("contact", len(JOINT_PARAMETERS) * nc + len(EFFECT_PARAMETERS))
+    restitution, damping, mu, mu_s, v0, v1, v_s = ca.vertsplit(P[len(JOINT_PARAMETERS) * nc:])
+    fe = replace(fe, coefficient=mu, static_coefficient=mu_s, v0=v0, v1=v1, stribeck_velocity=v_s)
     cols = {k: [] for k in ("f", "fn", "ft", "delta", "delta_dot", "e")}
     V_contact, p_damp, p_fric = ca.SX(0), ca.SX(0), ca.SX(0)
     delta_list = []
@@ -197,16 +255,15 @@ def _build(scene: Scene, v_min: float, omega: float) -> Equations:
         p_j, p_b = pts[spec.journal], pts[1 - spec.journal]
         g_j, g_b = ca.jacobian(p_j, q), ca.jacobian(p_b, q)
         i_b, i_j = model.rotation_index(spec.bearing_body), model.rotation_index(spec.journal_body)
+        K, r_j, r_b = (P[len(JOINT_PARAMETERS) * j + k] for k in range(len(JOINT_PARAMETERS)))
         kin = clearance_kinematics(p_j - p_b, (g_j - g_b) @ qd, 0 if i_b is None else qd[i_b],
-                                   0 if i_j is None else qd[i_j], spec.journal_radius, spec.bearing_radius)
-        K = stiff[j]
+                                   0 if i_j is None else qd[i_j], r_j, r_b)
         dd0_eff = ca.if_else(inc[j] > 0.5, dd0[j], ca.fmax(kin.delta_dot, v_min))
-        fn = normal_force(ce.law, kin.penetration, kin.delta_dot, dd0_eff, K, ce.exponent, ce.restitution,
-                          ce.damping, v_min)
+        fn = normal_force(ce.law, kin.penetration, kin.delta_dot, dd0_eff, K, ce.exponent, restitution, damping,
+                          v_min)
         f_el = elastic_force(kin.penetration, K, ce.exponent)
         ft = friction_force(fe, kin.v_t, fn) if fe.law != "none" else ca.SX(0)
-        Qc, f = contact_generalized_forces(kin, fn, ft, g_b, g_j, i_b, i_j, spec.journal_radius,
-                                           spec.bearing_radius, nq)
+        Qc, f = contact_generalized_forces(kin, fn, ft, g_b, g_j, i_b, i_j, r_j, r_b, nq)
         Q = Q + Qc
         V_contact += K * power(ca.fmax(kin.penetration, 0.0), ce.exponent + 1) / (ce.exponent + 1)
         if ce.law != "hertz":
@@ -261,30 +318,32 @@ def _build(scene: Scene, v_min: float, omega: float) -> Equations:
     # ca.cse merges repeated subexpressions (each body's sin/cos is built once per joint point
     # otherwise): about 11 % fewer instructions on the reference scene.
     acc = ca.Function(
-        "acceleration", refs,
+        "acceleration", [*refs, P],
         ca.cse([qdd, lam, tau, reaction, contact_force, fn_v, ft_v, delta_v, dd_v, ecc, power_in, p_damp, p_fric,
                 driver_effort]),
-        ref_names,
+        [*ref_names, "contact"],
         ["qdd", "lambda", "tau", "reaction", "contact_force", "normal_force", "friction_force", "penetration",
          "delta_dot", "eccentricity", "power_in", "power_damping", "power_friction", "driver_effort"])
 
     lam_s = ca.SX.sym("lambda", n_con)
     res = ca.Function(
-        "residual", [q, qd, qdd_s, lam_s] + refs[2:],
+        "residual", [q, qd, qdd_s, lam_s] + refs[2:] + [P],
         ca.cse([ca.DM(M) @ qdd_s + phi_q.T @ lam_s - Q, phi_q @ qdd_s - gamma_s, phi]),
-        ["q", "qd", "qdd", "lambda"] + ref_names[2:], ["dynamics", "constraint", "phi"])
+        ["q", "qd", "qdd", "lambda"] + ref_names[2:] + ["contact"], ["dynamics", "constraint", "phi"])
 
     now = ca.vertcat(*[d > 0 for d in delta_list]) if nc else ca.SX(0, 1)
     prev = inc > 0.5
     onset = ca.logic_and(now, ca.logic_not(prev))
     dd0_next = ca.if_else(onset, ca.fmax(dd_v, v_min), ca.if_else(now, dd0, v_min)) if nc else ca.SX(0, 1)
     loss = ca.logic_and(prev, ca.logic_not(now)) if nc else ca.SX(0, 1)
-    upd = ca.Function("contact_update", [q, qd, dd0, inc], [dd0_next, now, loss],
-                      ["q", "qd", "delta_dot0", "in_contact"], ["delta_dot0_next", "in_contact_next", "loss"])
+    upd = ca.Function("contact_update", [q, qd, dd0, inc, P], [dd0_next, now, loss],
+                      ["q", "qd", "delta_dot0", "in_contact", "contact"],
+                      ["delta_dot0_next", "in_contact_next", "loss"])
 
     kinetic = 0.5 * ca.dot(qd, ca.DM(m_diag) * qd)
     potential = V_contact - ca.dot(ca.DM(model.gravity_forces(scene.effects.gravity)), q)
-    energy = ca.Function("energy", [q, qd], [kinetic, potential], ["q", "qd"], ["kinetic", "potential"])
+    energy = ca.Function("energy", [q, qd, P], [kinetic, potential], ["q", "qd", "contact"],
+                         ["kinetic", "potential"])
 
-    return Equations(scene, clear, ideal, reacting, act.mode, tuple(terms), stiff, nq, n, n_con, acc, res, upd,
+    return Equations(scene, clear, ideal, reacting, act.mode, tuple(terms), (), nq, n, n_con, acc, res, upd,
                      energy, v_min, omega, M)

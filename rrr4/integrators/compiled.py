@@ -18,10 +18,16 @@ import casadi as ca
 
 from ..files import run_c_compiler
 
-__all__ = ["compiled", "cache_dir", "COMPILE_FLAGS"]
+__all__ = ["compiled", "cache_dir", "compilations", "COMPILE_FLAGS"]
 
 COMPILE_FLAGS = ("-O2", "-fPIC", "-shared")
 _loaded: dict[str, ca.Function] = {}
+_compilations = [0]  # libraries this process built (not found in the cache)
+
+
+def compilations() -> int:
+    """How many libraries this process has compiled (cache hits excluded)."""
+    return _compilations[0]
 
 
 def cache_dir() -> Path:
@@ -56,6 +62,7 @@ def compiled(f: ca.Function, sources=()) -> ca.Function:
             tmp_lib = Path(tmp) / lib.name
             run_c_compiler([*COMPILE_FLAGS, str(c_file), *map(str, extra), "-o", str(tmp_lib), "-lm"], tmp)
             os.replace(tmp_lib, lib)  # atomic: never a half-written cache entry
+        _compilations[0] += 1
     ext = ca.external(f.name(), str(lib))
     _loaded[key] = ext
     return ext
