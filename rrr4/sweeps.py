@@ -42,7 +42,7 @@ from .errors import Rrr4Error, SceneError
 from .scene import describe, parse_scene, read_yaml
 from .study import PRELOAD_ARMS
 
-__all__ = ["sweep", "load_spec", "SweepSpec", "METRICS", "DISTRIBUTIONS"]
+__all__ = ["sweep", "load_spec", "SweepSpec", "METRICS", "DISTRIBUTIONS", "compiles", "COMPILED_CONSTANTS"]
 
 METRICS = ("contact_loss_events", "platform_error_rms_m", "platform_error_max_m", "min_contact_force_N",
            "peak_contact_force_N", "torque_rms_Nm", "wall_time_s")
@@ -226,22 +226,37 @@ def case_id(text: str, t_end, arms) -> str:
     return hashlib.sha256(json.dumps([text, t_end, list(arms)]).encode()).hexdigest()[:16]
 
 
-def run_case(text: str, name: str, t_end, arms) -> list[dict]:
-    """The rows (one per arm) of one case: metrics of each arm's simulation, or status
-    'failed' with the error. Runs in a Dask worker; imports nothing Dask."""
+# Keys whose values are constants of the compiled stepping (the mechanism's geometry and
+# masses): a sweep that varies one of them would compile C for every case, which costs more
+# than the virtual machine saves, so it steps in the virtual machine. The contact numbers are
+# inputs of the compiled code (rrr4.dynamics.builder.contact_parameters), the path is
+# tabulated, so every other sweep compiles each structural variant once.
+COMPILED_CONSTANTS = ("mechanism.",)
+
+
+def compiles(spec: SweepSpec) -> bool:
+    """Whether the cases of `spec` step in compiled C (see COMPILED_CONSTANTS)."""
+    return not any(k.startswith(COMPILED_CONSTANTS) for k in spec.keys)
+
+
+def run_case(text: str, name: str, t_end, arms, jit: bool = False) -> tuple[list[dict], int]:
+    """(the rows (one per arm) of one case: metrics of each arm's simulation, or status
+    'failed' with the error; the C libraries this case compiled). jit: step in compiled C
+    (the shared on-disk cache; RRR4_JIT=0 still says no). Runs in a Dask worker; imports
+    nothing Dask."""
+    from .integrators.compiled import compilations
     from .simulation import simulate
     from .study import arm_scene
     rows = []
+    before = compilations()
     try:
         scene = parse_scene(yaml.safe_load(text), name=name, source="")
     except Rrr4Error as e:
-        return [{"arm": a, "status": "failed", "error": str(e).splitlines()[0]} for a in arms]
+        return [{"arm": a, "status": "failed", "error": str(e).splitlines()[0]} for a in arms], 0
     for arm in arms:
         wall = time.perf_counter()
         try:
-            # CasADi's VM: a compiled run would compile C for every case's numbers, until the
-            # numeric parameters enter the compiled Functions as inputs
-            sim = simulate(arm_scene(scene, arm), t_end=t_end, jit=False)
+            sim = simulate(arm_scene(scene, arm), t_end=t_end, jit=None if jit else False)
         except Exception as e:  # recorded, the sweep goes on
             rows.append({"arm": arm, "status": "failed", "error": f"{type(e).__name__}: {str(e).splitlines()[0]}"})
             continue
@@ -254,7 +269,7 @@ def run_case(text: str, name: str, t_end, arms) -> list[dict]:
                      "peak_contact_force_N": float(fn.max()) if fn.size else float("nan"),
                      "torque_rms_Nm": float(np.sqrt(np.mean(sim.tau**2))),
                      "wall_time_s": time.perf_counter() - wall})
-    return rows
+    return rows, compilations() - before
 
 
 def _columns(spec: SweepSpec) -> list[str]:
@@ -295,8 +310,10 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
     ``out/results.csv`` (default ``results/sweeps/<spec or scene name>/``). scheduler: the
     address of an existing Dask scheduler (default: a local cluster of `workers` processes,
     default the machine's cores). Writes the figures of :mod:`rrr4.results.sweep_figures` from
-    all rows. Returns {'csv': path, 'cases': n, 'skipped': n, 'failed': n, 'rows': list of row
-    dicts of this run, 'figures': paths}."""
+    all rows. Cases step in compiled C unless the spec varies a constant of it (:func:`compiles`).
+    Returns {'csv': path, 'cases': n, 'skipped': n, 'failed': n, 'rows': list of row dicts of
+    this run, 'figures': paths, 'compiled': bool, 'compilations': the C libraries the workers
+    compiled (the others came from the shared cache)}."""
     say = log or (lambda _m: None)
     name = None
     if isinstance(spec, (str, Path)):
@@ -322,7 +339,7 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
             done.add(cid)  # a duplicate case runs once
     skipped = len(spec.cases) - len(todo)
     say(f"{len(spec.cases)} cases x {len(spec.arms)} arms; {skipped} already in {csv_path}, {len(todo)} to run")
-    rows_out, failed = [], 0
+    rows_out, failed, built, jit = [], 0, 0, compiles(spec)
     if todo:
         from dask.distributed import Client, LocalCluster, as_completed
         cluster = None
@@ -337,15 +354,16 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
                 raise SceneError(f"--scheduler: {scheduler!r} is not reachable ({type(e).__name__}: {e})") from None
         bar = None
         try:
-            futures = {client.submit(run_case, text, spec.scene_path.stem, spec.t_end, spec.arms, pure=False): (cid, c)
-                       for cid, c, text in todo}
+            futures = {client.submit(run_case, text, spec.scene_path.stem, spec.t_end, spec.arms, jit, pure=False):
+                       (cid, c) for cid, c, text in todo}
             if progress:
                 from tqdm import tqdm
                 bar = tqdm(total=len(futures), desc="sweep", unit="case")
             for fut in as_completed(futures):
                 cid, case = futures[fut]
                 try:
-                    rows = fut.result()
+                    rows, n_built = fut.result()
+                    built += n_built
                 except Exception as e:  # the worker itself died: record, go on
                     rows = [{"arm": a, "status": "failed", "error": f"{type(e).__name__}: {e}"} for a in spec.arms]
                 rows = [{"case": cid, **case, **r} for r in rows]
@@ -363,4 +381,4 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
     from .results.sweep_figures import sweep_figures
     figures = sweep_figures(csv_path, spec.keys, spec.grid_keys, spec.mc_keys, out, name or spec.scene_path.stem)
     return {"csv": csv_path, "cases": len(spec.cases), "skipped": skipped, "failed": failed, "rows": rows_out,
-            "figures": figures}
+            "figures": figures, "compiled": jit, "compilations": built}

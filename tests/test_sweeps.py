@@ -204,3 +204,13 @@ def test_workspace_map_of_the_graph_form_equals_the_closed_form(paper_scene, tmp
     assert np.all(np.isnan(graph["min_transmission"]))
     files = write_map(load_scene(ROOT / "problems" / "redundant_five_bar.yaml"), tmp_path / "five_bar", grid=9)
     assert files[0].stat().st_size > 0
+
+
+def test_sweeps_compile_unless_they_vary_the_mechanism():
+    """The contact numbers are inputs of the compiled stepping and the path is tabulated, so a
+    sweep over them compiles each structural variant once (see
+    test_scenes_that_differ_only_in_contact_numbers_share_their_compiled_code); one that varies
+    the mechanism's geometry would compile every case, and steps in the virtual machine."""
+    from rrr4.sweeps import compiles, load_spec
+    assert compiles(load_spec(ROOT / "problems" / "sweeps" / "clearance_vs_preload.yaml"))
+    assert not compiles(load_spec(ROOT / "problems" / "sweeps" / "tolerances.yaml"))
