@@ -235,3 +235,31 @@ def test_slider_crank_default_path_agrees_with_a_fine_reference_within_a_microme
     default = rrr4.simulate(scene, t_end=2e-3)
     assert sum(fine.contact_loss_events.values()) >= 3
     assert np.max(np.abs(default.body("slider")[:, 0] - fine.body("slider")[:, 0])) < 1e-6
+
+
+def _compile_in_child(cache: str, queue) -> None:
+    import os as _os
+    _os.environ["RRR4_CACHE"] = cache
+    from rrr4.integrators.compiled import compilations, compiled
+    x = ca.SX.sym("x", 20)
+    y = x
+    for k in range(300):  # enough C that gcc takes a few seconds: the two processes overlap
+        y = ca.sin(y * (1 + k % 7)) + ca.cos(ca.dot(y, x) * y)
+    f = ca.Function("lock_probe", [x], [y])
+    compiled(f)
+    queue.put(compilations())
+
+
+def test_two_processes_that_need_one_library_compile_it_once(tmp_path):
+    """Sweep workers share the on-disk cache: a lock per library makes the second process wait
+    for the first one's library instead of compiling its own."""
+    import multiprocessing as mp
+    ctx = mp.get_context("spawn")
+    queue = ctx.Queue()
+    procs = [ctx.Process(target=_compile_in_child, args=(str(tmp_path), queue)) for _ in range(2)]
+    for p in procs:
+        p.start()
+    counts = sorted(queue.get(timeout=120) for _ in procs)
+    for p in procs:
+        p.join(timeout=30)
+    assert counts == [0, 1] and len(list(tmp_path.glob("lock_probe_*.so"))) == 1

@@ -59,4 +59,4 @@ class Bathe(ImplicitIntegrator):
         r = y + h * (q0 * f0 + q1 * fg)
         y1, f1 = stage(t + h, (r[:nq], r[nq:2 * nq], r[2 * nq:]), (c, c, c),
                       yg[nq:2 * nq] + (1 - self.gamma) * h * fg[nq:2 * nq])
-        return y1, memory, f0, f1
+        return y1, memory, [(0.0, f0), (self.gamma, fg), (1.0, f1)]

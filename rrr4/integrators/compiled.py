@@ -3,12 +3,14 @@
 :func:`compiled` generates C for a Function (CasADi's CodeGenerator), compiles it with the
 system C compiler into a shared library and loads it with ``casadi.external``. The library
 is named after the SHA-256 of the C source (and the compiler flags), so a second run of
-the same scene and method finds it and does not recompile. The cache directory is
+the same scene and method finds it and does not recompile; a lock file per library makes
+processes that need the same one at once (sweep workers) compile it once. The cache directory is
 ``$RRR4_CACHE`` if set, else ``~/.cache/rrr4``.
 """
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import os
 import tempfile
@@ -56,13 +58,18 @@ def compiled(f: ca.Function, sources=()) -> ca.Function:
         return _loaded[key]
     lib = cache_dir() / f"{f.name()}_{key}.so"
     if not lib.exists():
-        with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
-            c_file = Path(tmp) / f"{f.name()}.c"
-            c_file.write_text(src)
-            tmp_lib = Path(tmp) / lib.name
-            run_c_compiler([*COMPILE_FLAGS, str(c_file), *map(str, extra), "-o", str(tmp_lib), "-lm"], tmp)
-            os.replace(tmp_lib, lib)  # atomic: never a half-written cache entry
-        _compilations[0] += 1
+        # one compiler per library: a process (e.g. another sweep worker) that needs the same
+        # library waits for it instead of compiling it again
+        with open(lib.with_suffix(".lock"), "a") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            if not lib.exists():
+                with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
+                    c_file = Path(tmp) / f"{f.name()}.c"
+                    c_file.write_text(src)
+                    tmp_lib = Path(tmp) / lib.name
+                    run_c_compiler([*COMPILE_FLAGS, str(c_file), *map(str, extra), "-o", str(tmp_lib), "-lm"], tmp)
+                    os.replace(tmp_lib, lib)  # atomic: never a half-written cache entry
+                _compilations[0] += 1
     ext = ca.external(f.name(), str(lib))
     _loaded[key] = ext
     return ext

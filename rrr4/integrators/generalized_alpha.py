@@ -63,4 +63,4 @@ class GeneralizedAlpha(ImplicitIntegrator):
         r_v = base_v + h * g * (af * a0 - am * w) / (1 - am)
         y1, f1 = stage(t + h, (r_q, r_v, e + h / 2 * f0[2 * nq:]), (c_q, c_v, h / 2), v + h * a0)
         w1 = (y1[nq:2 * nq] - base_v) / (h * g)
-        return y1, w1, f0, f1
+        return y1, w1, [(0.0, f0), (1.0, f1)]

@@ -21,4 +21,4 @@ class NewmarkTrapezoidal(ImplicitIntegrator):
         c = h / 2
         r = y + c * f0
         y1, f1 = stage(t + h, (r[:nq], r[nq:2 * nq], r[2 * nq:]), (c, c, c), y[nq:2 * nq] + h * f0[nq:2 * nq])
-        return y1, memory, f0, f1
+        return y1, memory, [(0.0, f0), (1.0, f1)]
