@@ -20,8 +20,9 @@ physics and controller. Sections:
    slider-crank, each at its scene's own settings;
 5. (--ladders) the integrators' ladders of ``rrr4 bench accuracy``: the cheapest setting of
    each method within 1 um, against scipy;
-6. error control: Bathe with a tolerance against fixed steps, on the reference scene and on
-   the scene without preload (journals flying and hitting their bearings).
+6. error control: Bathe with a tolerance against fixed steps, on the reference scene, on
+   the scene without preload (journals flying and hitting their bearings), and on the
+   slider-crank's first impacts.
 
     .venv/bin/python benchmarks/bench_performance.py [--repeat 5] [--sections 12346] [--ladders]
 """
@@ -201,11 +202,12 @@ def ladders(scene) -> None:
 
 def error_control(scene, repeat: int) -> None:
     """Bathe with a tolerance (its step the largest) against fixed steps: on the reference
-    scene, whose preload keeps every journal in contact, and on the scene without preload,
-    whose journals fly and hit their bearings hundreds of times (0.3 s of it)."""
-    def bathe(sc, step, tolerance=None):
+    scene, whose preload keeps every journal in contact; on the scene without preload, whose
+    journals fly and hit their bearings hundreds of times (0.3 s of it); on the slider-crank's
+    first impacts (2 ms)."""
+    def bathe(sc, step, tolerance=None, newton_tol=1e-7):
         return replace(sc, integrator=replace(sc.integrator, method="bathe", step=step, gamma=2 - np.sqrt(2),
-                                              newton_tol=1e-7, newton="simplified", tolerance=tolerance))
+                                              newton_tol=newton_tol, newton="simplified", tolerance=tolerance))
 
     impacts = rrr4.load_scene(ROOT / "problems" / "no_preload_circle.yaml")
     T = 0.3
@@ -217,21 +219,31 @@ def error_control(scene, repeat: int) -> None:
         "no preload, Bathe fixed 1e-4 s": (dict(scene=bathe(impacts, 1e-4), t_end=T), T),
         "no preload, Bathe fixed 1e-5 s": (dict(scene=bathe(impacts, 1e-5), t_end=T), T),
     }
-    for step, tol in ((1e-4, 1e-8), (1e-5, 1e-8), (1e-5, 1e-10)):
+    for step, tol in ((1e-4, 1e-8), (1e-4, 1e-10), (1e-5, 1e-8), (1e-5, 1e-10)):
         cases[f"no preload, tolerance {tol:g} m, largest step {step:g} s"] = (
             dict(scene=bathe(impacts, step, tol), t_end=T), T)
-    refs = {id(scene): rrr4.simulate(scene, "rk4", step=1e-6),
-            id(impacts): rrr4.simulate(impacts, "rk4", step=2.5e-7, t_end=T)}
+    slider = rrr4.load_scene(ROOT / "problems" / "flores_slider_crank.yaml")
+    Ts = 2e-3  # the slider-crank's first impacts
+    cases["slider-crank, its default RK4 at 1e-6 s"] = (dict(scene=slider, t_end=Ts), Ts)
+    for tol in (1e-9, 1e-10):
+        cases[f"slider-crank, tolerance {tol:g} m, largest step 1e-05 s"] = (
+            dict(scene=bathe(slider, 1e-5, tol, newton_tol=1e-8), t_end=Ts), Ts)
+    refs = {"reference": rrr4.simulate(scene, "rk4", step=1e-6),
+            "no preload": rrr4.simulate(impacts, "rk4", step=2.5e-7, t_end=T),
+            "slider-crank": rrr4.simulate(slider, step=2.5e-7, t_end=Ts)}
     out = timed({k: kw for k, (kw, _) in cases.items()}, repeat)
     print(f"\n6. error control (medians of {repeat}; error against RK4 at 1e-6 s (reference scene) and 2.5e-7 s "
-          "(no preload))")
+          "(no preload; slider-crank: its slider's x, refine 16))")
     print("| run | error [m] | steps | rejected | smallest step [s] | stepping [s] | RTF |")
     print("|---|---|---|---|---|---|---|")
     for k, (w, _, sim) in out.items():
-        kw, dur = cases[k]
-        ref = refs[id(scene) if "reference" in k else id(impacts)]
+        _, dur = cases[k]
+        which = next(r for r in refs if k.startswith(r))
+        ref = refs[which]
+        err = (np.max(np.abs(sim.body("slider")[:, 0] - ref.body("slider")[:, 0])) if which == "slider-crank" else
+               error(sim, ref))
         st = sim.stats
-        print(f"| {k} | {error(sim, ref):.1e} | {st['steps']} | {st.get('rejected_steps', '-')} | "
+        print(f"| {k} | {err:.1e} | {st['steps']} | {st.get('rejected_steps', '-')} | "
               f"{st.get('smallest_step', st['step']):.3g} | {w:.3f} | {dur / w:.2f} |")
 
 

@@ -168,9 +168,10 @@ def build_parser() -> argparse.ArgumentParser:
                                         "(default: a local cluster on this machine)")
     sw.add_argument("--workers", type=int, help="worker processes of the local cluster (default: the cores)")
     sw.set_defaults(func=_sweep)
-    mp = sub.add_parser("map", help="workspace maps of an n-RRR scene: Jacobian condition number, smallest "
-                                    "transmission, and the preload torque that holds f_min at rest and under the "
-                                    "path's peak acceleration; writes map.png, map.npz, map.json")
+    mp = sub.add_parser("map", help="workspace maps of a scene with a task body (n-RRR or graph): Jacobian "
+                                    "condition number, smallest transmission (n-RRR), and the preload torque that "
+                                    "holds f_min at rest and under the path's peak acceleration; writes map.png, "
+                                    "map.npz, map.json")
     mp.add_argument("scene", help="scene YAML file, e.g. problems/paper_circle.yaml")
     mp.add_argument("--out", help="directory (default results/<scene name>_map/)")
     mp.add_argument("--grid", type=int, default=101, help="points per axis (default 101)")

@@ -74,14 +74,13 @@ def _snake(grid: int) -> np.ndarray:
     return idx.ravel()
 
 
-def _graph_coordinates(scene: Scene, pose: np.ndarray, grid: int) -> tuple[np.ndarray, np.ndarray]:
+def _graph_coordinates(mech: Mechanism, scene: Scene, pose: np.ndarray, order: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray]:
     """(q (N, nq), reachable (N,)) of a graph at the grid's poses (row-major), by continuation
-    from the path's start assembly: 50 steps to the first grid point, then along the rows in
-    boustrophedon order; each point's Newton starts from the last one that closed."""
-    mech = Mechanism.from_scene(scene)
+    from the path's start assembly: 50 steps to the first grid point, then through the grid in
+    `order`; each point's Newton starts from the last one that closed."""
     k = mech.n_task
     start = sample_path(scene.path).pose[0, :k]
-    order = _snake(grid)
     lead = np.linspace(start, pose[order[0], :k], 50)
     Q, ok = mech.tracked_coordinates(np.vstack([lead, pose[order, :k]]), mech.assemble(start))
     q, reachable = np.empty((len(pose), mech.nq)), np.empty(len(pose), bool)
@@ -114,18 +113,20 @@ def workspace_map(scene: Scene, grid: int = GRID) -> dict:
         trans = np.where(reachable, np.min(np.abs(pk.sin_transmission), axis=1), np.nan)
         q, at = None, slice(None)
     else:
-        q_all, reachable = _graph_coordinates(scene, pose, grid)
-        order = _snake(grid)
+        mech, order = Mechanism.from_scene(scene), _snake(grid)
+        q_all, reachable = _graph_coordinates(mech, scene, pose, order)
         at = order[reachable[order]]  # the reachable points in continuation order: the effort
         q = q_all[at]                 # basis is kept continuous from one to the next
         cond, trans = np.full(N, np.nan), np.full(N, np.nan)
-        cond[at] = condition_number(Mechanism.from_scene(scene).path_jacobians(q))
+        if at.size:
+            cond[at] = condition_number(mech.path_jacobians(q))
     s = sample_path(scene.path)
     a_peak = float(np.max(np.linalg.norm(s.pose_dd[:, :2], axis=1)))
     feas_rest, tau_rest = np.zeros(N, bool), np.full(N, np.nan)
-    feas_rest[at], tau_rest[at] = _preload(scene, pose[at], zero[at], q)
+    if reachable.any():
+        feas_rest[at], tau_rest[at] = _preload(scene, pose[at], zero[at], q)
     feas_peak, tau_peak = feas_rest.copy(), tau_rest.copy()
-    for k in range(DIRECTIONS):
+    for k in range(DIRECTIONS if reachable.any() else 0):
         phi = 2 * np.pi * k / DIRECTIONS
         acc = np.zeros_like(pose)
         acc[:, 0], acc[:, 1] = a_peak * np.cos(phi), a_peak * np.sin(phi)

@@ -488,6 +488,10 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
         raise SimulationError(f"integrator.step: {h:g} s lets the state blow up (non-finite by t = "
                               f"{t_out[k]:.6g} s) with {method.name}; use a smaller step")
 
+    if "failure" in run.stats:  # the state stayed at the last accepted step: name the joint there
+        pen = np.array(eqs.acceleration(q=q[-1], qd=qd[-1], delta_dot0=z[-1, :nc], in_contact=z[-1, nc:2 * nc],
+                                        t=t_out[-1])["penetration"]).ravel() if nc else np.zeros(0)
+        raise SimulationError(_failure_message(run.stats["failure"], method.name, eqs.clearance_joints, pen))
     N = len(t_out)
     pose_ref = _path_rows(scene, t_out)[:, :3] if model.task is not None else np.zeros((N, 3))
     effort = np.zeros((N, n))
@@ -505,9 +509,6 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
             th, th_d, th_dd = th[::every], th_d[::every], th_dd[::every]
     out = _mapped(eqs.acceleration, q=q.T, qd=qd.T, effort=effort.T, theta_ref=th.T, theta_d_ref=th_d.T,
                   theta_dd_ref=th_dd.T, delta_dot0=z[:, :nc].T, in_contact=z[:, nc:2 * nc].T, t=t_out[None, :])
-    if "failure" in run.stats:
-        raise SimulationError(_failure_message(run.stats["failure"], method.name, eqs.clearance_joints,
-                                               np.array(out["penetration"])[:, -1] if nc else np.zeros(0)))
     k = len(eqs.passive_ideal_joints)
 
     def per_joint(a, rows):

@@ -226,17 +226,22 @@ def case_id(text: str, t_end, arms) -> str:
     return hashlib.sha256(json.dumps([text, t_end, list(arms)]).encode()).hexdigest()[:16]
 
 
-# Keys whose values are constants of the compiled stepping (the mechanism's geometry and
-# masses): a sweep that varies one of them would compile C for every case, which costs more
-# than the virtual machine saves, so it steps in the virtual machine. The contact numbers are
-# inputs of the compiled code (rrr4.dynamics.builder.contact_parameters), the path is
-# tabulated, so every other sweep compiles each structural variant once.
+# Keys whose values are constants of the compiled stepping: the mechanism's geometry and
+# masses. A sweep that varies one of them would compile C for every case, which costs more
+# than the virtual machine saves, so it steps in the virtual machine; a graph joint's
+# clearance settings (under mechanism.joints[i].clearance) are contact numbers, inputs of the
+# compiled code (rrr4.dynamics.builder.contact_parameters), and do not count. Other constants
+# (the controller's gains, torque limits, f_min and the preload sign it picks on the path)
+# compile once per value, few enough to pay.
 COMPILED_CONSTANTS = ("mechanism.",)
 
 
 def compiles(spec: SweepSpec) -> bool:
-    """Whether the cases of `spec` step in compiled C (see COMPILED_CONSTANTS)."""
-    return not any(k.startswith(COMPILED_CONSTANTS) for k in spec.keys)
+    """Whether the cases of `spec` step in compiled C (see COMPILED_CONSTANTS; and a C
+    compiler, with RRR4_JIT not 0)."""
+    from .simulation import default_jit
+    return default_jit() and not any(k.startswith(COMPILED_CONSTANTS) and ".clearance." not in k
+                                     for k in spec.keys)
 
 
 def run_case(text: str, name: str, t_end, arms, jit: bool = False) -> tuple[list[dict], int]:

@@ -41,7 +41,8 @@ def ball_reference():
     return ball(RK4(jit=True), 1e-6).states
 
 
-@pytest.mark.parametrize("method,constant", [(NewmarkTrapezoidal(), 1 / 12), (Bathe(), 1 / 24)])
+@pytest.mark.parametrize("method,constant", [(NewmarkTrapezoidal(), 1 / 12), (Bathe(), 1 / 24),
+                                             (GeneralizedAlpha(), 1 / 3)])
 def test_error_constant_is_the_methods_local_error_coefficient(method, constant):
     assert method.error_constant() == pytest.approx(constant, rel=1e-9)
 
@@ -119,5 +120,22 @@ def test_bad_tolerance_is_one_line(value, method, expected):
     with pytest.raises(SceneError) as e:
         parse_scene(data)
     assert str(e.value).startswith(expected) and "\n" not in str(e.value)
+
+
+def test_bad_tolerance_in_python_is_one_line():
     with pytest.raises(Rrr4Error, match=r"^integrator.tolerance: -1 is not allowed \(a local position error"):
         Bathe(tolerance=-1)
+
+
+@pytest.mark.parametrize("jit", [False, True])
+def test_the_newton_norm_is_infinite_for_nan_and_inf(jit):
+    """The finiteness guard of every Newton update and error estimate: norm_inf alone drops NaN
+    (C's fmax), and the obvious sum - sum == 0 is simplified away by CasADi."""
+    from rrr4.integrators.compiled import compiled
+    from rrr4.integrators.implicit import _norm
+    x = ca.MX.sym("x", 3)
+    f = ca.Function("norm_probe", [x], [_norm(x)])
+    f = compiled(f) if jit else f
+    assert float(f([1.0, -3.0, 2.0])) == 3.0
+    for bad in ([np.nan, 1.0, 2.0], [1.0, np.inf, 2.0], [-np.inf, 0.0, 0.0]):
+        assert float(f(bad)) == np.inf

@@ -206,11 +206,12 @@ def test_workspace_map_of_the_graph_form_equals_the_closed_form(paper_scene, tmp
     assert files[0].stat().st_size > 0
 
 
-def test_sweeps_compile_unless_they_vary_the_mechanism():
+def test_sweeps_compile_unless_they_vary_the_mechanism(monkeypatch):
     """The contact numbers are inputs of the compiled stepping and the path is tabulated, so a
     sweep over them compiles each structural variant once (see
     test_scenes_that_differ_only_in_contact_numbers_share_their_compiled_code); one that varies
     the mechanism's geometry would compile every case, and steps in the virtual machine."""
     from rrr4.sweeps import compiles, load_spec
+    monkeypatch.setenv("RRR4_JIT", "1")
     assert compiles(load_spec(ROOT / "problems" / "sweeps" / "clearance_vs_preload.yaml"))
     assert not compiles(load_spec(ROOT / "problems" / "sweeps" / "tolerances.yaml"))

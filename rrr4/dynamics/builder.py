@@ -119,9 +119,11 @@ EFFECT_PARAMETERS = ("restitution", "damping", "friction_coefficient", "static_c
 
 def contact_parameters(scene: Scene) -> np.ndarray:
     """The scene's values of the ``contact`` input: JOINT_PARAMETERS of each clearance joint
-    (graph order), then EFFECT_PARAMETERS."""
+    (graph order), then EFFECT_PARAMETERS; empty without a clearance joint (no contact)."""
     per = [(joint_stiffness(scene, j), scene.joint(j).journal_radius, scene.joint(j).bearing_radius)
            for j in Model.of(scene.graph).clearance_joints]
+    if not per:
+        return np.zeros(0)
     ce, fe = scene.effects.contact, scene.effects.friction
     return np.array([*(v for row in per for v in row), ce.restitution, ce.damping, fe.coefficient,
                      fe.static_coefficient, fe.v0, fe.v1, fe.stribeck_velocity], float)
@@ -180,7 +182,8 @@ def _build(scene: Scene, v_min: float, omega: float) -> Equations:
     par = _parametric(_structure(scene), v_min, omega)
     p = contact_parameters(scene)
     nc = len(par.clearance_joints)
-    return replace(par, scene=scene, stiffness=tuple(p[:3 * nc:3]), contact=p, parametric=par, systems={},
+    k = len(JOINT_PARAMETERS)
+    return replace(par, scene=scene, stiffness=tuple(p[:k * nc:k]), contact=p, parametric=par, systems={},
                    **{k: _fixed(getattr(par, k), p) for k in ("acceleration", "residual", "contact_update", "energy")})
 
 
@@ -239,9 +242,10 @@ def _parametric(scene: Scene, v_min: float, omega: float) -> Equations:
     # ---- contacts
     ce = scene.effects.contact
     fe = scene.effects.friction
-    P = ca.SX.sym("contact", len(JOINT_PARAMETERS) * nc + len(EFFECT_PARAMETERS))
-    restitution, damping, mu, mu_s, v0, v1, v_s = ca.vertsplit(P[len(JOINT_PARAMETERS) * nc:])
-    fe = replace(fe, coefficient=mu, static_coefficient=mu_s, v0=v0, v1=v1, stribeck_velocity=v_s)
+    P = ca.SX.sym("contact", (len(JOINT_PARAMETERS) * nc + len(EFFECT_PARAMETERS)) if nc else 0)
+    if nc:
+        restitution, damping, mu, mu_s, v0, v1, v_s = ca.vertsplit(P[len(JOINT_PARAMETERS) * nc:])
+        fe = replace(fe, coefficient=mu, static_coefficient=mu_s, v0=v0, v1=v1, stribeck_velocity=v_s)
     cols = {k: [] for k in ("f", "fn", "ft", "delta", "delta_dot", "e")}
     V_contact, p_damp, p_fric = ca.SX(0), ca.SX(0), ca.SX(0)
     delta_list = []

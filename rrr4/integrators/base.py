@@ -159,7 +159,7 @@ class FixedStepIntegrator(ABC):
         n_frames = u_frames.shape[0]
         if n_frames % every:
             raise ValueError(f"{n_frames} frames are not a multiple of every = {every}")
-        settings = tuple(sorted((k, repr(v)) for k, v in vars(self).items()))
+        settings = tuple(sorted((k, repr(v)) for k, v in vars(self).items() if not k.startswith("_")))
         key = (type(self).__name__, settings, float(h), int(steps_per_frame), int(every))
         if key not in system.frames:
             # the unit of work is one output interval: `every` frames folded in one Function,
