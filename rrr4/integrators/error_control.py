@@ -23,7 +23,7 @@ Levels instead of arbitrary step sizes keep the Newton factors of
 :mod:`.implicit` valid while the level holds, and make the step grid exact. CasADi has no
 while loop, so a frame's attempts are nested blocks, each behind a ``Function.if_else``
 switch that skips it once the frame is done: a frame that needs one step pays one attempt
-and one skipped switch; the nested capacity covers every frame at the smallest step.
+and two switches; the nested capacity covers every frame at the smallest step.
 """
 
 from __future__ import annotations
