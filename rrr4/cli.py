@@ -117,7 +117,8 @@ def _sweep(args) -> int:
               log=lambda m: tqdm.write(f"rrr4 sweep: {m}"))
     print(f"{r['cases']} cases: {r['skipped']} skipped (already done), {r['cases'] - r['skipped']} run, "
           f"{r['failed']} failed; rows in {r['csv']}; figures: {', '.join(f.name for f in r['figures'])}")
-    print(f"stepping: {'compiled C' if r['compiled'] else 'CasADi virtual machine (the spec varies the mechanism)'}; "
+    how = " (masses and geometry as inputs, references tabulated per case)" if r["options"] else ""
+    print(f"stepping: {'compiled C' if r['compiled'] else 'CasADi virtual machine'}{how}; "
           f"{r['compilations']} C libraries compiled, the rest from the shared cache")
     return 0
 

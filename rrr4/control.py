@@ -45,11 +45,13 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 
+from .dynamics.builder import contact_parameters, fix_last_input
 from .errors import SceneError
 from .mechanism import Mechanism, Model
-from .scene import Scene
+from .scene import FrictionEffect, Scene
 
-__all__ = ["controller_function", "feedback_function", "has_preload", "pointwise_controller", "preload_law",
+__all__ = ["controller_function", "parametric_controller", "controller_settings", "feedback_function",
+           "parametric_feedback", "feedback_settings", "has_preload", "pointwise_controller", "preload_law",
            "preload_sign",
            "seat_gaps", "graph_references", "GraphReferences", "COMPENSATIONS", "CONTROLLERS", "SEAT_FORCE"]
 
@@ -106,23 +108,29 @@ def preload_law(scene: Scene, sign: int | None = None) -> ca.Function | None:
     -> alpha, tau, feasible, margin (None without a preload): the exact law on the branch
     `sign`, or the closed-form QP with that axial-force sign (default: :func:`rrr4.solve_preload`'s
     choice on the path)."""
+    law = _parametric_law(scene)
+    if law is None:
+        return None
+    from .preload.exact import preload_settings
+    return fix_last_input(law, preload_settings(scene, branch=_sign(scene) if sign is None else int(sign)))
+
+
+def _parametric_law(scene: Scene) -> ca.Function | None:
+    """The preload law of :func:`preload_law` with its numbers (weights, limits, f_min, sign)
+    as the last input ``settings`` (:func:`rrr4.preload.exact.preload_settings`)."""
     if not has_preload(scene):
         return None
     why = pointwise_controller(scene)
     if why and scene.mechanism is not None:
         raise SceneError(f"actuation.preload.method: {scene.actuation.preload.method!r} is not allowed in a "
                          f"controller step ({why}; choose exact or qp, or pass preload= to simulate)")
-    sign = _sign(scene) if sign is None else int(sign)
+    model = Model.of(scene.graph)
+    n, nj = model.n_actuators, len(model.preload_joints)
     if scene.actuation.preload.method == "exact":
-        from .preload.exact import exact_preload_function
-        return exact_preload_function(scene, branch=sign)
-    from .preload.qp import scalar_qp_preload_function
-    return scalar_qp_preload_function(scene, float(sign))
-
-
-def _stiffness(scene: Scene) -> dict:
-    from .dynamics.builder import joint_stiffness
-    return {j: joint_stiffness(scene, j) for j in scene.clearance_joints}
+        from .preload.exact import parametric_exact_preload
+        return parametric_exact_preload(n, nj)
+    from .preload.qp import parametric_scalar_qp_preload
+    return parametric_scalar_qp_preload(n, nj)
 
 
 def seat_gaps(scene: Scene, r, slip=None):
@@ -136,49 +144,69 @@ def seat_gaps(scene: Scene, r, slip=None):
     velocity slip (nj,) [m/s] (R_J omega_J - R_B omega_B; None or law 'none': mu = 0). Then
     gap = -(c + delta) (r + mu E r) / (sqrt(1 + mu^2) |r|) with K delta^n = f_n = |r| / sqrt(1 + mu^2),
     whichever body carries the journal."""
-    gaps, _ = _seats(scene, r, slip)
+    gaps, _ = _seats(scene, r, slip, contact_parameters(scene))
     return np.array(ca.evalf(gaps)) if not isinstance(r, (ca.SX, ca.MX)) else gaps
 
 
-def _seats(scene: Scene, r, slip):
-    """(gaps (2, nj) [m], friction forces f_t (nj,) [N]) of :func:`seat_gaps`, symbolic."""
+def _contact_numbers(scene: Scene, contact) -> tuple[dict, FrictionEffect]:
+    """({clearance joint: (K [N/m^n], journal radius, bearing radius [m])}, the friction law
+    with its coefficients) read from `contact`, the vector of
+    :func:`rrr4.dynamics.builder.contact_parameters` (numbers or symbols)."""
+    from .dynamics.builder import JOINT_PARAMETERS
+    k, clear = len(JOINT_PARAMETERS), Model.of(scene.graph).clearance_joints
+    per = {name: tuple(contact[k * j + i] for i in range(k)) for j, name in enumerate(clear)}
+    mu, mu_s, v0, v1, v_s = (contact[k * len(clear) + 2 + i] for i in range(5))
+    fe = replace(scene.effects.friction, coefficient=mu, static_coefficient=mu_s, v0=v0, v1=v1, stribeck_velocity=v_s)
+    return per, fe
+
+
+def _seats(scene: Scene, r, slip, contact):
+    """(gaps (2, nj) [m], friction forces f_t (nj,) [N]) of :func:`seat_gaps`, symbolic, with
+    the contact numbers from `contact` (see :func:`_contact_numbers`)."""
     from .contact import friction_force
     names = Model.of(scene.graph).preload_joints
-    stiff = _stiffness(scene)
+    per, fe = _contact_numbers(scene, contact) if scene.clearance_joints else ({}, scene.effects.friction)
     n_exp = scene.effects.contact.exponent
-    fe = scene.effects.friction
     cols, f_t = [], []
     for j, name in enumerate(names):
-        if name not in stiff:
+        if name not in per:
             cols.append(ca.DM.zeros(2))
             f_t.append(0.0)
             continue
+        stiffness, r_journal, r_bearing = per[name]
         rj = r[:, j]
         mu = 0.0 if slip is None or fe.law == "none" else friction_force(fe, slip[j], 1.0)
         f = ca.norm_2(rj)
         root = ca.sqrt(1 + mu**2)
         f_n = f / root
-        delta = (f_n / stiff[name]) ** (1.0 / n_exp)
-        g = -(scene.joint(name).radial_clearance + delta) * (rj + mu * ca.vertcat(-rj[1], rj[0])) / (
+        delta = (f_n / stiffness) ** (1.0 / n_exp)
+        g = -(r_bearing - r_journal + delta) * (rj + mu * ca.vertcat(-rj[1], rj[0])) / (
             root * ca.fmax(f, SEAT_FORCE))
         cols.append(ca.if_else(f > SEAT_FORCE, g, ca.DM.zeros(2)))
         f_t.append(mu * f_n)
     return ca.horzcat(*cols), ca.vertcat(*f_t)
 
 
-def _nrrr_slip(scene: Scene, pose, pose_d):
+def _nrrr_slip(scene: Scene, pose, pose_d, contact=None):
     """Slip velocities (2n,) [m/s] R_J omega_J - R_B omega_B of the passive joints B1..Bn,
-    C1..Cn of an n-RRR at the desired motion (journals on the outboard bodies)."""
+    C1..Cn of an n-RRR at the desired motion (journals on the outboard bodies); the radii of
+    the clearance joints from `contact` (default: the scene's, see :func:`_contact_numbers`)."""
     from .dynamics.inverse import _chain_motion, _link_rates, _transmission
     mech = Mechanism.from_scene(scene)
+    per = _contact_numbers(scene, contact_parameters(scene) if contact is None else contact)[0]
+
+    def radii(name):
+        j = scene.joint(name)
+        return per[name][1:] if name in per else (j.journal_radius, j.bearing_radius)
+
     cs = (ca.cos(pose[2]), ca.sin(pose[2]))
     b, c = [], []
     for i, ch in enumerate(mech.data.chains):
         u1, e, _, cd_rel, _, _ = _chain_motion(ch, pose[0:2], pose_d[2], 0, cs)
         w1, w2 = _link_rates(ch, u1, e, pose_d[0:2] + cd_rel, _transmission(ch, u1, e)[2])
-        jb, jc = scene.joint(f"B{i + 1}"), scene.joint(f"C{i + 1}")
-        b.append(jb.journal_radius * w2 - jb.bearing_radius * w1)
-        c.append(jc.journal_radius * pose_d[2] - jc.bearing_radius * w2)
+        (rb_j, rb_b), (rc_j, rc_b) = radii(f"B{i + 1}"), radii(f"C{i + 1}")
+        b.append(rb_j * w2 - rb_b * w1)
+        c.append(rc_j * pose_d[2] - rc_b * w2)
     return ca.vertcat(*b, *c)
 
 
@@ -193,22 +221,38 @@ def _friction_feed_forward(scene: Scene, pose, pose_d, slip, f_t):
     return J @ ca.solve(J.T @ J, -G.T @ f_t)
 
 
-@functools.cache
 def feedback_function(scene: Scene) -> ca.Function:
     """SX Function 'feedback': theta_ref, theta_d_ref, tau_ff, theta, theta_d (n each) ->
     tau (n,) = clip(tau_ff + kp e + kd (theta_d_ref - theta_d), +-limit), e = theta_ref -
     theta wrapped to [-pi, pi) for revolute actuators [rad], as is for prismatic ones [m]."""
-    a, model = scene.actuation, Model.of(scene.graph)
-    n = model.n_actuators
+    return fix_last_input(parametric_feedback(scene), feedback_settings(scene))
+
+
+def feedback_settings(scene: Scene) -> list[float]:
+    """The feedback law's input ``settings``: kp, kd, torque limits (n)."""
+    a = scene.actuation
+    return [a.kp, a.kd, *a.torque_limit]
+
+
+def parametric_feedback(scene: Scene) -> ca.Function:
+    """:func:`feedback_function` with the input ``settings`` (:func:`feedback_settings`) last."""
+    model = Model.of(scene.graph)
+    return _feedback(tuple(scene.graph.joint(j).type == "revolute" for j in model.actuated_joints))
+
+
+@functools.cache
+def _feedback(revolute: tuple[bool, ...]) -> ca.Function:
+    n = len(revolute)
     th_ref, thd_ref, ff, th, thd = (ca.SX.sym(s, n) for s in ("theta_ref", "theta_d_ref", "tau_ff", "theta",
                                                                "theta_d"))
+    settings = ca.SX.sym("settings", 2 + n)
+    kp, kd, lim = settings[0], settings[1], settings[2:]
     d = th_ref - th
-    wrap = ca.DM([1.0 if scene.graph.joint(j).type == "revolute" else 0.0 for j in model.actuated_joints])
+    wrap = ca.DM([1.0 if r else 0.0 for r in revolute])
     e = d - wrap * 2 * ca.pi * ca.floor((d + ca.pi) / (2 * ca.pi))
-    lim = ca.DM(a.torque_limit)
-    tau = ca.fmin(ca.fmax(ff + a.kp * e + a.kd * (thd_ref - thd), -lim), lim)
-    return ca.Function("feedback", [th_ref, thd_ref, ff, th, thd], [tau],
-                       ["theta_ref", "theta_d_ref", "tau_ff", "theta", "theta_d"], ["tau"])
+    tau = ca.fmin(ca.fmax(ff + kp * e + kd * (thd_ref - thd), -lim), lim)
+    return ca.Function("feedback", [th_ref, thd_ref, ff, th, thd, settings], [tau],
+                       ["theta_ref", "theta_d_ref", "tau_ff", "theta", "theta_d", "settings"], ["tau"])
 
 
 def controller_function(scene: Scene, sign: int | None = None) -> ca.Function:
@@ -218,39 +262,70 @@ def controller_function(scene: Scene, sign: int | None = None) -> ca.Function:
     theta_d_ref (n,) [rad, rad/s] (compensated if the scene says so), alpha (m,) [N m],
     feasible (1.0 / 0.0; 1.0 without a preload).
 
-    sign: the preload branch / axial-force sign (default: :func:`preload_law`'s). Built once
-    per scene (the path, integrator and names do not matter, except for the sign's choice).
+    sign: the preload branch / axial-force sign (default: :func:`preload_law`'s). The
+    scene's numbers are folded in as constants (what ``rrr4 codegen`` writes); the same graph
+    with them as an input is :func:`parametric_controller`.
     Raises SceneError for a scene without a closed-form controller (:func:`pointwise_controller`).
     """
+    return fix_last_input(parametric_controller(scene), controller_settings(scene, sign))
+
+
+def controller_settings(scene: Scene, sign: int | None = None) -> np.ndarray:
+    """The numbers of the controller step that :func:`parametric_controller` takes as its
+    input ``settings``: kp, kd, torque limits (n) (:func:`feedback_settings`), the preload's
+    weights (n), f_min [N] and sign (+1 / -1; 0 without a preload), then, with clearance
+    compensation, the contact numbers (:func:`rrr4.dynamics.builder.contact_parameters`)."""
+    a, n = scene.actuation, Model.of(scene.graph).n_actuators
+    s = 0 if not has_preload(scene) else (_sign(scene) if sign is None else int(sign))
+    out = [*feedback_settings(scene), *a.preload.weights[:n], a.preload.min_force, float(s)]
+    return np.array([*out, *(contact_parameters(scene) if _compensates(scene) else [])], float)
+
+
+def _compensates(scene: Scene) -> bool:
+    return scene.actuation.compensation == "clearance" and bool(scene.clearance_joints)
+
+
+def parametric_controller(scene: Scene) -> ca.Function:
+    """:func:`controller_function` with the input ``settings`` (:func:`controller_settings`)
+    last: one Function for every scene of the same structure (mechanism, gravity, preload
+    method, compensation, friction law), so that compiled code built on it is shared by
+    scenes that differ only in gains, limits, f_min, the preload's sign or contact numbers."""
     why = pointwise_controller(scene)
     if why:
         key = "mechanism.kind" if scene.mechanism is None else "actuation.preload.method"
         raise SceneError(f"{key}: no closed-form controller step for scene {scene.name!r} ({why}; choose exact or "
                          "qp for the preload)" if scene.mechanism is not None else
                          f"{key}: no closed-form controller step for scene {scene.name!r} ({why})")
-    if has_preload(scene) and sign is None:
-        sign = _sign(scene)
-    return _controller(replace(scene, name="", description="", source="", path=None, integrator=None, initial=None),
-                       sign)
+    from .dynamics.builder import _structure
+    a, n = scene.actuation, Model.of(scene.graph).n_actuators
+    preload = replace(a.preload, min_force=float(a.preload.min_force > 0), weights=(1.0,) * n)
+    neutral = replace(a, kp=0.0, kd=0.0, torque_limit=(1.0,) * n, control_rate=None, preload=preload)
+    return _controller(replace(_structure(scene), name="", description="", source="", path=None, integrator=None,
+                               initial=None, actuation=neutral))
 
 
 @functools.lru_cache(maxsize=32)
-def _controller(scene: Scene, sign: int | None) -> ca.Function:
+def _controller(scene: Scene) -> ca.Function:
     from .dynamics.inverse import actuator_motion_function, inverse_dynamics_function
     mech = Mechanism.from_scene(scene)
     n = mech.n
     pose, pose_d, pose_dd = (ca.SX.sym(s, 3) for s in ("pose_des", "pose_d_des", "pose_dd_des"))
     theta, theta_d = ca.SX.sym("theta", n), ca.SX.sym("theta_d", n)
+    compensates = _compensates(scene)
+    n_contact = contact_parameters(scene).size if compensates else 0
+    settings = ca.SX.sym("settings", 2 * n + 4 + n_contact)
+    gains, weights, f_min_sign, contact = (settings[:2 + n], settings[2 + n:2 + 2 * n], settings[2 + 2 * n:4 + 2 * n],
+                                           settings[4 + 2 * n:])
     tau_p, tau_n, r_p, r_n = inverse_dynamics_function(scene)(pose, pose_d, pose_dd)
-    law = preload_law(scene, sign)
+    law = _parametric_law(scene)
     if law is None:
         alpha, tau_ff, feasible = ca.SX.zeros(tau_n.shape[1]), tau_p, ca.SX(1.0)
     else:
-        alpha, tau_ff, feasible, _ = law(tau_p, tau_n, r_p, r_n)
-    if scene.actuation.compensation == "clearance" and scene.clearance_joints:
+        alpha, tau_ff, feasible, _ = law(tau_p, tau_n, r_p, r_n, ca.vertcat(weights, gains[2:], f_min_sign))
+    if compensates:
         r = r_p + (alpha * r_n if alpha.numel() else 0)
-        slip = _nrrr_slip(scene, pose, pose_d)
-        gap, f_t = _seats(scene, r, slip)
+        slip = _nrrr_slip(scene, pose, pose_d, contact)
+        gap, f_t = _seats(scene, r, slip, contact)
         if scene.effects.friction.law != "none":
             tau_ff = tau_ff + _friction_feed_forward(scene, pose, pose_d, slip, f_t)
         # the IK closed around the seats; its rate at fixed seats (their drift adds < 1 % of
@@ -260,10 +335,10 @@ def _controller(scene: Scene, sign: int | None) -> ca.Function:
         # theta_ref from the driving-link directions the inverse dynamics computes anyway
         u_ref, theta_d_ref = actuator_motion_function(scene)(pose, pose_d, ca.SX.zeros(2, n))
     theta_ref = ca.atan2(u_ref[1, :], u_ref[0, :]).T
-    tau = feedback_function(scene)(theta_ref, theta_d_ref, tau_ff, theta, theta_d)
-    return ca.Function("controller_step", [pose, pose_d, pose_dd, theta, theta_d],
+    tau = parametric_feedback(scene)(theta_ref, theta_d_ref, tau_ff, theta, theta_d, gains)
+    return ca.Function("controller_step", [pose, pose_d, pose_dd, theta, theta_d, settings],
                        ca.cse([tau, tau_ff, theta_ref, theta_d_ref, alpha, feasible]),
-                       ["pose_des", "pose_d_des", "pose_dd_des", "theta", "theta_d"],
+                       ["pose_des", "pose_d_des", "pose_dd_des", "theta", "theta_d", "settings"],
                        ["tau", "tau_ff", "theta_ref", "theta_d_ref", "alpha", "feasible"])
 
 
@@ -357,8 +432,9 @@ def _compensated_ik(scene: Scene, mech: Mechanism, task: np.ndarray, r: np.ndarr
     names = model.preload_joints
     clear = [names.index(j) for j in model.clearance_joints]
     out, f_t = np.empty((len(task), mech.n)), np.zeros((len(task), len(names)))
+    contact = contact_parameters(scene)
     for i in range(len(task)):
-        gaps, ft = _seats(scene, ca.DM(r[i].T), ca.DM(slip[i]))
+        gaps, ft = _seats(scene, ca.DM(r[i].T), ca.DM(slip[i]), contact)
         offsets = np.array(ca.evalf(gaps)).T[clear]
         f_t[i] = np.array(ca.evalf(ft)).ravel()
         qi = mech.assemble(task[i], offsets, guess=guess[i])

@@ -35,9 +35,12 @@ from .control import (
     CONTROLLERS,
     GraphReferences,
     controller_function,
-    feedback_function,
+    controller_settings,
+    feedback_settings,
     graph_references,
     has_preload,
+    parametric_controller,
+    parametric_feedback,
     pointwise_controller,
 )
 from .dynamics.builder import Equations, build_equations, graph_size
@@ -52,7 +55,7 @@ from .trajectory import trajectory_function
 __all__ = ["Simulation", "simulate", "scene_system", "OVERRIDES", "default_jit"]
 
 OVERRIDES = ("step", "output_rate", "preload", "v_min", "baumgarte", "jit", "progress", "references", "controller",
-             "model")
+             "model", "inputs")
 MAX_STEPS = 1e10  # integrator steps one simulate call may take
 
 
@@ -143,13 +146,16 @@ class _Loop:
     controller with zero-order hold: it runs once per frame = control period, u_frame =
     [t_a, t_b, references at t_a], and the right-hand side takes the held efforts).
     control: the controller step (pointwise: pose and its derivatives -> efforts), the
-    feedback law (tabulated references), or None (free and prescribed modes).
+    feedback law (tabulated references), or None (free and prescribed modes); its last input
+    is `settings`, the scene's numbers of it (gains, limits, preload), which the simulation
+    carries in its discrete state so that compiled code does not depend on them.
     """
     kind: str
     control: ca.Function | None
     pointwise: bool
     path: PathSpec | None = None  # the path a pointwise controller follows inside the right-hand side
     sources: tuple = ()
+    settings: tuple = ()
 
 
 def _measured(model: Model, q, qd):
@@ -160,10 +166,12 @@ def _measured(model: Model, q, qd):
 
 def _system(eqs: Equations, loop: _Loop, refs: ca.Function | None) -> System:
     """The ODE y = [q, qd, W_in, D_damping, D_friction] with discrete z = [delta_dot0,
-    in_contact, losses] (nc each) followed by the contact parameters (constant: the discrete
-    update keeps them; see :func:`rrr4.dynamics.builder.contact_parameters`), and the frame
-    inputs of `loop` (see :class:`_Loop`). The parameters are state, not constants, so every
-    scene that differs only in them steps with the same compiled code.
+    in_contact, losses] (nc each) followed by the equations' parameters (contact numbers,
+    masses and geometry, see :func:`rrr4.dynamics.builder.equation_parameters`) and the
+    controller's settings (both
+    constant: the discrete update keeps them), and the frame inputs of `loop` (see
+    :class:`_Loop`). The numbers are state, not constants, so every scene that differs only
+    in them steps with the same compiled code.
     refs: the prescribed mode's closed-form references (or None). Built once per (equations,
     loop, references) and kept by the equations (the entry holds them, so its key stays unique)."""
     key = (loop.kind, id(loop.control), loop.path if loop.kind == "exact" else None, id(refs))
@@ -175,11 +183,13 @@ def _system(eqs: Equations, loop: _Loop, refs: ca.Function | None) -> System:
 def _build_system(eqs: Equations, loop: _Loop, refs: ca.Function | None) -> System:
     model = Model.of(eqs.scene.graph)
     nq, n, nc = eqs.nq, eqs.n_actuators, len(eqs.clearance_joints)
-    t, y, z = ca.SX.sym("t"), ca.SX.sym("y", 2 * nq + 3), ca.SX.sym("z", 3 * nc + len(eqs.contact))
+    ns = len(loop.settings)
+    t, y, z = ca.SX.sym("t"), ca.SX.sym("y", 2 * nq + 3), ca.SX.sym("z", 3 * nc + len(eqs.parameters) + ns)
     width = {"exact": 0, "sampled": 10 * n, "held": n}[loop.kind]
     u = ca.SX.sym("u", 2 + width)
     q, qd = y[:nq], y[nq:2 * nq]
-    dd0, inc, losses, contact = z[:nc], z[nc:2 * nc], z[2 * nc:3 * nc], z[3 * nc:]
+    dd0, inc, losses = z[:nc], z[nc:2 * nc], z[2 * nc:3 * nc]
+    parameters, settings = z[3 * nc:3 * nc + len(eqs.parameters)], z[3 * nc + len(eqs.parameters):]
     par = eqs.parametric
     zeros = ca.SX.zeros(n)
     th, th_d, th_dd, effort = zeros, zeros, zeros, zeros
@@ -194,27 +204,28 @@ def _build_system(eqs: Equations, loop: _Loop, refs: ca.Function | None) -> Syst
         th_d = _hermite(s, h, thd_a, thd_b, thdd_a, thdd_b)
         th_dd = (1 - s) * thdd_a + s * thdd_b
         if eqs.mode == "torque":
-            effort = loop.control(th, th_d, _hermite(s, h, ff_a, ff_b, ffd_a, ffd_b), *_measured(model, q, qd))
+            effort = loop.control(th, th_d, _hermite(s, h, ff_a, ff_b, ffd_a, ffd_b), *_measured(model, q, qd),
+                                  settings)
     elif eqs.mode == "torque":  # exact: the controller step at the path's time
-        effort = loop.control(*trajectory_function(loop.path)(t), *_measured(model, q, qd))[0]
+        effort = loop.control(*trajectory_function(loop.path)(t), *_measured(model, q, qd), settings)[0]
     elif refs is not None:
         _, th, th_d, th_dd = refs(t)
     out = par.acceleration(q=q, qd=qd, effort=effort, theta_ref=th, theta_d_ref=th_d, theta_dd_ref=th_dd,
-                           delta_dot0=dd0, in_contact=inc, t=t, contact=contact)
+                           delta_dot0=dd0, in_contact=inc, t=t, parameters=parameters)
     ydot = ca.vertcat(qd, out["qdd"], out["power_in"], out["power_damping"], out["power_friction"])
     ode = ca.Function("ode", [t, y, z, u], [ydot], ["t", "y", "z", "u"], ["y_dot"])
-    dd0n, incn, loss = par.contact_update(q, qd, dd0, inc, contact)
-    disc = ca.Function("discrete", [t, y, z], [ca.vertcat(dd0n, incn, losses + loss, contact)], ["t", "y", "z"],
-                       ["z_next"])
+    dd0n, incn, loss = par.contact_update(q, qd, dd0, inc, parameters)
+    disc = ca.Function("discrete", [t, y, z], [ca.vertcat(dd0n, incn, losses + loss, parameters, settings)],
+                       ["t", "y", "z"], ["z_next"])
     control = None
     if loop.kind == "held":
         k = loop.control.size1_in(0)  # pose derivatives (3 each) or actuator references (n each): 3 blocks
-        ym, uf = ca.MX.sym("y", y.shape[0]), ca.MX.sym("u_frame", 2 + 3 * k)
+        ym, zm, uf = ca.MX.sym("y", y.shape[0]), ca.MX.sym("z", z.shape[0]), ca.MX.sym("u_frame", 2 + 3 * k)
         meas = _measured(model, ym[:nq], ym[nq:2 * nq])
         args = [uf[2 + i * k:2 + (i + 1) * k] for i in range(3)]
-        eff = loop.control(*args, *meas)
+        eff = loop.control(*args, *meas, zm[z.shape[0] - ns:])
         eff = eff[0] if isinstance(eff, (list, tuple)) else eff
-        control = ca.Function("control", [ym, uf], [ca.vertcat(uf[:2], eff)], ["y", "u_frame"], ["u"])
+        control = ca.Function("control", [ym, zm, uf], [ca.vertcat(uf[:2], eff)], ["y", "z", "u_frame"], ["u"])
     return System(ode, disc, control, loop.sources)
 _NO_COMPILER_WARNED = False
 
@@ -297,7 +308,7 @@ def _loop(scene: Scene, eqs: Equations, controller: str, references: str, given)
         kind = "sampled" if references == "sampled" or (scene.mechanism is None and scene.graph.task) else "exact"
         return _Loop(kind, None, False, scene.path)
     why = pointwise_controller(scene) or ("a feed-forward is given (preload=)" if given is not None else "") or (
-        "references='sampled' tabulates the references" if references == "sampled" and not held else "")
+        "references='sampled' tabulates the references" if references == "sampled" else "")
     if controller == "generated":
         if why:
             raise SceneError(f"controller: 'generated' is not allowed here ({why}; the generated C is the "
@@ -307,10 +318,16 @@ def _loop(scene: Scene, eqs: Equations, controller: str, references: str, given)
                              "controller runs as a sampled controller with zero-order hold: set a rate in Hz)")
         from .codegen import generated_controller
         step, source = generated_controller(scene)
+        ins = [ca.MX.sym(step.name_in(i), step.sparsity_in(i)) for i in range(step.n_in())]
+        no_settings = ca.MX.sym("settings", 0)  # the generated C holds the scene's numbers
+        step = ca.Function(step.name(), [*ins, no_settings], step(*ins), [*step.name_in(), "settings"],
+                           step.name_out())
         return _Loop("held", step, True, None, (source,))
     if why:
-        return _Loop("held" if held else "sampled", feedback_function(scene), False, None)
-    return _Loop("held" if held else "exact", controller_function(scene), True, scene.path if not held else None)
+        return _Loop("held" if held else "sampled", parametric_feedback(scene), False, None,
+                     settings=tuple(feedback_settings(scene)))
+    return _Loop("held" if held else "exact", parametric_controller(scene), True, scene.path if not held else None,
+                 settings=tuple(controller_settings(scene)))
 
 
 def scene_system(scene: Scene, references: str = "exact", controller: str = "python") -> System:
@@ -360,9 +377,14 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     itself; e.g. nominal parameters against a mechanism built with tolerances), v_min [m/s],
     baumgarte [rad/s], jit (step in compiled C; default: yes when a C
     compiler exists and RRR4_JIT is not 0, see :func:`default_jit`), progress (bar),
-    references: 'exact' (default; a continuous n-RRR controller runs its closed form inside
-    every right-hand side) or 'sampled' (references evaluated once per path sample and
-    interpolated, cubic Hermite; what a graph scene with a task always does).
+    references: 'exact' (default; an n-RRR controller runs its closed form inside every
+    right-hand side, or at every control instant when sampled) or 'sampled' (its references,
+    feed-forward included, evaluated once per path sample and interpolated, cubic Hermite:
+    only the feedback law is compiled; what a graph scene with a task always does), inputs:
+    which of the scene's numbers the compiled stepping takes as inputs rather than constants
+    (see :func:`rrr4.dynamics.builder.build_equations`; the controller's gains, limits and
+    preload numbers always are): 'contact' (default) or 'geometry' (with references='sampled',
+    scenes that differ in masses and geometry then share one compiled library).
     """
     bad = sorted(set(overrides) - set(OVERRIDES))
     if bad:
@@ -384,7 +406,7 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     mode = overrides.get("references") or "exact"
     if mode not in REFERENCES:
         raise unknown_value("references", "value", mode, REFERENCES)
-    kw = {k: overrides[k] for k in ("v_min", "baumgarte") if k in overrides}
+    kw = {k: overrides[k] for k in ("v_min", "baumgarte", "inputs") if k in overrides}
     eqs = build_equations(scene, **kw)
     jit = overrides.get("jit")
     method = _integrator(scene, integrator, default_jit() if jit is None else bool(jit))
@@ -472,7 +494,7 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
         else:
             q0 = mech.assemble(target, offsets, guess=q0)
         seated = np.any(offsets != 0, axis=1).astype(float)
-    x0 = np.r_[0.0, q0, qd0, 0.0, 0.0, 0.0, np.full(nc, eqs.v_min), seated, np.zeros(nc), eqs.contact]
+    x0 = np.r_[0.0, q0, qd0, 0.0, 0.0, 0.0, np.full(nc, eqs.v_min), seated, np.zeros(nc), eqs.parameters, loop.settings]
 
     system = _system(eqs, loop, refs)
     wall = time.perf_counter()
@@ -582,8 +604,8 @@ def _controller_efforts(scene: Scene, loop: _Loop, model: Model, t: np.ndarray, 
     th, th_d = (np.array(v) for v in meas.map(N)(q.T, qd.T))
     if loop.pointwise:
         rows = _path_rows(scene, t)
-        out = loop.control.map(N)(*(rows[:, 3 * k:3 * k + 3].T for k in range(3)), th, th_d)
+        out = loop.control.map(N)(*(rows[:, 3 * k:3 * k + 3].T for k in range(3)), th, th_d, loop.settings)
     else:
-        out = loop.control.map(N)(*(v.T for v in refs), th, th_d)
+        out = loop.control.map(N)(*(v.T for v in refs), th, th_d, loop.settings)
     out = out[0] if isinstance(out, (list, tuple)) else out
     return np.array(out).T

@@ -42,7 +42,7 @@ from .errors import Rrr4Error, SceneError
 from .scene import describe, parse_scene, read_yaml
 from .study import PRELOAD_ARMS
 
-__all__ = ["sweep", "load_spec", "SweepSpec", "METRICS", "DISTRIBUTIONS", "compiles", "COMPILED_CONSTANTS"]
+__all__ = ["sweep", "load_spec", "SweepSpec", "METRICS", "DISTRIBUTIONS", "case_options", "GEOMETRY_KEYS"]
 
 METRICS = ("contact_loss_events", "platform_error_rms_m", "platform_error_max_m", "min_contact_force_N",
            "peak_contact_force_N", "torque_rms_Nm", "wall_time_s")
@@ -226,28 +226,27 @@ def case_id(text: str, t_end, arms) -> str:
     return hashlib.sha256(json.dumps([text, t_end, list(arms)]).encode()).hexdigest()[:16]
 
 
-# Keys whose values are constants of the compiled stepping: the mechanism's geometry and
-# masses. A sweep that varies one of them would compile C for every case, which costs more
-# than the virtual machine saves, so it steps in the virtual machine; a graph joint's
-# clearance settings (under mechanism.joints[i].clearance) are contact numbers, inputs of the
-# compiled code (rrr4.dynamics.builder.contact_parameters), and do not count. Other constants
-# (the controller's gains, torque limits, f_min and the preload sign it picks on the path)
-# compile once per value, few enough to pay.
-COMPILED_CONSTANTS = ("mechanism.",)
+# Keys of the mechanism's geometry and masses. A spec that varies one runs every case with
+# them as inputs of the compiled equations (simulate's inputs='geometry') and the
+# controller's references tabulated per case (references='sampled': the closed-form
+# controller's geometry is a constant of its code, so only its feedback law is compiled),
+# and so compiles once per structure like any other sweep. A graph joint's clearance
+# settings (mechanism.joints[i].clearance) are contact numbers, inputs anyway.
+GEOMETRY_KEYS = ("mechanism.",)
 
 
-def compiles(spec: SweepSpec) -> bool:
-    """Whether the cases of `spec` step in compiled C (see COMPILED_CONSTANTS; and a C
-    compiler, with RRR4_JIT not 0)."""
-    from .simulation import default_jit
-    return default_jit() and not any(k.startswith(COMPILED_CONSTANTS) and ".clearance." not in k
-                                     for k in spec.keys)
+def case_options(spec: SweepSpec) -> dict:
+    """The options of :func:`rrr4.simulate` for the cases of `spec` (see GEOMETRY_KEYS)."""
+    if any(k.startswith(GEOMETRY_KEYS) and ".clearance." not in k for k in spec.keys):
+        return {"inputs": "geometry", "references": "sampled"}
+    return {}
 
 
-def run_case(text: str, name: str, t_end, arms, jit: bool = False) -> tuple[list[dict], int]:
+def run_case(text: str, name: str, t_end, arms, jit: bool = False, options: dict | None = None
+             ) -> tuple[list[dict], int]:
     """(the rows (one per arm) of one case: metrics of each arm's simulation, or status
     'failed' with the error; the C libraries this case compiled). jit: step in compiled C
-    (the shared on-disk cache; RRR4_JIT=0 still says no). Runs in a Dask worker; imports
+    (the shared on-disk cache; RRR4_JIT=0 still says no); options: :func:`case_options`. Runs in a Dask worker; imports
     nothing Dask."""
     from .integrators.compiled import compilations
     from .simulation import simulate
@@ -261,7 +260,7 @@ def run_case(text: str, name: str, t_end, arms, jit: bool = False) -> tuple[list
     for arm in arms:
         wall = time.perf_counter()
         try:
-            sim = simulate(arm_scene(scene, arm), t_end=t_end, jit=None if jit else False)
+            sim = simulate(arm_scene(scene, arm), t_end=t_end, jit=None if jit else False, **(options or {}))
         except Exception as e:  # recorded, the sweep goes on
             rows.append({"arm": arm, "status": "failed", "error": f"{type(e).__name__}: {str(e).splitlines()[0]}"})
             continue
@@ -315,10 +314,12 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
     ``out/results.csv`` (default ``results/sweeps/<spec or scene name>/``). scheduler: the
     address of an existing Dask scheduler (default: a local cluster of `workers` processes,
     default the machine's cores). Writes the figures of :mod:`rrr4.results.sweep_figures` from
-    all rows. Cases step in compiled C unless the spec varies a constant of it (:func:`compiles`).
+    all rows. Cases step in compiled C when a C compiler exists (see
+    :func:`rrr4.simulation.default_jit`), with :func:`case_options`.
     Returns {'csv': path, 'cases': n, 'skipped': n, 'failed': n, 'rows': list of row dicts of
-    this run, 'figures': paths, 'compiled': bool, 'compilations': the C libraries the workers
-    compiled (the others came from the shared cache)}."""
+    this run, 'figures': paths, 'compiled': bool, 'options': the cases' simulate options,
+    'compilations': the C libraries the workers compiled (the others came from the shared
+    cache)}."""
     say = log or (lambda _m: None)
     name = None
     if isinstance(spec, (str, Path)):
@@ -344,7 +345,8 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
             done.add(cid)  # a duplicate case runs once
     skipped = len(spec.cases) - len(todo)
     say(f"{len(spec.cases)} cases x {len(spec.arms)} arms; {skipped} already in {csv_path}, {len(todo)} to run")
-    rows_out, failed, built, jit = [], 0, 0, compiles(spec)
+    from .simulation import default_jit
+    rows_out, failed, built, jit, options = [], 0, 0, default_jit(), case_options(spec)
     if todo:
         from dask.distributed import Client, LocalCluster, as_completed
         cluster = None
@@ -359,7 +361,8 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
                 raise SceneError(f"--scheduler: {scheduler!r} is not reachable ({type(e).__name__}: {e})") from None
         bar = None
         try:
-            futures = {client.submit(run_case, text, spec.scene_path.stem, spec.t_end, spec.arms, jit, pure=False):
+            futures = {client.submit(run_case, text, spec.scene_path.stem, spec.t_end, spec.arms, jit, options,
+                                     pure=False):
                        (cid, c) for cid, c, text in todo}
             if progress:
                 from tqdm import tqdm
@@ -386,4 +389,4 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
     from .results.sweep_figures import sweep_figures
     figures = sweep_figures(csv_path, spec.keys, spec.grid_keys, spec.mc_keys, out, name or spec.scene_path.stem)
     return {"csv": csv_path, "cases": len(spec.cases), "skipped": skipped, "failed": failed, "rows": rows_out,
-            "figures": figures, "compiled": jit, "compilations": built}
+            "figures": figures, "compiled": jit, "options": options, "compilations": built}

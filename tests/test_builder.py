@@ -187,9 +187,11 @@ def test_sampled_references_interpolate_the_exact_ones_and_cut_the_right_hand_si
 
 def test_scenes_that_differ_only_in_contact_numbers_share_their_compiled_code(paper_scene, tmp_path, monkeypatch):
     """Clearance, stiffness, restitution and friction coefficients enter the equations as an
-    input (the contact parameters, carried in the discrete state), so a second clearance
-    steps with the first one's compiled code: no new compilation, and a different motion
-    (the journals sit deeper in a larger bearing)."""
+    input (the contact parameters), and gains, torque limits and f_min the controller step
+    (its settings), both carried in the discrete state, so a second clearance and preload
+    level steps with the first one's compiled code: no new compilation, and a different
+    motion (the journals sit deeper in a larger bearing)."""
+    from rrr4.control import controller_settings, parametric_controller
     from rrr4.dynamics.builder import contact_parameters
     from rrr4.integrators.compiled import compilations
     monkeypatch.setenv("RRR4_CACHE", str(tmp_path))
@@ -200,7 +202,13 @@ def test_scenes_that_differ_only_in_contact_numbers_share_their_compiled_code(pa
     other = dataclasses.replace(other, effects=dataclasses.replace(other.effects, contact=dataclasses.replace(
         other.effects.contact, restitution=0.5), friction=dataclasses.replace(other.effects.friction,
                                                                              coefficient=0.2)))
+    act = other.actuation
+    other = dataclasses.replace(other, actuation=dataclasses.replace(
+        act, kp=1.5 * act.kp, kd=0.5 * act.kd, torque_limit=tuple(2 * v for v in act.torque_limit),
+        preload=dataclasses.replace(act.preload, min_force=2 * act.preload.min_force)))
     assert build_equations(other).parametric is build_equations(paper_scene).parametric
+    assert parametric_controller(other) is parametric_controller(paper_scene)
+    assert np.sum(controller_settings(other) != controller_settings(paper_scene)) == 7  # kp, kd, 4 limits, f_min
     assert not np.array_equal(contact_parameters(other), contact_parameters(paper_scene))
     n0 = compilations()
     a = simulate(paper_scene, t_end=0.01, jit=True)
@@ -211,3 +219,38 @@ def test_scenes_that_differ_only_in_contact_numbers_share_their_compiled_code(pa
                                                                                                   axis=1))
     vm = simulate(other, t_end=0.01, jit=False)
     assert np.max(np.abs(vm.q - b.q)) < 1e-12
+
+
+def test_with_geometry_inputs_scenes_that_differ_in_masses_and_geometry_share_their_compiled_code(tmp_path,
+                                                                                                  monkeypatch):
+    """inputs='geometry': masses, inertias and joint points are inputs of the equations too,
+    and with references='sampled' the closed-form controller runs per case in Python, so a
+    mechanism with a base moved by 50 um, a driving link 20 um longer and a heavier platform
+    steps with the first one's compiled code. Its motion equals that of its own equations with
+    the geometry folded in as constants (the default), to rounding."""
+    import yaml
+
+    from rrr4.integrators.compiled import compilations
+    from rrr4.scene import parse_scene
+    monkeypatch.setenv("RRR4_CACHE", str(tmp_path))
+    data = yaml.safe_load((ROOT / "problems" / "paper_circle.yaml").read_text())
+    data["integrator"] = {**data.get("integrator", {}), "newton_tol": 1.2346e-7}  # no other test compiles this
+    nominal = parse_scene(data, name="nominal")
+    chains = data["mechanism"]["chains"]
+    chains[0]["base"] = [-0.3 + 5e-5, -0.3]
+    chains[2]["driving_link"] = {"length": 0.25 + 2e-5, "mass": 0.40}
+    data["mechanism"]["platform"]["mass"] = 0.88
+    other = parse_scene(data, name="other")
+    opts = {"t_end": 0.01, "inputs": "geometry", "references": "sampled"}
+    shared = build_equations(nominal, inputs="geometry").parametric
+    assert build_equations(other, inputs="geometry").parametric is shared
+    n0 = compilations()
+    a = simulate(nominal, jit=True, **opts)
+    n1 = compilations()
+    b = simulate(other, jit=True, **opts)
+    assert n1 > n0 and compilations() == n1
+    assert np.max(np.abs(b.q - a.q)) > 1e-5  # the first driving link sits on another base
+    folded = simulate(other, jit=False, t_end=0.01, references="sampled")
+    assert np.max(np.abs(folded.q - b.q)) < 1e-11
+    with pytest.raises(SceneError, match="inputs: unknown value 'mass'"):
+        simulate(nominal, t_end=0.01, inputs="mass")

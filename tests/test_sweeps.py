@@ -206,12 +206,13 @@ def test_workspace_map_of_the_graph_form_equals_the_closed_form(paper_scene, tmp
     assert files[0].stat().st_size > 0
 
 
-def test_sweeps_compile_unless_they_vary_the_mechanism(monkeypatch):
-    """The contact numbers are inputs of the compiled stepping and the path is tabulated, so a
-    sweep over them compiles each structural variant once (see
-    test_scenes_that_differ_only_in_contact_numbers_share_their_compiled_code); one that varies
-    the mechanism's geometry would compile every case, and steps in the virtual machine."""
-    from rrr4.sweeps import compiles, load_spec
-    monkeypatch.setenv("RRR4_JIT", "1")
-    assert compiles(load_spec(ROOT / "problems" / "sweeps" / "clearance_vs_preload.yaml"))
-    assert not compiles(load_spec(ROOT / "problems" / "sweeps" / "tolerances.yaml"))
+def test_a_sweep_over_the_mechanism_takes_its_geometry_as_inputs():
+    """Contact numbers, gains, limits and f_min are inputs of the compiled stepping anyway; a
+    spec that varies the mechanism's geometry or masses runs with them as inputs too and the
+    controller's references tabulated per case (see
+    test_with_geometry_inputs_scenes_that_differ_in_masses_and_geometry_share_their_compiled_code),
+    so every sweep compiles once per structure."""
+    from rrr4.sweeps import case_options, load_spec
+    assert case_options(load_spec(ROOT / "problems" / "sweeps" / "clearance_vs_preload.yaml")) == {}
+    assert case_options(load_spec(ROOT / "problems" / "sweeps" / "tolerances.yaml")) == {
+        "inputs": "geometry", "references": "sampled"}

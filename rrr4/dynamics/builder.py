@@ -70,11 +70,14 @@ from ..contact import (
 )
 from ..contact.normal import V_MIN, power
 from ..errors import SceneError
-from ..mechanism.graph import Model
-from ..scene import Scene, argument
+from ..mechanism.graph import Model, geometry_parameters
+from ..scene import Scene, argument, unknown_value
 
-__all__ = ["Equations", "build_equations", "joint_stiffness", "contact_parameters", "graph_size",
+__all__ = ["Equations", "build_equations", "joint_stiffness", "contact_parameters", "equation_parameters", "graph_size",
+           "fix_last_input", "INPUTS",
            "BAUMGARTE_OMEGA", "JOINT_PARAMETERS", "EFFECT_PARAMETERS"]
+
+INPUTS = ("contact", "geometry")  # build_equations(inputs=...): the numbers the parametric equations take
 
 # Baumgarte stabilisation frequency omega_b [rad/s] (alpha = omega_b, beta = omega_b).
 BAUMGARTE_OMEGA = 100.0
@@ -99,11 +102,10 @@ class Equations:
     energy: ca.Function
     v_min: float
     baumgarte: float
-    mass: np.ndarray = field(repr=False)
-    # the contact parameters (see CONTACT_PARAMETERS) of this scene, and the same equations
-    # with them as the last input "contact" of every Function: shared by every scene of the
-    # same structure, so that compiled code built on them is too
-    contact: np.ndarray = field(default_factory=lambda: np.zeros(0), compare=False, repr=False)
+    # the numbers of this scene that the equations take as an input (:func:`equation_parameters`),
+    # and the same equations with them as the last input "parameters" of every Function: shared
+    # by every scene of the same structure, so that compiled code built on them is too
+    parameters: np.ndarray = field(default_factory=lambda: np.zeros(0), compare=False, repr=False)
     parametric: Equations | None = field(default=None, compare=False, repr=False)
     # references Function (or None) -> the ODE System built on these equations: owned here,
     # freed with them
@@ -117,9 +119,16 @@ EFFECT_PARAMETERS = ("restitution", "damping", "friction_coefficient", "static_c
                      "stribeck_velocity")
 
 
+def equation_parameters(scene: Scene, geometry: bool = False) -> np.ndarray:
+    """The scene's values of the equations' input ``parameters``: its contact numbers
+    (:func:`contact_parameters`), then with `geometry` masses, inertias and joint points
+    (:func:`rrr4.mechanism.graph.geometry_parameters`)."""
+    return np.r_[contact_parameters(scene), geometry_parameters(scene.graph) if geometry else []]
+
+
 def contact_parameters(scene: Scene) -> np.ndarray:
-    """The scene's values of the ``contact`` input: JOINT_PARAMETERS of each clearance joint
-    (graph order), then EFFECT_PARAMETERS; empty without a clearance joint (no contact)."""
+    """The scene's contact numbers: JOINT_PARAMETERS of each clearance joint (graph order),
+    then EFFECT_PARAMETERS; empty without a clearance joint (no contact)."""
     per = [(joint_stiffness(scene, j), scene.joint(j).journal_radius, scene.joint(j).bearing_radius)
            for j in Model.of(scene.graph).clearance_joints]
     if not per:
@@ -130,8 +139,7 @@ def contact_parameters(scene: Scene) -> np.ndarray:
 
 
 def _structure(scene: Scene) -> Scene:
-    """physics(scene) without the numbers of :func:`contact_parameters`: scenes that differ
-    only in those share one set of parametric equations."""
+    """`scene` without the numbers of :func:`contact_parameters`."""
     joints = tuple(replace(j, journal_radius=1.0, radial_clearance=1.0) if j.clearance else j
                    for j in scene.graph.joints)
     ce, fe = scene.effects.contact, scene.effects.friction
@@ -141,9 +149,22 @@ def _structure(scene: Scene) -> Scene:
     return replace(scene, graph=replace(scene.graph, joints=joints), effects=effects)
 
 
-def _fixed(f: ca.Function, values: np.ndarray) -> ca.Function:
-    """f with its last input ("contact") fixed to `values`: the same SX graph, the numbers
-    folded in as constants."""
+def _plant_structure(scene: Scene) -> Scene:
+    """physics(scene) without the numbers of :func:`equation_parameters` (nor the actuator
+    limits and pose guesses, which the equations do not use): scenes that differ only in
+    those share one set of parametric equations."""
+    s = _structure(scene)
+    g = s.graph
+    bodies = tuple(replace(b, mass=1.0, inertia=1.0, pose=(0.0, 0.0, 0.0),
+                           points=tuple((name, (0.0, 0.0)) for name, _ in b.points)) for b in g.bodies)
+    joints = tuple(replace(j, points=((0.0, 0.0), (0.0, 0.0))) for j in g.joints)
+    actuators = tuple(replace(a, limit=1.0) for a in g.actuators)
+    return replace(s, mechanism=None, graph=replace(g, bodies=bodies, joints=joints, actuators=actuators))
+
+
+def fix_last_input(f: ca.Function, values) -> ca.Function:
+    """f with its last input (parameters such as "contact" or "settings") fixed to `values`:
+    the same SX graph, the numbers folded in as constants."""
     ins = [ca.SX.sym(f.name_in(i), f.sparsity_in(i)) for i in range(f.n_in() - 1)]
     out = f.call([*ins, ca.DM(values)])
     return ca.Function(f.name(), ins, out, f.name_in()[:-1], f.name_out())
@@ -164,27 +185,35 @@ def graph_size(f: ca.Function) -> dict:
     return {"instructions": f.n_instructions(), "nodes": f.n_nodes(), "inputs": f.nnz_in()}
 
 
-def build_equations(scene: Scene, v_min: float = V_MIN, baumgarte: float = BAUMGARTE_OMEGA) -> Equations:
+def build_equations(scene: Scene, v_min: float = V_MIN, baumgarte: float = BAUMGARTE_OMEGA,
+                    inputs: str = "contact") -> Equations:
     """Build (once per scene and options, cached) the equations of `scene`.
 
     v_min [m/s] floors the approach velocity delta_dot0; baumgarte = omega_b [rad/s].
+    inputs (:data:`INPUTS`): which numbers the parametric equations take as their input
+    ``parameters`` (:func:`equation_parameters`): 'contact' (default) or 'geometry' (the
+    contact numbers, masses, inertias and joint points; about 20 % more instructions, since
+    zeros and ones in the geometry no longer simplify, for sweeps over the mechanism).
     Raises SceneError if the actuation mode over-constrains the mechanism.
     """
     v_min = argument("v_min", v_min)
     baumgarte = argument("baumgarte", baumgarte, allow_zero=True)
-    return _build(physics(scene), float(v_min), float(baumgarte))
+    if inputs not in INPUTS:
+        raise unknown_value("inputs", "value", inputs, INPUTS)
+    return _build(physics(scene), float(v_min), float(baumgarte), inputs == "geometry")
 
 
 @functools.lru_cache(maxsize=16)
-def _build(scene: Scene, v_min: float, omega: float) -> Equations:
-    """The equations of one scene: the parametric equations of its structure with its contact
+def _build(scene: Scene, v_min: float, omega: float, geometry: bool) -> Equations:
+    """The equations of one scene: the parametric equations of its structure with its
     parameters fixed."""
-    par = _parametric(_structure(scene), v_min, omega)
-    p = contact_parameters(scene)
+    par = _parametric(_plant_structure(scene) if geometry else _structure(scene), v_min, omega, geometry)
+    p = equation_parameters(scene, geometry)
     nc = len(par.clearance_joints)
     k = len(JOINT_PARAMETERS)
-    return replace(par, scene=scene, stiffness=tuple(p[:k * nc:k]), contact=p, parametric=par, systems={},
-                   **{k: _fixed(getattr(par, k), p) for k in ("acceleration", "residual", "contact_update", "energy")})
+    return replace(par, scene=scene, stiffness=tuple(p[:k * nc:k]), parameters=p, parametric=par, systems={},
+                   **{k: fix_last_input(getattr(par, k), p)
+                      for k in ("acceleration", "residual", "contact_update", "energy")})
 
 
 def physics(scene: Scene) -> Scene:
@@ -198,9 +227,10 @@ def physics(scene: Scene) -> Scene:
 
 
 @functools.lru_cache(maxsize=16)
-def _parametric(scene: Scene, v_min: float, omega: float) -> Equations:
-    """The equations of a structure scene (:func:`_structure`), every Function with the input
-    ``contact`` (:func:`contact_parameters`) last."""
+def _parametric(scene: Scene, v_min: float, omega: float, geometry: bool) -> Equations:
+    """The equations of a structure scene (:func:`_structure`, or with `geometry`
+    :func:`_plant_structure`), every Function with the input ``parameters``
+    (:func:`equation_parameters`) last."""
     model = Model.of(scene.graph)
     graph = scene.graph
     n, nq, nd = model.n_actuators, model.nq, len(graph.drivers)
@@ -221,12 +251,17 @@ def _parametric(scene: Scene, v_min: float, omega: float) -> Equations:
     refs = [q, qd, effort, th_ref, thd_ref, thdd_ref, dd0, inc, t]
     ref_names = ["q", "qd", "effort", "theta_ref", "theta_d_ref", "theta_dd_ref", "delta_dot0", "in_contact", "t"]
 
-    m_diag = model.mass_diagonal
-    M = np.diag(m_diag)
-    theta, S = model.actuator_coordinates_function(q)
+    nk = (len(JOINT_PARAMETERS) * nc + len(EFFECT_PARAMETERS)) if nc else 0
+    P = ca.SX.sym("parameters", nk + (geometry_parameters(graph).size if geometry else 0))
+    G = P[nk:] if geometry else None  # masses, inertias, joint points (else constants)
+    m_diag = model.masses(G)[0]
+    theta = ca.vertcat(*[model.joint_coordinate(q, a.joint, G) for a in graph.actuators]) if n else ca.SX(0, 1)
+    S = ca.jacobian(theta, q)
     theta_d = S @ qd
     terms = []
-    Q = ca.SX(ca.DM(model.gravity_forces(scene.effects.gravity)))
+    Q = model.gravity_forces(scene.effects.gravity, G)
+    if not geometry:
+        m_diag, Q = ca.DM(m_diag), ca.SX(ca.DM(Q))
     if scene.effects.gravity != (0.0, 0.0):
         terms.append("gravity")
 
@@ -242,9 +277,8 @@ def _parametric(scene: Scene, v_min: float, omega: float) -> Equations:
     # ---- contacts
     ce = scene.effects.contact
     fe = scene.effects.friction
-    P = ca.SX.sym("contact", (len(JOINT_PARAMETERS) * nc + len(EFFECT_PARAMETERS)) if nc else 0)
     if nc:
-        restitution, damping, mu, mu_s, v0, v1, v_s = ca.vertsplit(P[len(JOINT_PARAMETERS) * nc:])
+        restitution, damping, mu, mu_s, v0, v1, v_s = ca.vertsplit(P[len(JOINT_PARAMETERS) * nc:nk])
         fe = replace(fe, coefficient=mu, static_coefficient=mu_s, v0=v0, v1=v1, stribeck_velocity=v_s)
     cols = {k: [] for k in ("f", "fn", "ft", "delta", "delta_dot", "e")}
     V_contact, p_damp, p_fric = ca.SX(0), ca.SX(0), ca.SX(0)
@@ -255,7 +289,7 @@ def _parametric(scene: Scene, v_min: float, omega: float) -> Equations:
             terms.append(f"friction ({fe.law})")
     for j, name in enumerate(clear):
         spec = graph.joint(name)
-        pts = model.joint_points(q, spec)
+        pts = model.joint_points(q, spec, G)
         p_j, p_b = pts[spec.journal], pts[1 - spec.journal]
         g_j, g_b = ca.jacobian(p_j, q), ca.jacobian(p_b, q)
         i_b, i_j = model.rotation_index(spec.bearing_body), model.rotation_index(spec.journal_body)
@@ -286,7 +320,7 @@ def _parametric(scene: Scene, v_min: float, omega: float) -> Equations:
                                  for k in ("fn", "ft", "delta", "delta_dot"))
 
     # ---- constraints: ideal joints, drivers (+ driving constraints), Baumgarte-stabilised
-    phi, phi_q, gamma = model.constraints(ideal, drivers=bool(nd))(q, qd)
+    phi, phi_q, gamma = model.constraint_terms(q, qd, ideal, bool(nd), G)
     phi_dot = phi_q @ qd
     if nd:
         value, rate, acc_d = model.driver_values(t)
@@ -302,7 +336,7 @@ def _parametric(scene: Scene, v_min: float, omega: float) -> Equations:
         terms.append("prescribed actuator coordinates (driving constraints)")
     gamma_s = gamma - 2 * omega * phi_dot - omega**2 * phi
     n_con = phi.shape[0]
-    m_inv = ca.DM(1.0 / m_diag)
+    m_inv = 1.0 / m_diag
     lam = ca.solve(phi_q @ ca.diag(m_inv) @ phi_q.T, phi_q @ (m_inv * Q) - gamma_s)
     qdd = m_inv * (Q - phi_q.T @ lam)
     if act.mode == "prescribed":
@@ -325,15 +359,15 @@ def _parametric(scene: Scene, v_min: float, omega: float) -> Equations:
         "acceleration", [*refs, P],
         ca.cse([qdd, lam, tau, reaction, contact_force, fn_v, ft_v, delta_v, dd_v, ecc, power_in, p_damp, p_fric,
                 driver_effort]),
-        [*ref_names, "contact"],
+        [*ref_names, "parameters"],
         ["qdd", "lambda", "tau", "reaction", "contact_force", "normal_force", "friction_force", "penetration",
          "delta_dot", "eccentricity", "power_in", "power_damping", "power_friction", "driver_effort"])
 
     lam_s = ca.SX.sym("lambda", n_con)
     res = ca.Function(
         "residual", [q, qd, qdd_s, lam_s] + refs[2:] + [P],
-        ca.cse([ca.DM(M) @ qdd_s + phi_q.T @ lam_s - Q, phi_q @ qdd_s - gamma_s, phi]),
-        ["q", "qd", "qdd", "lambda"] + ref_names[2:] + ["contact"], ["dynamics", "constraint", "phi"])
+        ca.cse([m_diag * qdd_s + phi_q.T @ lam_s - Q, phi_q @ qdd_s - gamma_s, phi]),
+        ["q", "qd", "qdd", "lambda"] + ref_names[2:] + ["parameters"], ["dynamics", "constraint", "phi"])
 
     now = ca.vertcat(*[d > 0 for d in delta_list]) if nc else ca.SX(0, 1)
     prev = inc > 0.5
@@ -341,13 +375,13 @@ def _parametric(scene: Scene, v_min: float, omega: float) -> Equations:
     dd0_next = ca.if_else(onset, ca.fmax(dd_v, v_min), ca.if_else(now, dd0, v_min)) if nc else ca.SX(0, 1)
     loss = ca.logic_and(prev, ca.logic_not(now)) if nc else ca.SX(0, 1)
     upd = ca.Function("contact_update", [q, qd, dd0, inc, P], [dd0_next, now, loss],
-                      ["q", "qd", "delta_dot0", "in_contact", "contact"],
+                      ["q", "qd", "delta_dot0", "in_contact", "parameters"],
                       ["delta_dot0_next", "in_contact_next", "loss"])
 
-    kinetic = 0.5 * ca.dot(qd, ca.DM(m_diag) * qd)
-    potential = V_contact - ca.dot(ca.DM(model.gravity_forces(scene.effects.gravity)), q)
-    energy = ca.Function("energy", [q, qd, P], [kinetic, potential], ["q", "qd", "contact"],
+    kinetic = 0.5 * ca.dot(qd, m_diag * qd)
+    potential = V_contact - ca.dot(ca.SX(model.gravity_forces(scene.effects.gravity, G)), q)
+    energy = ca.Function("energy", [q, qd, P], [kinetic, potential], ["q", "qd", "parameters"],
                          ["kinetic", "potential"])
 
     return Equations(scene, clear, ideal, reacting, act.mode, tuple(terms), (), nq, n, n_con, acc, res, upd,
-                     energy, v_min, omega, M)
+                     energy, v_min, omega)

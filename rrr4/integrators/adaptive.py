@@ -62,7 +62,7 @@ class AdaptiveIntegrator(ABC):
         try:
             for k in frames:
                 y, z = x[1:1 + ny], x[1 + ny:]
-                u = np.array(system.held(y, u_frames[k]), float).ravel()
+                u = np.array(system.held(y, z, u_frames[k]), float).ravel()
                 t_a, t_b = u[0], u[1]
                 y1, counts = self.integrate_frame(t_a, t_b, y, z, u)
                 for key in totals:

@@ -47,10 +47,10 @@ class System:
     u is constant over a frame (e.g. reference samples at the frame's two ends) and starts
     with the frame's [t_a, t_b].
 
-    control (optional): y, u_frame -> u, a sampled controller with zero-order hold. It runs
-    once at the start of every frame on the state there, and its output (which keeps the
-    frame's [t_a, t_b] first) is the ODE's u over the whole frame; the frame inputs u_frame
-    then carry the controller's references."""
+    control (optional): y, z, u_frame -> u, a sampled controller with zero-order hold. It
+    runs once at the start of every frame on the state there (z may carry its settings), and
+    its output (which keeps the frame's [t_a, t_b] first) is the ODE's u over the whole frame;
+    the frame inputs u_frame then carry the controller's references."""
     ode: ca.Function
     discrete: ca.Function
     control: ca.Function | None = None
@@ -75,11 +75,11 @@ class System:
     @property
     def nu_frame(self) -> int:
         """Size of a frame's input: the controller's references, or the ODE's u."""
-        return self.nu if self.control is None else self.control.size1_in(1)
+        return self.nu if self.control is None else self.control.size1_in(2)
 
-    def held(self, y, u_frame):
-        """The ODE's u over a frame that starts at state y (numeric or symbolic)."""
-        return u_frame if self.control is None else self.control(y, u_frame)
+    def held(self, y, z, u_frame):
+        """The ODE's u over a frame that starts at state y, z (numeric or symbolic)."""
+        return u_frame if self.control is None else self.control(y, z, u_frame)
 
 
 class FixedStepIntegrator(ABC):
@@ -140,7 +140,8 @@ class FixedStepIntegrator(ABC):
         # fold: only the frame's last state is stored (moving states costs as much as computing them)
         roll = ca.Function("held_step", [x_k, u_held], [step(x_k, u_held)], ["x", "u"], ["x_next"]).fold(
             steps_per_frame)
-        x1 = roll(x, ca.repmat(system.held(x[1:1 + system.ny], u), 1, steps_per_frame))
+        ny, nz = system.ny, system.nz
+        x1 = roll(x, ca.repmat(system.held(x[1:1 + ny], x[1 + ny:1 + ny + nz], u), 1, steps_per_frame))
         return ca.Function("frame", [x, u], [x1], ["x", "u"], ["x_next"])
 
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,

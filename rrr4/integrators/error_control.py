@@ -127,7 +127,7 @@ def adaptive_frame(method, system: System, h: float, steps_per_frame: int, count
         n = NESTING
 
     xf, uf = ca.MX.sym("x", x.size1()), ca.MX.sym("u", system.nu_frame)
-    u_held = system.held(xf[1:1 + ny], uf)
+    u_held = system.held(xf[1:1 + ny], xf[1 + ny:1 + ny + system.nz], uf)
     xk = ca.vertcat(xf[:nx], 0, xf[nx + 1:])  # position 0: the frame starts
     xk = _guarded("first_attempt", attempt, done)(xk, u_held)  # after a failure: nothing at all
     # the common frame (one accepted step) pays one switch for the rest: each switch copies the state

@@ -379,7 +379,8 @@ class ImplicitIntegrator(FixedStepIntegrator):
         nq = second_order_split(system)
         ny, nz = system.ny, system.nz
         y0 = x0[1:1 + ny]
-        f0 = np.array(system.ode(x0[0], y0, x0[1 + ny:1 + ny + nz], system.held(y0, u0))).ravel()
+        z0 = x0[1 + ny:1 + ny + nz]
+        f0 = np.array(system.ode(x0[0], y0, z0, system.held(y0, z0, u0))).ravel()
         mem0 = np.asarray(self.initial_memory(f0, nq), float).ravel()
         _, _, extra = self._layout(system, nq)
         out = np.zeros(extra)

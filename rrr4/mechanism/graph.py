@@ -31,7 +31,15 @@ import numpy as np
 
 from ..scene import GROUND, Graph, JointSpec
 
-__all__ = ["Model", "rotation", "perp"]
+__all__ = ["Model", "rotation", "perp", "geometry_parameters"]
+
+
+def geometry_parameters(graph: Graph) -> np.ndarray:
+    """The graph's numbers that the equations of motion take as an input (``geometry``):
+    mass [kg] and inertia [kg m^2] of each body (graph order), then both points (x, y) [m]
+    of each joint (graph order, each in its body's frame)."""
+    return np.array([*(v for b in graph.bodies for v in (b.mass, b.inertia)),
+                     *(v for j in graph.joints for p in j.points for v in p)], float)
 
 
 def rotation(theta):
@@ -136,14 +144,27 @@ class Model:
         r, th = self.body_pose(q, body)
         return r + rotation(th) @ local
 
-    def joint_points(self, q, joint: JointSpec):
-        """(p_1, p_2) global positions of the joint's points on its two bodies."""
-        return tuple(self.point(q, b, p) for b, p in zip(joint.bodies, joint.points, strict=True))
+    def joint_points(self, q, joint: JointSpec, geometry=None):
+        """(p_1, p_2) global positions of the joint's points on its two bodies; the local
+        points from `geometry` (symbols laid out as :func:`geometry_parameters`) if given."""
+        local = joint.points
+        if geometry is not None:
+            k = 2 * len(self.body_names) + 4 * self.joint_names.index(joint.name)
+            local = (geometry[k:k + 2], geometry[k + 2:k + 4])
+        return tuple(self.point(q, b, p) for b, p in zip(joint.bodies, local, strict=True))
 
-    def joint_equations(self, q, name: str) -> ca.SX:
+    def masses(self, geometry=None):
+        """(mass diagonal (nq,) [kg, kg, kg m^2], masses (n_bodies,) [kg]): numeric, or from
+        the symbols `geometry` (:func:`geometry_parameters`)."""
+        if geometry is None:
+            return self.mass_diagonal, np.array([b.mass for b in self.graph.bodies])
+        m, inertia = geometry[0:2 * len(self.body_names):2], geometry[1:2 * len(self.body_names):2]
+        return ca.vertcat(*[v for k in range(len(self.body_names)) for v in (m[k], m[k], inertia[k])]), m
+
+    def joint_equations(self, q, name: str, geometry=None) -> ca.SX:
         """The two constraint rows of joint `name` (zero when the joint is ideal and closed)."""
         j = self.graph.joint(name)
-        p1, p2 = self.joint_points(q, j)
+        p1, p2 = self.joint_points(q, j, geometry)
         if j.type == "revolute":
             return p2 - p1
         (_, th1), (_, th2) = self.body_pose(q, j.bodies[0]), self.body_pose(q, j.bodies[1])
@@ -151,13 +172,13 @@ class Model:
                                                                                                    j.axis[0]])
         return ca.vertcat(th2 - th1 - j.angle, ca.dot(n1, p2 - p1))
 
-    def joint_coordinate(self, q, name: str) -> ca.SX:
+    def joint_coordinate(self, q, name: str, geometry=None) -> ca.SX:
         """theta_2 - theta_1 [rad] (revolute) or the slide u_1 . (p_2 - p_1) [m] (prismatic)."""
         j = self.graph.joint(name)
         (_, th1), (_, th2) = self.body_pose(q, j.bodies[0]), self.body_pose(q, j.bodies[1])
         if j.type == "revolute":
             return th2 - th1
-        p1, p2 = self.joint_points(q, j)
+        p1, p2 = self.joint_points(q, j, geometry)
         u1 = rotation(th1) @ ca.DM(j.axis) if j.bodies[0] != GROUND else ca.DM(j.axis)
         return ca.dot(u1, p2 - p1)
 
@@ -169,13 +190,18 @@ class Model:
         accelerations), gamma = -(Phi_q qd)_q qd. Rows in the order given, 2 per joint."""
         joints = self.constrained_joints if joints is None else tuple(joints)
         q, qd = self._q, self._qd
-        rows = [self.joint_equations(q, j) for j in joints]
+        return ca.Function("constraints", [q, qd], list(self.constraint_terms(q, qd, joints, drivers)), ["q", "qd"],
+                           ["phi", "phi_q", "gamma"])
+
+    def constraint_terms(self, q, qd, joints: tuple[str, ...], drivers: bool = False, geometry=None):
+        """(phi, phi_q, gamma) of :meth:`constraints` as expressions of the symbols q, qd (and
+        `geometry`, see :func:`geometry_parameters`)."""
+        rows = [self.joint_equations(q, j, geometry) for j in joints]
         if drivers:
-            rows += [self.joint_coordinate(q, d.joint) for d in self.graph.drivers]
+            rows += [self.joint_coordinate(q, d.joint, geometry) for d in self.graph.drivers]
         phi = ca.vertcat(*rows) if rows else ca.SX(0, 1)
         phi_q = ca.jacobian(phi, q)
-        gamma = -ca.jtimes(phi_q @ qd, q, qd)
-        return ca.Function("constraints", [q, qd], [phi, phi_q, gamma], ["q", "qd"], ["phi", "phi_q", "gamma"])
+        return phi, phi_q, -ca.jtimes(phi_q @ qd, q, qd)
 
     def driver_values(self, t):
         """(value, rate, acceleration) of every driver at time t (numeric or symbolic)."""
@@ -190,10 +216,12 @@ class Model:
         """M (nq x nq) [kg, kg m^2], constant and diagonal."""
         return np.diag(self.mass_diagonal)
 
-    def gravity_forces(self, gravity) -> np.ndarray:
-        """Q_g (nq,) [N, N, N m] of an in-plane gravity (2,) [m/s^2]."""
+    def gravity_forces(self, gravity, geometry=None):
+        """Q_g (nq,) [N, N, N m] of an in-plane gravity (2,) [m/s^2] (symbolic with `geometry`)."""
         gx, gy = gravity
-        return np.array([v for b in self.graph.bodies for v in (b.mass * gx, b.mass * gy, 0.0)])
+        m = self.masses(geometry)[1]
+        rows = [v for k in range(len(self.body_names)) for v in (m[k] * gx, m[k] * gy, 0.0)]
+        return np.array(rows, float) if geometry is None else ca.vertcat(*rows)
 
     def body_poses(self, q: np.ndarray, body: str) -> np.ndarray:
         """(N, 3) poses [x, y, theta] of `body` from states q (N, nq)."""

@@ -40,11 +40,12 @@ import functools
 
 import casadi as ca
 
+from ..dynamics.builder import fix_last_input
 from ..errors import SceneError
 from ..mechanism.graph import Model
 from ..scene import Scene
 
-__all__ = ["exact_preload_function", "constraint_violation"]
+__all__ = ["exact_preload_function", "parametric_exact_preload", "preload_settings", "constraint_violation"]
 
 # Roots are pushed this far (relative) to the feasible side so that rounding cannot put
 # a boundary point inside the forbidden interval.
@@ -61,25 +62,38 @@ def constraint_violation(tau, r, f_min: float, limits):
     the smallest norm exactly).
     """
     margin = ca.sqrt(ca.mmin(ca.sum1(r**2))) - f_min
-    lim = ca.DM(limits)
+    lim = limits if isinstance(limits, ca.SX) else ca.DM(limits)
     torque_gap = (ca.fabs(tau) - lim) / lim
-    return margin, ca.fmax(0, ca.fmax(-margin / max(f_min, 1e-12), ca.mmax(torque_gap)))
+    return margin, ca.fmax(0, ca.fmax(-margin / ca.fmax(f_min, 1e-12), ca.mmax(torque_gap)))
 
 
-def _into_box(x, lo, hi, branch: int):
+def _into_box(x, lo, hi, branch):
     """x clipped to [lo, hi]; if the box is empty (lo > hi) the end on the branch's side
     wins (lo for branch +1, where lo >= 0; hi otherwise)."""
-    if branch > 0:
-        return ca.fmax(ca.fmin(x, hi), lo)
-    return ca.fmin(ca.fmax(x, lo), hi)
+    return ca.if_else(branch > 0, ca.fmax(ca.fmin(x, hi), lo), ca.fmin(ca.fmax(x, lo), hi))
+
+
+def preload_settings(scene: Scene, f_min: float | None = None, branch: float = 0.0) -> list[float]:
+    """The numbers of a pointwise preload law that enter it as its input ``settings``:
+    weights (n), torque limits (n) [N m], f_min [N], and the branch or axial-force sign."""
+    p = scene.actuation.preload
+    return [*p.weights, *scene.actuation.torque_limit, float(p.min_force if f_min is None else f_min), float(branch)]
 
 
 @functools.cache
-def _build(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...], branch: int, nj: int) -> ca.Function:
-    n = len(weights)
+def _fixed(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...], branch: int, nj: int) -> ca.Function:
+    return fix_last_input(parametric_exact_preload(len(weights), nj), [*weights, *limits, f_min, branch])
+
+
+@functools.cache
+def parametric_exact_preload(n: int, nj: int) -> ca.Function:
+    """The law of :func:`exact_preload_function` with the input ``settings`` last
+    (:func:`preload_settings`: weights, limits, f_min, branch in {-1, 0, +1})."""
     tau_p, tau_n = ca.SX.sym("tau_p", n), ca.SX.sym("tau_n", n, 1)
     r_p, r_n = ca.SX.sym("r_p", 2, nj), ca.SX.sym("r_n", 2, nj)
-    w, lim = ca.DM(weights), ca.DM(limits)
+    settings = ca.SX.sym("settings", 2 * n + 2)
+    w, limits, f_min, branch = settings[:n], settings[n:2 * n], settings[2 * n], settings[2 * n + 1]
+    lim = limits
     inf = ca.inf
 
     # box from the actuator limits: -L <= tau_p + alpha tau_n <= L
@@ -91,10 +105,8 @@ def _build(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...], 
         active = ca.fabs(tn) > 1e-14
         lo = ca.if_else(active, ca.fmax(lo, ca.fmin(a1, a2)), lo)
         hi = ca.if_else(active, ca.fmin(hi, ca.fmax(a1, a2)), hi)
-    if branch > 0:
-        lo = ca.fmax(lo, 0.0)
-    elif branch < 0:
-        hi = ca.fmin(hi, 0.0)
+    lo = ca.if_else(branch > 0, ca.fmax(lo, 0.0), lo)
+    hi = ca.if_else(branch < 0, ca.fmin(hi, 0.0), hi)
 
     # unconstrained minimiser of sum w_i (tau_p,i + alpha tau_n,i)^2, into the box
     den = ca.dot(w, tau_n**2)
@@ -134,8 +146,8 @@ def _build(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...], 
     tau = ca.if_else(take_left, tau_l, tau_r)
     margin = ca.if_else(take_left, m_l, m_r)
     feasible = ca.if_else(ca.logic_or(ok_l, ok_r), 1.0, 0.0)
-    return ca.Function("exact_preload", [tau_p, tau_n, r_p, r_n], [alpha, tau, feasible, margin],
-                       ["tau_p", "tau_n", "r_p", "r_n"], ["alpha", "tau", "feasible", "margin"])
+    return ca.Function("exact_preload", [tau_p, tau_n, r_p, r_n, settings], [alpha, tau, feasible, margin],
+                       ["tau_p", "tau_n", "r_p", "r_n", "settings"], ["alpha", "tau", "feasible", "margin"])
 
 
 def exact_preload_function(scene: Scene, f_min: float | None = None, branch: int = 0) -> ca.Function:
@@ -157,5 +169,5 @@ def exact_preload_function(scene: Scene, f_min: float | None = None, branch: int
     fm = p.min_force if f_min is None else float(f_min)
     if branch not in (0, 1, -1):
         raise SceneError(f"branch: {branch!r} is not allowed (0 for both, +1 or -1)")
-    return _build(float(fm), tuple(p.weights), tuple(scene.actuation.torque_limit), int(branch),
+    return _fixed(float(fm), tuple(p.weights), tuple(scene.actuation.torque_limit), int(branch),
                   len(model.preload_joints))

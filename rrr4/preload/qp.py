@@ -24,12 +24,13 @@ import functools
 
 import casadi as ca
 
+from ..dynamics.builder import fix_last_input
 from ..errors import SceneError
 from ..mechanism.graph import Model
 from ..scene import Scene
 from .exact import constraint_violation
 
-__all__ = ["qp_preload_function", "scalar_qp_preload_function", "QP_OPTIONS"]
+__all__ = ["qp_preload_function", "scalar_qp_preload_function", "parametric_scalar_qp_preload", "QP_OPTIONS"]
 
 QP_OPTIONS = {
     "qrqp": {"print_iter": False, "print_header": False, "print_info": False, "error_on_fail": False},
@@ -43,28 +44,30 @@ FEASIBILITY_TOL = 1e-6
 
 
 @functools.cache
-def _qp_parts(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...],
-              signs: tuple[float, ...], m: int) -> tuple[ca.Function, ca.Function]:
-    """SX Functions 'qp_data' (inputs -> H, g, A, lba, uba; rows unscaled, infinite bounds
-    constant) and 'qp_result' (inputs, alpha -> tau, feasible, margin); n actuators,
-    nj = len(signs) joints, m alphas."""
-    n, nj = len(weights), len(signs)
+def _qp_parts(n: int, nj: int, m: int) -> tuple[ca.Function, ca.Function]:
+    """SX Functions 'qp_data' (inputs, settings -> H, g, A, lba, uba; rows unscaled, upper
+    bounds of the joint rows infinite) and 'qp_result' (inputs, settings, alpha -> tau,
+    feasible, margin); n actuators, nj joints, m alphas. settings: weights (n), torque
+    limits (n) [N m], f_min [N], signs (nj) (+1 / -1 each)."""
     tau_p, tau_n = ca.SX.sym("tau_p", n), ca.SX.sym("tau_n", n, m)
     r_p, r_n = ca.SX.sym("r_p", 2, nj), ca.SX.sym("r_n", 2, nj * m)
-    W, lim, sig = ca.diag(ca.DM(weights)), ca.DM(limits), ca.DM(signs)
+    settings = ca.SX.sym("settings", 2 * n + 1 + nj)
+    w, lim, f_min, sig = settings[:n], settings[n:2 * n], settings[2 * n], settings[2 * n + 1:]
+    W = ca.diag(w)
 
-    # QP data in alpha: H = 2 N^T W N, g = 2 N^T W tau_p; rows: joints, then actuators
+    # QP data in alpha: H = 2 N^T W N, g = 2 N^T W tau_p; rows: joints (sigma_j d_j . r_j >=
+    # f_min, multiplied through by sigma_j so that the sign is a number, not a structure), then actuators
     H = 2 * tau_n.T @ W @ tau_n
     g = 2 * tau_n.T @ W @ tau_p
     rows, bounds = [], []
     for j in range(nj):
         d = r_n[:, j] / ca.fmax(ca.norm_2(r_n[:, j]), 1e-300)
-        rows.append(ca.horzcat(*[d.T @ r_n[:, j + nj * k] for k in range(m)]))
-        bounds.append(sig[j] * f_min - d.T @ r_p[:, j])
+        rows.append(sig[j] * ca.horzcat(*[d.T @ r_n[:, j + nj * k] for k in range(m)]))
+        bounds.append(f_min - sig[j] * d.T @ r_p[:, j])
     A = ca.vertcat(*rows, tau_n)
-    lba = ca.vertcat(*[bounds[j] if signs[j] > 0 else -ca.inf for j in range(nj)], -lim - tau_p)
-    uba = ca.vertcat(*[ca.inf if signs[j] > 0 else bounds[j] for j in range(nj)], lim - tau_p)
-    data = ca.Function("qp_data", [tau_p, tau_n, r_p, r_n], [H, g, A, lba, uba])
+    lba = ca.vertcat(*bounds, -lim - tau_p)
+    uba = ca.vertcat(ca.DM.inf(nj), lim - tau_p)
+    data = ca.Function("qp_data", [tau_p, tau_n, r_p, r_n, settings], [H, g, A, lba, uba])
 
     # result: torques, reactions, feasibility (axial sign constraints and limits) and margin
     alpha = ca.SX.sym("alpha", m)
@@ -73,10 +76,10 @@ def _qp_parts(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...
     # signed axial force sigma_j d_j . r_j [N]
     axial = ca.vertcat(*[sig[j] * ca.dot(r_n[:, j], r[:, j]) / ca.fmax(ca.norm_2(r_n[:, j]), 1e-300)
                          for j in range(nj)])
-    margin, viol = constraint_violation(tau, r, f_min, limits)
-    axial_viol = ca.mmax((f_min - axial) / max(f_min, 1e-12))
+    margin, viol = constraint_violation(tau, r, f_min, lim)
+    axial_viol = ca.mmax((f_min - axial) / ca.fmax(f_min, 1e-12))
     feasible = ca.logic_and(ca.fmax(viol, axial_viol) <= FEASIBILITY_TOL, ca.sum1(alpha == alpha) == m)
-    result = ca.Function("qp_result", [tau_p, tau_n, r_p, r_n, alpha],
+    result = ca.Function("qp_result", [tau_p, tau_n, r_p, r_n, settings, alpha],
                          [tau, ca.if_else(feasible, 1.0, 0.0), margin])
     return data, result
 
@@ -85,16 +88,17 @@ def _qp_parts(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...
 def _build(solver: str, f_min: float, weights: tuple[float, ...], limits: tuple[float, ...],
            signs: tuple[float, ...], m: int) -> ca.Function:
     n, nj = len(weights), len(signs)
-    data, result = _qp_parts(f_min, weights, limits, signs, m)
+    data, result = _qp_parts(n, nj, m)
+    settings = ca.DM([*weights, *limits, f_min, *signs])
     qp = ca.conic("qp_preload_solver", solver, {"h": ca.Sparsity.dense(m, m), "a": ca.Sparsity.dense(nj + n, m)},
                   QP_OPTIONS[solver])
     ins = [ca.MX.sym("tau_p", n), ca.MX.sym("tau_n", n, m), ca.MX.sym("r_p", 2, nj), ca.MX.sym("r_n", 2, nj * m)]
-    Hm, gm, Am, lbam, ubam = data(*ins)
+    Hm, gm, Am, lbam, ubam = data(*ins, settings)
     # unit row norms: qrqp otherwise cycles on nearly parallel active rows of different scale
     scale = 1.0 / ca.fmax(ca.sqrt(ca.sum2(Am**2)), 1e-300)
     sol = qp(h=Hm, g=gm, a=Am * scale, lba=lbam * scale, uba=ubam * scale)
     a_opt = sol["x"]
-    tau_m, feas_m, margin_m = result(*ins, a_opt)
+    tau_m, feas_m, margin_m = result(*ins, settings, a_opt)
     return ca.Function("qp_preload", ins, [a_opt, tau_m, feas_m, margin_m],
                        ["tau_p", "tau_n", "r_p", "r_n"], ["alpha", "tau", "feasible", "margin"])
 
@@ -129,13 +133,22 @@ _BIG = 1e30  # stands for an infinite bound in the closed-form QP
 
 
 @functools.cache
-def _build_scalar(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...],
-                  signs: tuple[float, ...]) -> ca.Function:
-    n, nj = len(weights), len(signs)
-    data, result = _qp_parts(f_min, weights, limits, signs, 1)
+def _fixed_scalar(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...], sign: float,
+                  nj: int) -> ca.Function:
+    return fix_last_input(parametric_scalar_qp_preload(len(weights), nj), [*weights, *limits, f_min, sign])
+
+
+@functools.cache
+def parametric_scalar_qp_preload(n: int, nj: int) -> ca.Function:
+    """The law of :func:`scalar_qp_preload_function` with the input ``settings`` last
+    (:func:`rrr4.preload.exact.preload_settings`: weights, limits, f_min, and the axial-force
+    sign of every joint, +1 or -1)."""
+    data, result = _qp_parts(n, nj, 1)
     tau_p, tau_n = ca.SX.sym("tau_p", n), ca.SX.sym("tau_n", n, 1)
     r_p, r_n = ca.SX.sym("r_p", 2, nj), ca.SX.sym("r_n", 2, nj)
-    H, g, A, lba, uba = data(tau_p, tau_n, r_p, r_n)
+    settings = ca.SX.sym("settings", 2 * n + 2)
+    wide = ca.vertcat(settings[:2 * n + 1], ca.repmat(settings[2 * n + 1], nj, 1))
+    H, g, A, lba, uba = data(tau_p, tau_n, r_p, r_n, wide)
 
     def box(rows):
         """[lo, hi] of alpha from the rows (a alpha in [lb, ub]); a row with a ~ 0 bounds nothing."""
@@ -157,10 +170,10 @@ def _build_scalar(f_min: float, weights: tuple[float, ...], limits: tuple[float,
     # feasible: the QP's unique optimum; else keep the contact rows and let the limits go
     ok = lo <= hi
     alpha = ca.if_else(ok, ca.fmin(ca.fmax(x0, lo), hi), ca.fmin(ca.fmax(x0, lo_f), hi_f))
-    tau, _, margin = result(tau_p, tau_n, r_p, r_n, alpha)
+    tau, _, margin = result(tau_p, tau_n, r_p, r_n, wide, alpha)
     feasible = ca.if_else(ok, 1.0, 0.0)
-    return ca.Function("qp_preload", [tau_p, tau_n, r_p, r_n], [alpha, tau, feasible, margin],
-                       ["tau_p", "tau_n", "r_p", "r_n"], ["alpha", "tau", "feasible", "margin"])
+    return ca.Function("qp_preload", [tau_p, tau_n, r_p, r_n, settings], [alpha, tau, feasible, margin],
+                       ["tau_p", "tau_n", "r_p", "r_n", "settings"], ["alpha", "tau", "feasible", "margin"])
 
 
 def scalar_qp_preload_function(scene: Scene, signs=1.0) -> ca.Function:
@@ -177,7 +190,8 @@ def scalar_qp_preload_function(scene: Scene, signs=1.0) -> ca.Function:
     if model.redundancy != 1:
         raise SceneError(f"actuation.preload.method: the closed-form QP needs one degree of actuation redundancy, "
                          f"the scene has {model.redundancy} (use qp_preload_function)")
-    nj = len(model.preload_joints)
-    s = [float(signs)] * nj if isinstance(signs, (int, float)) else [float(v) for v in signs]
+    if float(signs) not in (1.0, -1.0):
+        raise SceneError(f"signs: {signs!r} is not allowed (+1 or -1)")
     p = scene.actuation.preload
-    return _build_scalar(float(p.min_force), tuple(p.weights), tuple(scene.actuation.torque_limit), tuple(s))
+    return _fixed_scalar(float(p.min_force), tuple(p.weights), tuple(scene.actuation.torque_limit), float(signs),
+                         len(model.preload_joints))
