@@ -40,7 +40,7 @@ GROUND = "ground"
 def choices(what: str) -> tuple[str, ...]:
     """The allowed names of a registry, read from the registry itself: 'contact law',
     'friction law', 'integrator', 'error control' (the methods integrator.tolerance applies to),
-    'newton', 'preload method', 'compensation' or 'qp solver'. Imported when a scene is parsed
+    'newton', 'coordinates', 'preload method', 'compensation' or 'qp solver'. Imported when a scene is parsed
     (the registries' modules import this one)."""
     if what == "contact law":
         from .contact.normal import NORMAL_LAWS
@@ -55,6 +55,9 @@ def choices(what: str) -> tuple[str, ...]:
         from .integrators import METHODS
         from .integrators.implicit import ImplicitIntegrator
         return tuple(k for k, m in METHODS.items() if issubclass(m, ImplicitIntegrator))
+    if what == "coordinates":
+        from .mechanism.tree import COORDINATES
+        return COORDINATES
     if what == "newton":
         from .integrators.implicit import NEWTON
         return NEWTON
@@ -317,6 +320,7 @@ class IntegratorSettings:
     refine: int = 1  # sub-steps that re-take a fixed step across a contact onset or loss (1: off)
     newton: str = "simplified"  # implicit methods: reuse the iteration matrix's factors, or 'full'
     tolerance: float | None = None  # [m] implicit methods: local position error per step (adaptive); None: fixed step
+    coordinates: str = "auto"  # what the integrator steps: tree coordinates ('auto': wherever a tree exists) or not
 
 
 @dataclass(frozen=True)
@@ -960,6 +964,7 @@ def _integrator(sec: _Section) -> IntegratorSettings:
         refine=sec.integer("refine", 1, positive=True),
         newton=sec.choice("newton", choices("newton"), "simplified"),
         tolerance=sec.number("tolerance", positive=True) if sec.raw("tolerance") is not None else None,
+        coordinates=sec.choice("coordinates", choices("coordinates"), "auto"),
     )
     if s.tolerance is not None and s.method not in choices("error control"):
         raise SceneError(f"{sec.key('tolerance')}: {s.tolerance:g} is not allowed with method '{s.method}' (error "

@@ -164,8 +164,9 @@ def _measured(model: Model, q, qd):
     return theta, S @ qd
 
 
-def _system(eqs: Equations, loop: _Loop, refs: ca.Function | None) -> System:
-    """The ODE y = [q, qd, W_in, D_damping, D_friction] with discrete z = [delta_dot0,
+def _system(eqs: Equations, loop: _Loop, refs: ca.Function | None, tree: bool = False) -> System:
+    """The ODE y = [q, qd, W_in, D_damping, D_friction] (with `tree`, the tree coordinates
+    p, pd instead of q, qd: see :mod:`rrr4.mechanism.tree`) with discrete z = [delta_dot0,
     in_contact, losses] (nc each) followed by the equations' parameters (contact numbers,
     masses and geometry, see :func:`rrr4.dynamics.builder.equation_parameters`) and the
     controller's settings (both
@@ -174,23 +175,29 @@ def _system(eqs: Equations, loop: _Loop, refs: ca.Function | None) -> System:
     in them steps with the same compiled code.
     refs: the prescribed mode's closed-form references (or None). Built once per (equations,
     loop, references) and kept by the equations (the entry holds them, so its key stays unique)."""
-    key = (loop.kind, id(loop.control), loop.path if loop.kind == "exact" else None, id(refs))
+    key = (loop.kind, id(loop.control), loop.path if loop.kind == "exact" else None, id(refs), tree)
     if key not in eqs.systems:
-        eqs.systems[key] = (loop, refs, _build_system(eqs, loop, refs))
+        eqs.systems[key] = (loop, refs, _build_system(eqs, loop, refs, tree))
     return eqs.systems[key][2]
 
 
-def _build_system(eqs: Equations, loop: _Loop, refs: ca.Function | None) -> System:
+def _build_system(eqs: Equations, loop: _Loop, refs: ca.Function | None, tree: bool) -> System:
     model = Model.of(eqs.scene.graph)
-    nq, n, nc = eqs.nq, eqs.n_actuators, len(eqs.clearance_joints)
+    par = eqs.parametric
+    n, nc = eqs.n_actuators, len(eqs.clearance_joints)
+    nq = par.tree_acceleration.size1_in(0) if tree else eqs.nq  # the coordinates stepped
     ns = len(loop.settings)
     t, y, z = ca.SX.sym("t"), ca.SX.sym("y", 2 * nq + 3), ca.SX.sym("z", 3 * nc + len(eqs.parameters) + ns)
     width = {"exact": 0, "sampled": 10 * n, "held": n}[loop.kind]
     u = ca.SX.sym("u", 2 + width)
-    q, qd = y[:nq], y[nq:2 * nq]
     dd0, inc, losses = z[:nc], z[nc:2 * nc], z[2 * nc:3 * nc]
     parameters, settings = z[3 * nc:3 * nc + len(eqs.parameters)], z[3 * nc + len(eqs.parameters):]
-    par = eqs.parametric
+
+    def configuration(y, parameters):
+        """(q, qd) of the state y: its first entries, or from the tree coordinates."""
+        return par.tree_state(y[:nq], y[nq:2 * nq], parameters) if tree else (y[:nq], y[nq:2 * nq])
+
+    q, qd = configuration(y, parameters)
     zeros = ca.SX.zeros(n)
     th, th_d, th_dd, effort = zeros, zeros, zeros, zeros
     if loop.kind == "held":
@@ -210,9 +217,14 @@ def _build_system(eqs: Equations, loop: _Loop, refs: ca.Function | None) -> Syst
         effort = loop.control(*trajectory_function(loop.path)(t), *_measured(model, q, qd), settings)[0]
     elif refs is not None:
         _, th, th_d, th_dd = refs(t)
-    out = par.acceleration(q=q, qd=qd, effort=effort, theta_ref=th, theta_d_ref=th_d, theta_dd_ref=th_dd,
-                           delta_dot0=dd0, in_contact=inc, t=t, parameters=parameters)
-    ydot = ca.vertcat(qd, out["qdd"], out["power_in"], out["power_damping"], out["power_friction"])
+    refs_in = dict(effort=effort, theta_ref=th, theta_d_ref=th_d, theta_dd_ref=th_dd, delta_dot0=dd0, in_contact=inc,
+                   t=t, parameters=parameters)
+    if tree:
+        out = par.tree_acceleration(p=y[:nq], pd=y[nq:2 * nq], **refs_in)
+        ydot = ca.vertcat(y[nq:2 * nq], out["pdd"], out["power_in"], out["power_damping"], out["power_friction"])
+    else:
+        out = par.acceleration(q=q, qd=qd, **refs_in)
+        ydot = ca.vertcat(qd, out["qdd"], out["power_in"], out["power_damping"], out["power_friction"])
     ode = ca.Function("ode", [t, y, z, u], [ydot], ["t", "y", "z", "u"], ["y_dot"])
     dd0n, incn, loss = par.contact_update(q, qd, dd0, inc, parameters)
     disc = ca.Function("discrete", [t, y, z], [ca.vertcat(dd0n, incn, losses + loss, parameters, settings)],
@@ -221,7 +233,7 @@ def _build_system(eqs: Equations, loop: _Loop, refs: ca.Function | None) -> Syst
     if loop.kind == "held":
         k = loop.control.size1_in(0)  # pose derivatives (3 each) or actuator references (n each): 3 blocks
         ym, zm, uf = ca.MX.sym("y", y.shape[0]), ca.MX.sym("z", z.shape[0]), ca.MX.sym("u_frame", 2 + 3 * k)
-        meas = _measured(model, ym[:nq], ym[nq:2 * nq])
+        meas = _measured(model, *configuration(ym, zm[3 * nc:3 * nc + len(eqs.parameters)]))
         args = [uf[2 + i * k:2 + (i + 1) * k] for i in range(3)]
         eff = loop.control(*args, *meas, zm[z.shape[0] - ns:])
         eff = eff[0] if isinstance(eff, (list, tuple)) else eff
@@ -336,7 +348,17 @@ def scene_system(scene: Scene, references: str = "exact", controller: str = "pyt
     eqs = build_equations(scene)
     loop = _loop(scene, eqs, controller, references, None)
     refs = reference_function(scene) if eqs.mode == "prescribed" and scene.mechanism is not None else None
-    return _system(eqs, loop, refs if loop.kind == "exact" else None)
+    return _system(eqs, loop, refs if loop.kind == "exact" else None, _in_tree(scene, eqs))
+
+
+def _in_tree(scene: Scene, eqs: Equations) -> bool:
+    """Whether the integrator steps tree coordinates (``integrator.coordinates``: 'auto' takes
+    them wherever the ideal joints form a tree); raises SceneError for 'tree' without one."""
+    c = scene.integrator.coordinates
+    if c == "tree" and eqs.tree_acceleration is None:
+        raise SceneError("integrator.coordinates: 'tree' is not allowed here (no ideal joint joins a body to the "
+                         "ground or to a placed body; use auto or reference-point)")
+    return c != "reference-point" and eqs.tree_acceleration is not None
 
 
 def _frames(scene: Scene, t_end: float, rate: float, held: bool) -> tuple[int, int]:
@@ -494,13 +516,19 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
         else:
             q0 = mech.assemble(target, offsets, guess=q0)
         seated = np.any(offsets != 0, axis=1).astype(float)
-    x0 = np.r_[0.0, q0, qd0, 0.0, 0.0, 0.0, np.full(nc, eqs.v_min), seated, np.zeros(nc), eqs.parameters, loop.settings]
+    tree = _in_tree(scene, eqs)
+    y0 = np.r_[q0, qd0] if not tree else np.hstack([np.array(v).ravel() for v in eqs.tree_coordinates(q0, qd0)])
+    x0 = np.r_[0.0, y0, 0.0, 0.0, 0.0, np.full(nc, eqs.v_min), seated, np.zeros(nc), eqs.parameters, loop.settings]
 
-    system = _system(eqs, loop, refs)
+    system = _system(eqs, loop, refs, tree)
     wall = time.perf_counter()
     run = method.run(system, x0, u, h, spf, progress=bool(overrides.get("progress", False)), every=every)
     wall = time.perf_counter() - wall
     X = np.vstack([x0, run.states])
+    if tree:  # back to reference-point coordinates: [t, q, qd, the rest]
+        m = y0.size // 2
+        qs = _mapped(eqs.tree_state, p=X[:, 1:1 + m].T, pd=X[:, 1 + m:1 + 2 * m].T)
+        X = np.column_stack([X[:, 0], qs["q"].T, qs["qd"].T, X[:, 1 + 2 * m:]])
     nq = eqs.nq
     q, qd = X[:, 1:1 + nq], X[:, 1 + nq:1 + 2 * nq]
     W, Dd, Df = X[:, 1 + 2 * nq], X[:, 2 + 2 * nq], X[:, 3 + 2 * nq]
@@ -543,6 +571,7 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     stats = {"method": method.name, "step": h, "steps": spf * n_frames, "frames": N - 1, "wall_time": wall,
              "jit": method.jit, "graph": {f.name(): graph_size(f) for f in (eqs.acceleration, system.ode)},
              "controller": (controller if loop.control is not None else "none"),
+             "coordinates": "tree" if tree else "reference-point",
              "control_rate": model_scene.actuation.control_rate if held else None, "references": loop.kind,
              "preload": "given" if given is not None else (model_scene.actuation.preload.method if has_preload(
                  model_scene) and eqs.mode == "torque" else "none"),

@@ -71,6 +71,7 @@ from ..contact import (
 from ..contact.normal import V_MIN, power
 from ..errors import SceneError
 from ..mechanism.graph import Model, geometry_parameters
+from ..mechanism.tree import tree_map
 from ..scene import Scene, argument, unknown_value
 
 __all__ = ["Equations", "build_equations", "joint_stiffness", "contact_parameters", "equation_parameters", "graph_size",
@@ -102,6 +103,12 @@ class Equations:
     energy: ca.Function
     v_min: float
     baumgarte: float
+    # tree coordinates p (rrr4.mechanism.tree; None where no ideal joint forms a tree):
+    # tree_acceleration: p, pd and the refs after qd -> pdd, power_in, power_damping,
+    # power_friction; tree_state: p, pd -> q, qd; tree_coordinates: q, qd -> p, pd
+    tree_acceleration: ca.Function | None = None
+    tree_state: ca.Function | None = None
+    tree_coordinates: ca.Function | None = None
     # the numbers of this scene that the equations take as an input (:func:`equation_parameters`),
     # and the same equations with them as the last input "parameters" of every Function: shared
     # by every scene of the same structure, so that compiled code built on them is too
@@ -212,8 +219,9 @@ def _build(scene: Scene, v_min: float, omega: float, geometry: bool) -> Equation
     nc = len(par.clearance_joints)
     k = len(JOINT_PARAMETERS)
     return replace(par, scene=scene, stiffness=tuple(p[:k * nc:k]), parameters=p, parametric=par, systems={},
-                   **{k: fix_last_input(getattr(par, k), p)
-                      for k in ("acceleration", "residual", "contact_update", "energy")})
+                   **{k: fix_last_input(getattr(par, k), p) for k in ("acceleration", "residual", "contact_update",
+                                                                       "energy", "tree_acceleration", "tree_state",
+                                                                       "tree_coordinates") if getattr(par, k)})
 
 
 def physics(scene: Scene) -> Scene:
@@ -383,5 +391,42 @@ def _parametric(scene: Scene, v_min: float, omega: float, geometry: bool) -> Equ
     energy = ca.Function("energy", [q, qd, P], [kinetic, potential], ["q", "qd", "parameters"],
                          ["kinetic", "potential"])
 
+    # ---- the same equations in tree coordinates p (velocity transformation q = q(p), qd = J pd)
+    tree = tree_map(model, G)
+    tree_fns = (None, None, None)
+    if tree.tree_joints:
+        p, pd = tree.p, ca.SX.sym("pd", tree.p.shape[0])
+        J = ca.jacobian(tree.q, p)
+        jd = ca.jtimes(J @ pd, p, pd)  # dJ/dt pd
+
+        def on_tree(e):
+            return ca.substitute(e, ca.vertcat(q, qd), ca.densify(ca.vertcat(tree.q, J @ pd)))
+
+        rows = [2 * ideal.index(j) + c for j in tree.closures for c in (0, 1)] + list(range(2 * len(ideal), n_con))
+        M_t = J.T @ (m_diag * J)
+        rhs = J.T @ (on_tree(Q) - m_diag * jd)
+        lam_t = ca.SX(0, 1)
+        if rows:  # loop closures, drivers and driving constraints stay constraints
+            phi_p = on_tree(phi_q[rows, :]) @ J
+            gamma_p = on_tree(gamma_s[rows]) - on_tree(phi_q[rows, :]) @ jd
+            m_phi = ca.solve(M_t, phi_p.T)
+            lam_t = ca.solve(phi_p @ m_phi, phi_p @ ca.solve(M_t, rhs) - gamma_p)
+            rhs = rhs - phi_p.T @ lam_t
+        pdd = ca.solve(M_t, rhs)
+        tau_t = -lam_t[lam_t.shape[0] - n:] if act.mode == "prescribed" else tau
+        power_t = ca.SX(0) if act.mode == "free" else ca.dot(tau_t, on_tree(theta_d))
+        if nd:
+            k = 2 * len(tree.closures)
+            power_t += ca.dot(-lam_t[k:k + nd], on_tree(phi_q[2 * len(ideal):2 * len(ideal) + nd, :] @ qd))
+        coordinate = ca.substitute(tree.coordinate, tree.q_symbols, q)
+        tree_fns = (
+            ca.Function("tree_acceleration", [p, pd, *refs[2:], P],
+                        ca.cse([pdd, power_t, on_tree(p_damp), on_tree(p_fric)]),
+                        ["p", "pd", *ref_names[2:], "parameters"], ["pdd", "power_in", "power_damping",
+                                                                    "power_friction"]),
+            ca.Function("tree_state", [p, pd, P], [tree.q, J @ pd], ["p", "pd", "parameters"], ["q", "qd"]),
+            ca.Function("tree_coordinates", [q, qd, P], [coordinate, ca.jtimes(coordinate, q, qd)],
+                        ["q", "qd", "parameters"], ["p", "pd"]))
+
     return Equations(scene, clear, ideal, reacting, act.mode, tuple(terms), (), nq, n, n_con, acc, res, upd,
-                     energy, v_min, omega)
+                     energy, v_min, omega, *tree_fns)

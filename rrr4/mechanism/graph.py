@@ -138,20 +138,25 @@ class Model:
 
     def point(self, q, body: str, local) -> ca.SX:
         """Global position (2,) [m] of the body-frame point `local` (2,) (global for the ground)."""
-        local = ca.DM(local) if not isinstance(local, ca.SX) else local
+        local = ca.DM(local) if not isinstance(local, (ca.SX, ca.DM)) else local
         if body == GROUND:
             return local
         r, th = self.body_pose(q, body)
         return r + rotation(th) @ local
 
+    def local_points(self, joint: JointSpec, geometry=None):
+        """The joint's two points, each in its body's frame (global on the ground): numbers,
+        or from the symbols `geometry` (laid out as :func:`geometry_parameters`) if given."""
+        if geometry is None:
+            return tuple(ca.DM(p) for p in joint.points)
+        k = 2 * len(self.body_names) + 4 * self.joint_names.index(joint.name)
+        return geometry[k:k + 2], geometry[k + 2:k + 4]
+
     def joint_points(self, q, joint: JointSpec, geometry=None):
-        """(p_1, p_2) global positions of the joint's points on its two bodies; the local
-        points from `geometry` (symbols laid out as :func:`geometry_parameters`) if given."""
-        local = joint.points
-        if geometry is not None:
-            k = 2 * len(self.body_names) + 4 * self.joint_names.index(joint.name)
-            local = (geometry[k:k + 2], geometry[k + 2:k + 4])
-        return tuple(self.point(q, b, p) for b, p in zip(joint.bodies, local, strict=True))
+        """(p_1, p_2) global positions of the joint's points on its two bodies (local points
+        as :meth:`local_points`)."""
+        return tuple(self.point(q, b, p) for b, p in zip(joint.bodies, self.local_points(joint, geometry),
+                                                           strict=True))
 
     def masses(self, geometry=None):
         """(mass diagonal (nq,) [kg, kg, kg m^2], masses (n_bodies,) [kg]): numeric, or from
