@@ -236,7 +236,13 @@ def _graph_lines(scene: Scene) -> list[str]:
     eqs = build_equations(scene)
     lines = [f"equations: {eqs.nq} coordinates, {eqs.n_constraints} constraint rows; terms: "
              + "; ".join(eqs.terms)]
-    for f in (eqs.acceleration, eqs.residual, eqs.contact_update, eqs.energy):
-        g = graph_size(f)
-        lines.append(f"  graph {f.name()}: {g['instructions']} SX instructions, {g['nodes']} nodes")
+    for f in (eqs.acceleration, eqs.residual, eqs.contact_update, eqs.energy, eqs.tree_acceleration):
+        if f is not None:
+            g = graph_size(f)
+            lines.append(f"  graph {f.name()}: {g['instructions']} SX instructions, {g['nodes']} nodes")
+    c = scene.integrator.coordinates
+    if eqs.tree_acceleration is not None and c != "reference-point":
+        lines.append(f"  stepped in {eqs.tree_acceleration.size1_in(0)} tree coordinates (integrator.coordinates: {c})")
+    else:
+        lines.append(f"  stepped in the {eqs.nq} reference-point coordinates (integrator.coordinates: {c})")
     return lines
