@@ -15,7 +15,9 @@ ratio after / before is printed with the SX instruction counts and the machine.
 only this tree is timed. With --references, this tree's three right-hand sides are timed
 against each other instead: the continuous controller step evaluated in the RHS ('exact'),
 the feedback law on interpolated references ('sampled'), and the sampled controller's held
-efforts (a control rate: the RHS evaluates no controller at all).
+efforts (a control rate: the RHS evaluates no controller at all). With --coordinates, the
+scene's ODE in reference-point coordinates against the same in tree coordinates (its
+integrator.coordinates set to each).
 """
 
 from __future__ import annotations
@@ -65,7 +67,8 @@ def chain(ode: ca.Function, K: int) -> ca.Function:
 
 def inputs(ode: ca.Function, scene_path: Path, seed: int = 0):
     """One state near the scene's start: q, qd from the closed-form motion plus noise of the
-    size of the clearance, half the joints in contact, random torques."""
+    size of the clearance (in tree coordinates if the ODE steps them), half the joints in
+    contact, random torques, the scene's parameters and controller settings."""
     import rrr4
     from rrr4.mechanism import Mechanism
     scene = rrr4.load_scene(scene_path)
@@ -73,14 +76,24 @@ def inputs(ode: ca.Function, scene_path: Path, seed: int = 0):
     rng = np.random.default_rng(seed)
     nq, nz, nu = mech.nq, ode.size1_in(2), ode.size1_in(3)
     q, qd, _ = mech.body_motion([0.0, 0.0, 0.0], [0.1, 0.05, 0.2])
+    q, qd = q + 5e-5 * rng.normal(size=nq), qd + 1e-2 * rng.normal(size=nq)
     y = np.zeros(ode.size1_in(1))
-    y[:nq] = q + 5e-5 * rng.normal(size=nq)
-    y[nq:2 * nq] = qd + 1e-2 * rng.normal(size=nq)
+    n = (y.size - 3) // 2
+    if n != nq:  # tree coordinates
+        from rrr4.dynamics.builder import build_equations
+        q, qd = (np.array(v).ravel() for v in build_equations(scene).tree_coordinates(q, qd))
+    y[:n], y[n:2 * n] = q, qd
     nc = len(scene.clearance_joints)
     z = np.r_[np.full(nc, 0.05), rng.integers(0, 2, nc), np.zeros(nc)]
-    if nz > 3 * nc:  # this tree's ODE carries the contact parameters after the contact state
-        from rrr4.dynamics.builder import contact_parameters
-        z = np.r_[z, contact_parameters(scene)]
+    if nz > 3 * nc:  # this tree's ODE carries the parameters (and the controller's settings) after the contact state
+        try:
+            from rrr4.control import controller_settings
+            from rrr4.dynamics.builder import build_equations
+            rest = np.r_[build_equations(scene).parameters, controller_settings(scene)]
+        except ImportError:  # an older tree: the contact parameters only
+            from rrr4.dynamics.builder import contact_parameters
+            rest = contact_parameters(scene)
+        z = np.r_[z, rest[:nz - z.size]]
     u = np.r_[0.0, 1e-3, rng.normal(size=nu - 2)]
     return 5e-4, y, z, u
 
@@ -92,10 +105,20 @@ def main(argv=None) -> int:
     ap.add_argument("--batch", type=int, default=2000, help="RHS calls per compiled call (K)")
     ap.add_argument("--repeat", type=int, default=41)
     ap.add_argument("--references", action="store_true", help="compare this tree's reference variants")
+    ap.add_argument("--coordinates", action="store_true",
+                    help="compare the scene's ODE in reference-point and in tree coordinates")
     args = ap.parse_args(argv)
     from rrr4.integrators.compiled import compiled
     scene = Path(args.scene).resolve()
-    if args.references:
+    if args.coordinates:
+        from dataclasses import replace
+
+        import rrr4
+        from rrr4.simulation import scene_system
+        sc = rrr4.load_scene(scene)
+        odes = {c: scene_system(replace(sc, integrator=replace(sc.integrator, coordinates=c))).ode
+                for c in ("reference-point", "tree")}
+    elif args.references:
         from dataclasses import replace
 
         import rrr4
@@ -115,7 +138,7 @@ def main(argv=None) -> int:
     fs = {k: compiled(chain(f, args.batch)) for k, f in odes.items()}
     ins = {k: inputs(f, scene) for k, f in odes.items()}
     outs = {k: np.array(f(*ins[k])) for k, f in fs.items()}
-    if len(outs) == 2:
+    if len(outs) == 2 and not args.coordinates:
         a, b = outs.values()
         print(f"max relative difference of the two chains' results on the same inputs: "
               f"{np.max(np.abs(a - b)) / np.max(np.abs(a)):.3g}")
