@@ -42,7 +42,7 @@ from .errors import Rrr4Error, SceneError
 from .scene import describe, parse_scene, read_yaml
 from .study import PRELOAD_ARMS
 
-__all__ = ["sweep", "load_spec", "SweepSpec", "METRICS", "DISTRIBUTIONS", "case_options", "GEOMETRY_KEYS"]
+__all__ = ["sweep", "load_spec", "SweepSpec", "METRICS", "DISTRIBUTIONS", "case_options", "GEOMETRY_KEYS", "PATH_KEYS"]
 
 METRICS = ("contact_loss_events", "platform_error_rms_m", "platform_error_max_m", "min_contact_force_N",
            "peak_contact_force_N", "torque_rms_Nm", "wall_time_s")
@@ -232,14 +232,24 @@ def case_id(text: str, t_end, arms) -> str:
 # controller's geometry is a constant of its code, so only its feedback law is compiled),
 # and so compiles once per structure like any other sweep. A graph joint's clearance
 # settings (mechanism.joints[i].clearance) are contact numbers, inputs anyway.
+# Keys of the path: a continuous controller (no control rate) or the prescribed mode evaluates
+# the path inside the right-hand side, so a spec that varies one on such a scene tabulates the
+# references per case (references='sampled'); a sampled controller takes the path's values
+# at its instants as frame inputs anyway.
 GEOMETRY_KEYS = ("mechanism.",)
+PATH_KEYS = ("path.",)
 
 
 def case_options(spec: SweepSpec) -> dict:
-    """The options of :func:`rrr4.simulate` for the cases of `spec` (see GEOMETRY_KEYS)."""
+    """The options of :func:`rrr4.simulate` for the cases of `spec` (see GEOMETRY_KEYS and
+    PATH_KEYS), so that a sweep compiles once per structure."""
+    opts = {}
     if any(k.startswith(GEOMETRY_KEYS) and ".clearance." not in k for k in spec.keys):
-        return {"inputs": "geometry", "references": "sampled"}
-    return {}
+        opts = {"inputs": "geometry", "references": "sampled"}
+    continuous = (spec.base.get("actuation") or {}).get("control_rate") is None
+    if continuous and any(k.startswith(PATH_KEYS) for k in spec.keys):
+        opts["references"] = "sampled"
+    return opts
 
 
 def run_case(text: str, name: str, t_end, arms, jit: bool = False, options: dict | None = None

@@ -216,3 +216,8 @@ def test_a_sweep_over_the_mechanism_takes_its_geometry_as_inputs():
     assert case_options(load_spec(ROOT / "problems" / "sweeps" / "clearance_vs_preload.yaml")) == {}
     assert case_options(load_spec(ROOT / "problems" / "sweeps" / "tolerances.yaml")) == {
         "inputs": "geometry", "references": "sampled"}
+    # no control rate: the controller follows the path inside the right-hand side, so the path
+    # must not be a constant of the compiled code either
+    continuous = parse_spec({"scene": "no_preload_circle.yaml", "grid": {"path.duration": [0.5, 1.0]}},
+                            ROOT / "problems")
+    assert case_options(continuous) == {"references": "sampled"}
