@@ -89,6 +89,7 @@ def inputs(ode: ca.Function, scene_path: Path, seed: int = 0):
         try:
             from rrr4.control import controller_settings
             from rrr4.dynamics.builder import build_equations
+            # the controller's settings; a feedback law's are their prefix (kp, kd, limits)
             rest = np.r_[build_equations(scene).parameters, controller_settings(scene)]
         except ImportError:  # an older tree: the contact parameters only
             from rrr4.dynamics.builder import contact_parameters

@@ -111,13 +111,21 @@ def preload_law(scene: Scene, sign: int | None = None) -> ca.Function | None:
     law = _parametric_law(scene)
     if law is None:
         return None
-    from .preload.exact import preload_settings
-    return fix_last_input(law, preload_settings(scene, branch=_sign(scene) if sign is None else int(sign)))
+    p = scene.actuation.preload
+    return fix_last_input(law, _law_settings(scene, p.weights, scene.actuation.torque_limit, p.min_force,
+                                             _sign(scene) if sign is None else int(sign)))
+
+
+def _law_settings(scene: Scene, weights, limits, f_min, sign):
+    """The input ``settings`` of the scene's preload law (numbers or symbols): weights,
+    limits, f_min, then the exact law's branch, or the QP's axial-force sign of every joint."""
+    signs = [sign] * len(Model.of(scene.graph).preload_joints) if scene.actuation.preload.method == "qp" else [sign]
+    return ca.vertcat(*weights, *limits, f_min, *signs)
 
 
 def _parametric_law(scene: Scene) -> ca.Function | None:
     """The preload law of :func:`preload_law` with its numbers (weights, limits, f_min, sign)
-    as the last input ``settings`` (:func:`rrr4.preload.exact.preload_settings`)."""
+    as the last input ``settings`` (:func:`_law_settings`)."""
     if not has_preload(scene):
         return None
     why = pointwise_controller(scene)
@@ -298,7 +306,8 @@ def parametric_controller(scene: Scene) -> ca.Function:
                          f"{key}: no closed-form controller step for scene {scene.name!r} ({why})")
     from .dynamics.builder import _structure
     a, n = scene.actuation, Model.of(scene.graph).n_actuators
-    preload = replace(a.preload, min_force=float(a.preload.min_force > 0), weights=(1.0,) * n)
+    preload = replace(a.preload, min_force=float(a.preload.min_force > 0), weights=(1.0,) * n, qp_solver="qrqp",
+                      smoothness_weight=0.0, max_turn_rate=0.0)  # the last three: not in a pointwise law
     neutral = replace(a, kp=0.0, kd=0.0, torque_limit=(1.0,) * n, control_rate=None, preload=preload)
     return _controller(replace(_structure(scene), name="", description="", source="", path=None, integrator=None,
                                initial=None, actuation=neutral))
@@ -321,7 +330,8 @@ def _controller(scene: Scene) -> ca.Function:
     if law is None:
         alpha, tau_ff, feasible = ca.SX.zeros(tau_n.shape[1]), tau_p, ca.SX(1.0)
     else:
-        alpha, tau_ff, feasible, _ = law(tau_p, tau_n, r_p, r_n, ca.vertcat(weights, gains[2:], f_min_sign))
+        alpha, tau_ff, feasible, _ = law(tau_p, tau_n, r_p, r_n, _law_settings(
+            scene, ca.vertsplit(weights), ca.vertsplit(gains[2:]), f_min_sign[0], f_min_sign[1]))
     if compensates:
         r = r_p + (alpha * r_n if alpha.numel() else 0)
         slip = _nrrr_slip(scene, pose, pose_d, contact)

@@ -158,9 +158,12 @@ class _Loop:
     settings: tuple = ()
 
 
-def _measured(model: Model, q, qd):
-    """Actuator coordinates theta (n,) and rates theta_d = S qd of a state (symbolic)."""
-    theta, S = model.actuator_coordinates_function(q)
+def _measured(model: Model, q, qd, eqs: Equations | None = None, parameters=None):
+    """Actuator coordinates theta (n,) and rates theta_d = S qd of a state (symbolic); with
+    the parametric equations `eqs`, from their actuator coordinates at `parameters` (a
+    prismatic actuator's coordinate depends on its joint's points, which may be inputs)."""
+    theta, S = (model.actuator_coordinates_function(q) if eqs is None else
+                eqs.actuator_coordinates(q, parameters))
     return theta, S @ qd
 
 
@@ -211,10 +214,11 @@ def _build_system(eqs: Equations, loop: _Loop, refs: ca.Function | None, tree: b
         th_d = _hermite(s, h, thd_a, thd_b, thdd_a, thdd_b)
         th_dd = (1 - s) * thdd_a + s * thdd_b
         if eqs.mode == "torque":
-            effort = loop.control(th, th_d, _hermite(s, h, ff_a, ff_b, ffd_a, ffd_b), *_measured(model, q, qd),
-                                  settings)
+            effort = loop.control(th, th_d, _hermite(s, h, ff_a, ff_b, ffd_a, ffd_b),
+                                  *_measured(model, q, qd, par, parameters), settings)
     elif eqs.mode == "torque":  # exact: the controller step at the path's time
-        effort = loop.control(*trajectory_function(loop.path)(t), *_measured(model, q, qd), settings)[0]
+        effort = loop.control(*trajectory_function(loop.path)(t), *_measured(model, q, qd, par, parameters),
+                              settings)[0]
     elif refs is not None:
         _, th, th_d, th_dd = refs(t)
     refs_in = dict(effort=effort, theta_ref=th, theta_d_ref=th_d, theta_dd_ref=th_dd, delta_dot0=dd0, in_contact=inc,
@@ -233,12 +237,13 @@ def _build_system(eqs: Equations, loop: _Loop, refs: ca.Function | None, tree: b
     if loop.kind == "held":
         k = loop.control.size1_in(0)  # pose derivatives (3 each) or actuator references (n each): 3 blocks
         ym, zm, uf = ca.MX.sym("y", y.shape[0]), ca.MX.sym("z", z.shape[0]), ca.MX.sym("u_frame", 2 + 3 * k)
-        meas = _measured(model, *configuration(ym, zm[3 * nc:3 * nc + len(eqs.parameters)]))
+        pm = zm[3 * nc:3 * nc + len(eqs.parameters)]
+        meas = _measured(model, *configuration(ym, pm), par, pm)
         args = [uf[2 + i * k:2 + (i + 1) * k] for i in range(3)]
         eff = loop.control(*args, *meas, zm[z.shape[0] - ns:])
         eff = eff[0] if isinstance(eff, (list, tuple)) else eff
         control = ca.Function("control", [ym, zm, uf], [ca.vertcat(uf[:2], eff)], ["y", "z", "u_frame"], ["u"])
-    return System(ode, disc, control, loop.sources)
+    return System(ode, disc, control, loop.sources, n_events=3 * nc)
 _NO_COMPILER_WARNED = False
 
 
@@ -330,16 +335,21 @@ def _loop(scene: Scene, eqs: Equations, controller: str, references: str, given)
                              "controller runs as a sampled controller with zero-order hold: set a rate in Hz)")
         from .codegen import generated_controller
         step, source = generated_controller(scene)
-        ins = [ca.MX.sym(step.name_in(i), step.sparsity_in(i)) for i in range(step.n_in())]
-        no_settings = ca.MX.sym("settings", 0)  # the generated C holds the scene's numbers
-        step = ca.Function(step.name(), [*ins, no_settings], step(*ins), [*step.name_in(), "settings"],
-                           step.name_out())
-        return _Loop("held", step, True, None, (source,))
+        return _Loop("held", _without_settings(step), True, None, (source,))
     if why:
         return _Loop("held" if held else "sampled", parametric_feedback(scene), False, None,
                      settings=tuple(feedback_settings(scene)))
     return _Loop("held" if held else "exact", parametric_controller(scene), True, scene.path if not held else None,
                  settings=tuple(controller_settings(scene)))
+
+
+@functools.lru_cache(maxsize=16)
+def _without_settings(step: ca.Function) -> ca.Function:
+    """`step` with an empty last input ``settings`` (the generated C holds the scene's numbers),
+    one per step, so that the systems built on it are found again."""
+    ins = [ca.MX.sym(step.name_in(i), step.sparsity_in(i)) for i in range(step.n_in())]
+    return ca.Function(step.name(), [*ins, ca.MX.sym("settings", 0)], step(*ins), [*step.name_in(), "settings"],
+                       step.name_out())
 
 
 def scene_system(scene: Scene, references: str = "exact", controller: str = "python") -> System:

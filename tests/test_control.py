@@ -63,6 +63,15 @@ def test_closed_form_qp_is_the_qp_solvers_optimum(paper_scene):
         assert ok.sum() > len(s.t) // 2
         np.testing.assert_allclose(b.ravel()[ok], a.ravel()[ok], atol=1e-9)
         np.testing.assert_array_equal(feasible_b.ravel(), feasible.ravel())
+    # one sign per joint: a list of equal signs is the scalar law; reversing the C joints (the
+    # same link's axial force as B's, pulled the other way) is infeasible everywhere, for both
+    mixed = [1.0] * 4 + [-1.0] * 4
+    _, _, feasible, _ = (np.array(v) for v in qp_preload_function(paper_scene, "qrqp", mixed).map(len(s.t))(*raw))
+    _, _, feasible_b, _ = (np.array(v) for v in scalar_qp_preload_function(paper_scene, mixed).map(len(s.t))(*raw))
+    assert not feasible.any() and not feasible_b.any()
+    same = (np.array(v) for v in scalar_qp_preload_function(paper_scene, [-1.0] * 8).map(len(s.t))(*raw))
+    for u, v in zip(same, scalar_qp_preload_function(paper_scene, -1.0).map(len(s.t))(*raw), strict=True):
+        np.testing.assert_array_equal(u, np.array(v))
 
 
 def test_compensated_ik_puts_the_platform_on_the_commanded_pose(paper_scene):

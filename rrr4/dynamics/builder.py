@@ -47,6 +47,19 @@ A loss is a transition contact -> free flight.
 
 ``energy``: q, qd -> kinetic [J], potential [J] = sum K delta^(n+1)/(n+1) + gravity.
 
+``actuator_coordinates``: q -> s (n,) [rad or m], S = ds/dq.
+
+In tree coordinates p (:mod:`rrr4.mechanism.tree`; built where an ideal joint forms a tree):
+``tree_acceleration``: p, pd and the refs after qd -> pdd, power_in, power_damping,
+power_friction, by the velocity transformation q = q(p), qd = J pd: J^T M J pdd + Phi_p^T
+lambda = J^T (Q - M Jdot pd), with the rows of the loop-closing ideal joints, the drivers and
+the driving constraints, Baumgarte-stabilised as above; ``tree_state``: p, pd -> q, qd;
+``tree_coordinates``: q, qd -> p, pd.
+
+Every Function has a last input ``parameters``: the numbers of :func:`equation_parameters`
+(the contact numbers; with ``inputs='geometry'`` also masses, inertias and joint points),
+so that compiled code built on the equations serves every scene of the same structure.
+
 Reaction convention: reaction[:, j] is the force the joint's first (inboard) body exerts on
 its second, global frame (= -lambda); contact_force[:, j] is the force on the journal body,
 the same convention when the journal sits on the second body (always in an n-RRR).
@@ -106,6 +119,7 @@ class Equations:
     # tree coordinates p (rrr4.mechanism.tree; None where no ideal joint forms a tree):
     # tree_acceleration: p, pd and the refs after qd -> pdd, power_in, power_damping,
     # power_friction; tree_state: p, pd -> q, qd; tree_coordinates: q, qd -> p, pd
+    actuator_coordinates: ca.Function | None = None  # q, parameters -> s (n,), S = ds/dq (n, nq)
     tree_acceleration: ca.Function | None = None
     tree_state: ca.Function | None = None
     tree_coordinates: ca.Function | None = None
@@ -114,13 +128,13 @@ class Equations:
     # by every scene of the same structure, so that compiled code built on them is too
     parameters: np.ndarray = field(default_factory=lambda: np.zeros(0), compare=False, repr=False)
     parametric: Equations | None = field(default=None, compare=False, repr=False)
-    # references Function (or None) -> the ODE System built on these equations: owned here,
-    # freed with them
+    # (loop kind, controller, path, references, tree) -> the ODE System built on these
+    # equations (rrr4.simulation._system): owned here, freed with them
     systems: dict = field(default_factory=dict, compare=False, repr=False)
 
 
-# The numbers of the contact that enter the equations as an input (``contact``) rather than
-# as constants: per clearance joint, then the effects'.
+# The contact numbers that enter the equations as part of their input ``parameters`` rather
+# than as constants: per clearance joint, then the effects'.
 JOINT_PARAMETERS = ("stiffness", "journal_radius", "bearing_radius")
 EFFECT_PARAMETERS = ("restitution", "damping", "friction_coefficient", "static_coefficient", "v0", "v1",
                      "stribeck_velocity")
@@ -146,31 +160,33 @@ def contact_parameters(scene: Scene) -> np.ndarray:
 
 
 def _structure(scene: Scene) -> Scene:
-    """`scene` without the numbers of :func:`contact_parameters`."""
+    """`scene` without the numbers of :func:`contact_parameters` (nor its actuators' limits,
+    which only the controller uses)."""
     joints = tuple(replace(j, journal_radius=1.0, radial_clearance=1.0) if j.clearance else j
                    for j in scene.graph.joints)
     ce, fe = scene.effects.contact, scene.effects.friction
     effects = replace(scene.effects, contact=replace(ce, restitution=1.0, damping=0.0, stiffness=None),
                       friction=replace(fe, coefficient=0.0, static_coefficient=0.0, v0=1.0, v1=2.0,
                                        stribeck_velocity=1.0))
-    return replace(scene, graph=replace(scene.graph, joints=joints), effects=effects)
+    actuators = tuple(replace(a, limit=1.0) for a in scene.graph.actuators)  # the controller's numbers
+    return replace(scene, graph=replace(scene.graph, joints=joints, actuators=actuators), effects=effects)
 
 
 def _plant_structure(scene: Scene) -> Scene:
-    """physics(scene) without the numbers of :func:`equation_parameters` (nor the actuator
-    limits and pose guesses, which the equations do not use): scenes that differ only in
+    """physics(scene) without the numbers of :func:`equation_parameters` (nor the pose
+    guesses and the task point, which the equations do not use): scenes that differ only in
     those share one set of parametric equations."""
     s = _structure(scene)
     g = s.graph
     bodies = tuple(replace(b, mass=1.0, inertia=1.0, pose=(0.0, 0.0, 0.0),
                            points=tuple((name, (0.0, 0.0)) for name, _ in b.points)) for b in g.bodies)
     joints = tuple(replace(j, points=((0.0, 0.0), (0.0, 0.0))) for j in g.joints)
-    actuators = tuple(replace(a, limit=1.0) for a in g.actuators)
-    return replace(s, mechanism=None, graph=replace(g, bodies=bodies, joints=joints, actuators=actuators))
+    task_point = None if g.task_point is None else (0.0, 0.0)  # outputs only
+    return replace(s, mechanism=None, graph=replace(g, bodies=bodies, joints=joints, task_point=task_point))
 
 
 def fix_last_input(f: ca.Function, values) -> ca.Function:
-    """f with its last input (parameters such as "contact" or "settings") fixed to `values`:
+    """f with its last input (such as "parameters" or "settings") fixed to `values`:
     the same SX graph, the numbers folded in as constants."""
     ins = [ca.SX.sym(f.name_in(i), f.sparsity_in(i)) for i in range(f.n_in() - 1)]
     out = f.call([*ins, ca.DM(values)])
@@ -220,7 +236,8 @@ def _build(scene: Scene, v_min: float, omega: float, geometry: bool) -> Equation
     k = len(JOINT_PARAMETERS)
     return replace(par, scene=scene, stiffness=tuple(p[:k * nc:k]), parameters=p, parametric=par, systems={},
                    **{k: fix_last_input(getattr(par, k), p) for k in ("acceleration", "residual", "contact_update",
-                                                                       "energy", "tree_acceleration", "tree_state",
+                                                                       "energy", "actuator_coordinates",
+                                                                       "tree_acceleration", "tree_state",
                                                                        "tree_coordinates") if getattr(par, k)})
 
 
@@ -428,5 +445,6 @@ def _parametric(scene: Scene, v_min: float, omega: float, geometry: bool) -> Equ
             ca.Function("tree_coordinates", [q, qd, P], [coordinate, ca.jtimes(coordinate, q, qd)],
                         ["q", "qd", "parameters"], ["p", "pd"]))
 
+    actuators = ca.Function("actuator_coordinates", [q, P], [theta, S], ["q", "parameters"], ["s", "S"])
     return Equations(scene, clear, ideal, reacting, act.mode, tuple(terms), (), nq, n, n_con, acc, res, upd,
-                     energy, v_min, omega, *tree_fns)
+                     energy, v_min, omega, actuators, *tree_fns)

@@ -55,6 +55,9 @@ class System:
     discrete: ca.Function
     control: ca.Function | None = None
     c_sources: tuple = ()  # C files that must be compiled with the frames (e.g. an external controller's)
+    # the leading entries of z whose change over a step is an event (a contact opening or
+    # closing); None: all of z. The rest (e.g. constant parameters) never changes.
+    n_events: int | None = None
     # (method, settings, h, steps per frame, frames per output) -> the built (and compiled)
     # unit of work, and the implicit methods' Newton solvers: the system owns them, so they
     # live exactly as long as it does
@@ -67,6 +70,11 @@ class System:
     @property
     def nz(self) -> int:
         return self.ode.size1_in(2)
+
+    @property
+    def events(self) -> int:
+        """How many leading entries of z can change at an event (see n_events)."""
+        return self.nz if self.n_events is None else self.n_events
 
     @property
     def nu(self) -> int:
@@ -118,18 +126,18 @@ class FixedStepIntegrator(ABC):
 
     def refined_step_function(self, system: System, h: float) -> ca.Function:
         """'step' (x, u -> x_next) that re-takes the step as `refine` sub-steps of h/refine
-        when the discrete state z = x[1 + ny : 1 + ny + nz] changes over it."""
+        when the event part of the discrete state (x[1 + ny : 1 + ny + events]) changes over it."""
         step = self.step_function(system, h)
-        if self.refine == 1 or system.nz == 0:
+        if self.refine == 1 or system.events == 0:
             return step
-        k, ny, nz = self.refine, system.ny, system.nz
+        k, ny, ne = self.refine, system.ny, system.events
         fine = self.step_function(system, h / k).mapaccum("sub_steps", k)
         x, u, x1 = ca.MX.sym("x", step.size1_in(0)), ca.MX.sym("u", system.nu), ca.MX.sym("x1", step.size1_in(0))
         keep = ca.Function("coarse", [x, u, x1], [x1])
         redo = ca.Function("refined", [x, u, x1], [fine(x, ca.repmat(u, 1, k))[:, -1]])
         choose = ca.Function.if_else("refine_if_event", redo, keep)
         x1 = step(x, u)
-        event = ca.norm_inf(x1[1 + ny:1 + ny + nz] - x[1 + ny:1 + ny + nz]) > 0
+        event = ca.norm_inf(x1[1 + ny:1 + ny + ne] - x[1 + ny:1 + ny + ne]) > 0
         return ca.Function("step", [x, u], [choose(event, x, u, x1)], ["x", "u"], ["x_next"])
 
     def frame_function(self, system: System, h: float, steps_per_frame: int) -> ca.Function:

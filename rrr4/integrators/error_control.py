@@ -65,7 +65,7 @@ def adaptive_frame(method, system: System, h: float, steps_per_frame: int, count
     K = HALVINGS
     units = steps_per_frame * 2 ** K  # the frame in units of the smallest step
     delta = h / 2 ** K
-    ny, nz = system.ny, system.nz
+    ny = system.ny
     step = method.estimated_step_function(system, None)  # the step size is an input
     nx = step.size1_in(0)
     o, i_fail = counters, failures
@@ -79,7 +79,8 @@ def adaptive_frame(method, system: System, h: float, steps_per_frame: int, count
     x1, error = step(xs, u, h * 2 ** -k)
     ratio = error / tol
     sound = ca.logic_and(error < np.inf, x1[i_fail] == xs[i_fail])  # finite, and every stage converged
-    event = ca.norm_inf(x1[1 + ny:1 + ny + nz] - xs[1 + ny:1 + ny + nz]) > 0 if nz else ca.MX(0)
+    ne = system.events
+    event = ca.norm_inf(x1[1 + ny:1 + ny + ne] - xs[1 + ny:1 + ny + ne]) > 0 if ne else ca.MX(0)
     event_ok = ca.logic_or(ca.logic_not(event), k >= k_event)
     at_min = k >= K
     live = failed == 0  # after a failure nothing moves

@@ -352,7 +352,8 @@ class ImplicitIntegrator(FixedStepIntegrator):
 
         y1, mem1, rates = self.advance_implicit(stage, system.ode, t, y, z, u, h, mem, nq)
         z1 = system.discrete(t + h, y1, z)
-        contact_changed = ca.norm_inf(z1 - z) > 0 if nz else ca.MX(0)
+        ne = system.events
+        contact_changed = ca.norm_inf(z1[:ne] - z[:ne]) > 0 if ne else ca.MX(0)
         renew1 = ca.fmax(flags["renew_next"], contact_changed)
         x1 = ca.vertcat(t + h, y1, z1, mem1, *count.values(), renew1, *slots)
         error = ca.MX(0)

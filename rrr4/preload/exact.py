@@ -45,7 +45,7 @@ from ..errors import SceneError
 from ..mechanism.graph import Model
 from ..scene import Scene
 
-__all__ = ["exact_preload_function", "parametric_exact_preload", "preload_settings", "constraint_violation"]
+__all__ = ["exact_preload_function", "parametric_exact_preload", "constraint_violation"]
 
 # Roots are pushed this far (relative) to the feasible side so that rounding cannot put
 # a boundary point inside the forbidden interval.
@@ -73,13 +73,6 @@ def _into_box(x, lo, hi, branch):
     return ca.if_else(branch > 0, ca.fmax(ca.fmin(x, hi), lo), ca.fmin(ca.fmax(x, lo), hi))
 
 
-def preload_settings(scene: Scene, f_min: float | None = None, branch: float = 0.0) -> list[float]:
-    """The numbers of a pointwise preload law that enter it as its input ``settings``:
-    weights (n), torque limits (n) [N m], f_min [N], and the branch or axial-force sign."""
-    p = scene.actuation.preload
-    return [*p.weights, *scene.actuation.torque_limit, float(p.min_force if f_min is None else f_min), float(branch)]
-
-
 @functools.cache
 def _fixed(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...], branch: int, nj: int) -> ca.Function:
     return fix_last_input(parametric_exact_preload(len(weights), nj), [*weights, *limits, f_min, branch])
@@ -88,7 +81,7 @@ def _fixed(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...], 
 @functools.cache
 def parametric_exact_preload(n: int, nj: int) -> ca.Function:
     """The law of :func:`exact_preload_function` with the input ``settings`` last
-    (:func:`preload_settings`: weights, limits, f_min, branch in {-1, 0, +1})."""
+    (weights (n), torque limits (n) [N m], f_min [N], branch in {-1, 0, +1})."""
     tau_p, tau_n = ca.SX.sym("tau_p", n), ca.SX.sym("tau_n", n, 1)
     r_p, r_n = ca.SX.sym("r_p", 2, nj), ca.SX.sym("r_n", 2, nj)
     settings = ca.SX.sym("settings", 2 * n + 2)

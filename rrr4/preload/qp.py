@@ -133,22 +133,21 @@ _BIG = 1e30  # stands for an infinite bound in the closed-form QP
 
 
 @functools.cache
-def _fixed_scalar(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...], sign: float,
-                  nj: int) -> ca.Function:
-    return fix_last_input(parametric_scalar_qp_preload(len(weights), nj), [*weights, *limits, f_min, sign])
+def _fixed_scalar(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...],
+                  signs: tuple[float, ...]) -> ca.Function:
+    return fix_last_input(parametric_scalar_qp_preload(len(weights), len(signs)), [*weights, *limits, f_min, *signs])
 
 
 @functools.cache
 def parametric_scalar_qp_preload(n: int, nj: int) -> ca.Function:
-    """The law of :func:`scalar_qp_preload_function` with the input ``settings`` last
-    (:func:`rrr4.preload.exact.preload_settings`: weights, limits, f_min, and the axial-force
-    sign of every joint, +1 or -1)."""
+    """The law of :func:`scalar_qp_preload_function` with the input ``settings`` last:
+    weights (n), torque limits (n) [N m], f_min [N], and the axial-force sign of each of the nj
+    joints (+1 or -1)."""
     data, result = _qp_parts(n, nj, 1)
     tau_p, tau_n = ca.SX.sym("tau_p", n), ca.SX.sym("tau_n", n, 1)
     r_p, r_n = ca.SX.sym("r_p", 2, nj), ca.SX.sym("r_n", 2, nj)
-    settings = ca.SX.sym("settings", 2 * n + 2)
-    wide = ca.vertcat(settings[:2 * n + 1], ca.repmat(settings[2 * n + 1], nj, 1))
-    H, g, A, lba, uba = data(tau_p, tau_n, r_p, r_n, wide)
+    settings = ca.SX.sym("settings", 2 * n + 1 + nj)
+    H, g, A, lba, uba = data(tau_p, tau_n, r_p, r_n, settings)
 
     def box(rows):
         """[lo, hi] of alpha from the rows (a alpha in [lb, ub]); a row with a ~ 0 bounds nothing."""
@@ -170,7 +169,7 @@ def parametric_scalar_qp_preload(n: int, nj: int) -> ca.Function:
     # feasible: the QP's unique optimum; else keep the contact rows and let the limits go
     ok = lo <= hi
     alpha = ca.if_else(ok, ca.fmin(ca.fmax(x0, lo), hi), ca.fmin(ca.fmax(x0, lo_f), hi_f))
-    tau, _, margin = result(tau_p, tau_n, r_p, r_n, wide, alpha)
+    tau, _, margin = result(tau_p, tau_n, r_p, r_n, settings, alpha)
     feasible = ca.if_else(ok, 1.0, 0.0)
     return ca.Function("qp_preload", [tau_p, tau_n, r_p, r_n, settings], [alpha, tau, feasible, margin],
                        ["tau_p", "tau_n", "r_p", "r_n", "settings"], ["alpha", "tau", "feasible", "margin"])
@@ -190,8 +189,9 @@ def scalar_qp_preload_function(scene: Scene, signs=1.0) -> ca.Function:
     if model.redundancy != 1:
         raise SceneError(f"actuation.preload.method: the closed-form QP needs one degree of actuation redundancy, "
                          f"the scene has {model.redundancy} (use qp_preload_function)")
-    if float(signs) not in (1.0, -1.0):
-        raise SceneError(f"signs: {signs!r} is not allowed (+1 or -1)")
+    nj = len(model.preload_joints)
+    s = [float(signs)] * nj if isinstance(signs, (int, float)) else [float(v) for v in signs]
+    if len(s) != nj or any(v not in (1.0, -1.0) for v in s):
+        raise SceneError(f"signs: {signs!r} is not allowed (+1 or -1, or a list of {nj} of them)")
     p = scene.actuation.preload
-    return _fixed_scalar(float(p.min_force), tuple(p.weights), tuple(scene.actuation.torque_limit), float(signs),
-                         len(model.preload_joints))
+    return _fixed_scalar(float(p.min_force), tuple(p.weights), tuple(scene.actuation.torque_limit), tuple(s))
