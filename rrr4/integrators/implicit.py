@@ -8,8 +8,9 @@ here has the form
     q = r_q + c_q v,    v = r_v + c_v a(t, q, v),    e = r_e + c_e p(t, q, v),
 
 so Newton runs on the nq velocities only, with the iteration matrix
-G = I - c_v (A_v + c_q A_q) (A_q = da/dq, A_v = da/dv). G is sparse (about a third of it
-for the 4-RRR); it is factorised by a sparse Householder QR whose pattern is fixed when the
+G = I - c_v (A_v + c_q A_q) (A_q = da/dq, A_v = da/dv). G is sparse (on the 4-RRR with 8
+clearance joints, 40 % of 19 x 19 in tree coordinates, 31 % of 27 x 27 in reference-point
+ones); it is factorised by a sparse Householder QR whose pattern is fixed when the
 step is built (``casadi.qr_sparse``), so a factorisation and a solve are straight-line code.
 
 Two Newton variants (``integrator.newton``, :data:`NEWTON`):
