@@ -201,7 +201,8 @@ def _nrrr_slip(scene: Scene, pose, pose_d, contact=None):
     the clearance joints from `contact` (default: the scene's, see :func:`_contact_numbers`)."""
     from .dynamics.inverse import _chain_motion, _link_rates, _transmission
     mech = Mechanism.from_scene(scene)
-    per = _contact_numbers(scene, contact_parameters(scene) if contact is None else contact)[0]
+    per = {} if not scene.clearance_joints else _contact_numbers(
+        scene, contact_parameters(scene) if contact is None else contact)[0]
 
     def radii(name):
         j = scene.joint(name)

@@ -172,10 +172,9 @@ def _system(eqs: Equations, loop: _Loop, refs: ca.Function | None, tree: bool = 
     p, pd instead of q, qd: see :mod:`rrr4.mechanism.tree`) with discrete z = [delta_dot0,
     in_contact, losses] (nc each) followed by the equations' parameters (contact numbers,
     masses and geometry, see :func:`rrr4.dynamics.builder.equation_parameters`) and the
-    controller's settings (both
-    constant: the discrete update keeps them), and the frame inputs of `loop` (see
-    :class:`_Loop`). The numbers are state, not constants, so every scene that differs only
-    in them steps with the same compiled code.
+    controller's settings (both constant: the discrete update keeps them), and the frame
+    inputs of `loop` (see :class:`_Loop`). The numbers are state, not constants, so every
+    scene that differs only in them steps with the same compiled code.
     refs: the prescribed mode's closed-form references (or None). Built once per (equations,
     loop, references) and kept by the equations (the entry holds them, so its key stays unique)."""
     key = (loop.kind, id(loop.control), loop.path if loop.kind == "exact" else None, id(refs), tree)
