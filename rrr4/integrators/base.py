@@ -144,12 +144,15 @@ class FixedStepIntegrator(ABC):
         """MX Function 'frame': x, u -> x after `steps_per_frame` steps (mapaccum)."""
         step = self.refined_step_function(system, h)
         x, u, x_k = ca.MX.sym("x", step.size1_in(0)), ca.MX.sym("u", system.nu_frame), ca.MX.sym("x", step.size1_in(0))
+        ny, nz = system.ny, system.nz
+        held = system.held(x[1:1 + ny], x[1 + ny:1 + ny + nz], u)
+        if steps_per_frame == 1:  # one step per frame (a control period): no fold, one copy less
+            return ca.Function("frame", [x, u], [step(x, held)], ["x", "u"], ["x_next"])
         u_held = ca.MX.sym("u", system.nu)
         # fold: only the frame's last state is stored (moving states costs as much as computing them)
         roll = ca.Function("held_step", [x_k, u_held], [step(x_k, u_held)], ["x", "u"], ["x_next"]).fold(
             steps_per_frame)
-        ny, nz = system.ny, system.nz
-        x1 = roll(x, ca.repmat(system.held(x[1:1 + ny], x[1 + ny:1 + ny + nz], u), 1, steps_per_frame))
+        x1 = roll(x, ca.repmat(held, 1, steps_per_frame))
         return ca.Function("frame", [x, u], [x1], ["x", "u"], ["x_next"])
 
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,

@@ -258,9 +258,7 @@ class ImplicitIntegrator(FixedStepIntegrator):
 
     def step_function(self, system: System, h: float) -> ca.Function:
         """MX Function 'step': x = [t, y, z, memory, counters, renew, matrix slots], u -> x_next."""
-        step = self.estimated_step_function(system, h)
-        x, u = ca.MX.sym("x", step.size1_in(0)), ca.MX.sym("u", step.size1_in(1))
-        return ca.Function("step", [x, u], [step(x, u)[0]], ["x", "u"], ["x_next"])
+        return self.estimated_step_function(system, h, error=False)
 
     def error_constant(self) -> float:
         """C of the local position error C h^3 q''' of one step, measured on q'' = t from the
@@ -276,9 +274,11 @@ class ImplicitIntegrator(FixedStepIntegrator):
             self._error_constant = abs(float(x1[1]) - 1.0 / 6.0)
         return self._error_constant
 
-    def estimated_step_function(self, system: System, h: float | None) -> ca.Function:
+    def estimated_step_function(self, system: System, h: float | None, error: bool = True) -> ca.Function:
         """MX Function 'estimated_step': x, u (, h) -> x_next, error (h an input when None, as
-        error control needs, else fixed in the graph): one step and, with a tolerance, the
+        error control needs, else fixed in the graph); with error=False, 'step': x, u -> x_next
+        (one Function, not a wrapper, whose output would be one more copy of the state per
+        step). One step and, with a tolerance, the
         estimate of its local position error C h^2 max |a(t + h) - a(t)| over the coordinates
         [m or rad] (C: :meth:`error_constant`; Zienkiewicz & Xie 1991 for the trapezoidal rule).
         A method with inner stages (Bathe) takes the steepest of the differences between
@@ -357,13 +357,15 @@ class ImplicitIntegrator(FixedStepIntegrator):
         contact_changed = ca.norm_inf(z1[:ne] - z[:ne]) > 0 if ne else ca.MX(0)
         renew1 = ca.fmax(flags["renew_next"], contact_changed)
         x1 = ca.vertcat(t + h, y1, z1, mem1, *count.values(), renew1, *slots)
-        error = ca.MX(0)
+        if not error:
+            return ca.Function("step", [x, u, *h_in], [x1], ["x", "u", *(["h"] if h_in else [])], ["x_next"])
+        estimate = ca.MX(0)
         if self.tolerance is not None:  # the steepest change of the acceleration between rate points
             slopes = [_norm(fb[nq:2 * nq] - fa[nq:2 * nq]) / (sb - sa)
                       for (sa, fa), (sb, fb) in zip(rates[:-1], rates[1:], strict=True)]
-            error = ca.if_else(_norm(y1) < np.inf, self.error_constant() * h * h * ca.mmax(ca.vertcat(*slopes)),
-                               np.inf)
-        return ca.Function("estimated_step", [x, u, *h_in], [x1, error], ["x", "u", *(["h"] if h_in else [])],
+            estimate = ca.if_else(_norm(y1) < np.inf,
+                                  self.error_constant() * h * h * ca.mmax(ca.vertcat(*slopes)), np.inf)
+        return ca.Function("estimated_step", [x, u, *h_in], [x1, estimate], ["x", "u", *(["h"] if h_in else [])],
                            ["x_next", "error"])
 
     def frame_function(self, system: System, h: float, steps_per_frame: int) -> ca.Function:

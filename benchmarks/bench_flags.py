@@ -1,0 +1,76 @@
+"""What the compiler flags of the compiled stepping are worth.
+
+The stepping libraries are compiled with :data:`rrr4.integrators.compiled.COMPILE_FLAGS`
+(-O3 -march=native, no floating-point contraction, math functions without errno) and,
+where a compiler refuses them, with ``PORTABLE_FLAGS`` (-O2). This script builds the
+default call on a scene (and compiled RK4 at 2.5e-5 s) with both, checks that both give the
+same states bit for bit, and times their stepping (stats['wall_time']) interleaved in one
+process, medians of --repeat, BLAS threads limited to 1. Prints real-time factors (RTF,
+simulated s per wall s) and the ratio fast / portable, with the machine.
+
+    .venv/bin/python benchmarks/bench_flags.py [SCENE] [--repeat 7]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import sys  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+import rrr4  # noqa: E402
+from rrr4.bench import machine  # noqa: E402
+from rrr4.dynamics.builder import build_equations  # noqa: E402
+from rrr4.integrators import compiled  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+FLAGS = {"fast": compiled.COMPILE_FLAGS, "portable": compiled.PORTABLE_FLAGS}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("scene", nargs="?", default=str(ROOT / "problems" / "paper_circle.yaml"))
+    ap.add_argument("--repeat", type=int, default=7)
+    args = ap.parse_args(argv)
+    os.environ.pop("RRR4_JIT", None)
+    scene = rrr4.load_scene(args.scene)
+    T = scene.path.duration
+    runs = {"default": {}, "compiled RK4 at 2.5e-5 s": {"integrator": "rk4", "step": 2.5e-5}}
+    systems = [entry[2] for entry in build_equations(scene).systems.values()]
+    frames, states = {}, {}
+    for name, flags in FLAGS.items():  # build and compile each, and keep what was built
+        compiled.COMPILE_FLAGS = flags
+        for s in systems:
+            s.frames.clear()
+        for k, kw in runs.items():
+            states[name, k] = rrr4.simulate(scene, **kw).q
+        systems = [entry[2] for entry in build_equations(scene).systems.values()]
+        frames[name] = [(s, dict(s.frames)) for s in systems]
+    same = all(np.array_equal(states["fast", k], states["portable", k]) for k in runs)
+    walls = {key: [] for key in states}
+    for _ in range(args.repeat):
+        for name in FLAGS:
+            for s, f in frames[name]:
+                s.frames.clear()
+                s.frames.update(f)
+            for k, kw in runs.items():
+                walls[name, k].append(rrr4.simulate(scene, **kw).stats["wall_time"])
+    med = {key: float(np.median(w)) for key, w in walls.items()}
+    print(f"{machine()}; {Path(args.scene).name}, {T:g} s, medians of {args.repeat}")
+    print("| path | fast flags RTF | portable flags RTF | fast / portable |")
+    print("|---|---|---|---|")
+    for k in runs:
+        print(f"| {k} | {T / med['fast', k]:.2f} | {T / med['portable', k]:.2f} | "
+              f"{med['portable', k] / med['fast', k]:.2f} |")
+    print(f"fast: {' '.join(FLAGS['fast'])}; portable: {' '.join(FLAGS['portable'])}; the same states bit for bit: "
+          f"{'yes' if same else 'NO'}")
+    return 0 if same else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
