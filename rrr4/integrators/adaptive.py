@@ -46,7 +46,7 @@ class AdaptiveIntegrator(ABC):
     def integrate_frame(self, t_a: float, t_b: float, y, z, u) -> tuple[np.ndarray, dict]:
         """(y at t_b, counters of this frame: steps, rejected, rhs, jacobians)."""
 
-    def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,
+    def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int | None = None,
             progress: bool = False, every: int = 1) -> Run:
         """States at the end of every `every`-th frame, (n_frames / every, nx), and the solver's
         counters; frame k spans [u[k, 0], u[k, 1]]."""

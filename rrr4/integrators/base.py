@@ -16,7 +16,9 @@ z <- g(t, y, z) after each step (contact onset/loss). A method only implements
   output over the frame's steps), folds the frames of one output interval into one unit
   (optionally JIT-compiled) and rolls the units with ``mapaccum``, keeping only each
   output's public state,
-- runs frames in chunks so that long runs show a progress bar,
+- runs the output intervals in about :data:`CALLS` calls (so that long runs show a progress
+  bar; each call back to Python costs about 0.1 ms, as much as ten control periods of the
+  reference scene's stepping, so a call per few outputs would cost a third of the run),
 - keeps the built (and compiled) frame Function on the system (per method settings, step
   and steps per frame), so a second run of the same scene builds nothing, and dropping the
   system frees them.
@@ -31,6 +33,9 @@ import casadi as ca
 import numpy as np
 
 from ..errors import Rrr4Error
+
+CALLS = 20  # calls from Python that a run's stepping is split into (progress-bar updates)
+MAX_CHUNK = 2000  # output intervals per call at most (a call holds each one's full state)
 
 
 @dataclass(frozen=True)
@@ -59,8 +64,9 @@ class System:
     # closing); None: all of z. The rest (e.g. constant parameters) never changes.
     n_events: int | None = None
     # (method, settings, h, steps per frame, frames per output) -> the built (and compiled)
-    # unit of work, and the implicit methods' Newton solvers: the system owns them, so they
-    # live exactly as long as it does
+    # unit of work; (that key, units per call, entries kept) -> the call that rolls it; and
+    # the implicit methods' Newton solvers: the system owns them, so they live exactly as
+    # long as it does
     frames: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -155,18 +161,19 @@ class FixedStepIntegrator(ABC):
         x1 = roll(x, ca.repmat(held, 1, steps_per_frame))
         return ca.Function("frame", [x, u], [x1], ["x", "u"], ["x_next"])
 
-    def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,
+    def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int | None = None,
             progress: bool = False, every: int = 1) -> Run:
         """States at the end of every `every`-th frame, (n_frames / every, nx), and statistics;
         u_frames (n_frames, nu), n_frames a multiple of `every`."""
         return Run(self.roll(system, x0, u_frames, h, steps_per_frame, chunk, progress, every=every)[0], {})
 
-    def roll(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,
+    def roll(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int | None = None,
              progress: bool = False, keep: int | None = None, every: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """(the first `keep` entries of the state at the end of every `every`-th frame, the last
         full state): what a run keeps grows with the outputs, never with the frames, the steps
         or a method's own state (Newton factors). Converting results out of CasADi costs about
-        as much per number as a right-hand side per instruction, so the rest stays inside."""
+        as much per number as a right-hand side per instruction, so the rest stays inside.
+        chunk: frames per call from Python (None: the run in about CALLS calls)."""
         u_frames = np.atleast_2d(np.asarray(u_frames, float))
         n_frames = u_frames.shape[0]
         if n_frames % every:
@@ -185,8 +192,8 @@ class FixedStepIntegrator(ABC):
                 unit = compiled(unit, system.c_sources)
             system.frames[key] = unit
         unit = system.frames[key]
-        n_units, chunk = n_frames // every, max(1, chunk // every)  # output intervals per chunk
-        rolls: dict[int, ca.Function] = {}
+        n_units = n_frames // every
+        chunk = max(1, chunk // every) if chunk else min(max(1, -(-n_units // CALLS)), MAX_CHUNK)  # intervals per call
         x = np.asarray(x0, float)
         keep = x.size if keep is None else keep
         out = np.empty((n_units, keep))
@@ -197,11 +204,11 @@ class FixedStepIntegrator(ABC):
         try:
             for k0 in range(0, n_units, chunk):
                 k = min(chunk, n_units - k0)
-                if k not in rolls:  # the kept rows at each output and the last full state
+                if (key, k, keep) not in system.frames:  # the kept rows at each output and the last full state
                     xm, um = ca.MX.sym("x", x.size), ca.MX.sym("u", u_frames.shape[1], k * every)
                     xs = unit.mapaccum("outputs", k)(xm, um)
-                    rolls[k] = ca.Function("chunk", [xm, um], [xs[:keep, :], xs[:, -1]])
-                kept, last = rolls[k](x, u_frames[k0 * every:(k0 + k) * every].T)
+                    system.frames[key, k, keep] = ca.Function("chunk", [xm, um], [xs[:keep, :], xs[:, -1]])
+                kept, last = system.frames[key, k, keep](x, u_frames[k0 * every:(k0 + k) * every].T)
                 out[k0:k0 + k] = np.array(kept).T
                 x = np.array(last).ravel()
                 if bar is not None:

@@ -392,7 +392,7 @@ class ImplicitIntegrator(FixedStepIntegrator):
         out[mem0.size + len(COUNTERS)] = 1.0  # renew at the first stage
         return out if self.tolerance is None else np.r_[out, initial_adaptive()]
 
-    def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int = 50,
+    def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int | None = None,
             progress: bool = False, every: int = 1) -> Run:
         """As :meth:`FixedStepIntegrator.run`, with the Newton counters in the statistics."""
         x0 = np.asarray(x0, float)
