@@ -263,3 +263,44 @@ def test_two_processes_that_need_one_library_compile_it_once(tmp_path):
     for p in procs:
         p.join(timeout=30)
     assert counts == [0, 1] and len(list(tmp_path.glob("lock_probe_*.so"))) == 1
+
+
+@pytest.mark.parametrize("method", [RK4(), Bathe()], ids=["rk4", "bathe"])
+def test_a_run_gives_the_same_states_in_any_number_of_calls_and_builds_them_once(method):
+    """A run is split into calls from Python (about CALLS of them by default); how it is split
+    changes nothing in the states, and a second run of the same system builds no new call."""
+    sys_ = oscillator(7.0)
+    t = np.linspace(0.0, 0.6, 121)
+    u = np.c_[t[:-1], t[1:]]
+    x0 = np.r_[0.0, 1.0, 0.0, 0.0]
+    runs = {chunk: method.run(sys_, x0, u, 1e-3, 5, chunk=chunk, every=2).states for chunk in (None, 2, 14, 1000)}
+    assert runs[None].shape[0] == 60
+    for chunk, states in runs.items():
+        assert np.array_equal(states, runs[None]), chunk
+    built = len(sys_.frames)
+    again = method.run(sys_, x0, u, 1e-3, 5, every=2).states
+    assert len(sys_.frames) == built and np.array_equal(again, runs[None])
+
+
+def test_a_compiler_that_refuses_the_fast_flags_builds_a_portable_library(tmp_path, monkeypatch):
+    """Where the C compiler refuses -march=native (a cross or older compiler), the stepping is
+    compiled with the portable flags instead and computes the same states."""
+    from rrr4.files import c_compiler
+    from rrr4.integrators.compiled import PORTABLE_FLAGS
+    real = c_compiler()
+    if real is None:
+        pytest.skip("no C compiler")
+    cc = tmp_path / "cc-without-native"
+    log = tmp_path / "calls"
+    cc.write_text(f'#!/bin/sh\necho "$*" >> "{log}"\n'
+                  f'case " $* " in *" -march=native "*) echo "unsupported -march" >&2; exit 1;; esac\n'
+                  f'exec "{real}" "$@"\n')
+    cc.chmod(0o755)
+    monkeypatch.setenv("CC", str(cc))
+    monkeypatch.setenv("RRR4_CACHE", str(tmp_path / "cache"))
+    y_vm = run(Bathe(), oscillator(2.5), 1e-3, 0.2)
+    y_c = run(Bathe(jit=True), oscillator(2.5), 1e-3, 0.2)
+    calls = log.read_text().splitlines()
+    assert len(calls) == 2 and "-march=native" in calls[0] and calls[1].startswith(" ".join(PORTABLE_FLAGS))
+    assert len(list((tmp_path / "cache").glob("*.so"))) == 1
+    assert np.allclose(y_c, y_vm, rtol=1e-12, atol=1e-14)
