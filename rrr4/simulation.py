@@ -47,7 +47,7 @@ from .dynamics.builder import Equations, build_equations, graph_size
 from .dynamics.energy import energy_audit_residual, energy_terms
 from .errors import SceneError, SimulationError
 from .files import c_compiler
-from .integrators import METHODS, FixedStepIntegrator, System
+from .integrators import METHODS, FixedStepIntegrator, FrameInputs, System
 from .mechanism import Mechanism, Model
 from .scene import MAX_SAMPLES, PathSpec, Scene, argument, describe, unknown_value
 from .trajectory import trajectory_function
@@ -370,6 +370,27 @@ def _in_tree(scene: Scene, eqs: Equations) -> bool:
     return c != "reference-point" and eqs.tree_acceleration is not None
 
 
+def _grid(t_end: float, n: int, k) -> np.ndarray:
+    """``np.linspace(0, t_end, n + 1)[k]`` bit for bit, for the indices k, without the rest
+    (a long run's frame ends are made a block at a time)."""
+    k = np.asarray(k)
+    return np.where(k == n, t_end, k * (t_end / n))
+
+
+def _interpolated(t_s: np.ndarray, th, th_d, th_dd, ff):
+    """t -> {th, thd, thdd, ff, ffd} at the times t: references tabulated at the times t_s,
+    interpolated cubic Hermite in theta (with theta_d) and theta_d (with theta_dd), cubic
+    splines in theta_dd and the feed-forward (ffd: its rate); error ~ h^4, far below 1e-9 at
+    1 kHz. With two samples (a run of one frame, t_s its ends) the samples themselves."""
+    hermite = CubicHermiteSpline(t_s, th, th_d, axis=0), CubicHermiteSpline(t_s, th_d, th_dd, axis=0)
+    if len(t_s) > 2:
+        spline_dd, spline_ff = CubicSpline(t_s, th_dd, axis=0), CubicSpline(t_s, ff, axis=0)
+        return lambda t: {"th": hermite[0](t), "thd": hermite[1](t), "thdd": spline_dd(t), "ff": spline_ff(t),
+                          "ffd": spline_ff(t, 1)}
+    return lambda t: {"th": hermite[0](t), "thd": hermite[1](t), "thdd": th_dd[np.searchsorted(t_s, t)],
+                      "ff": ff[np.searchsorted(t_s, t)], "ffd": np.zeros((len(t), ff.shape[1]))}
+
+
 def _frames(scene: Scene, t_end: float, rate: float, held: bool) -> tuple[int, int]:
     """(number of frames, frames per output): frames are the output intervals, or the
     control periods of a sampled controller (then every m-th frame is an output)."""
@@ -459,19 +480,17 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     if n_frames > MAX_SAMPLES or n_frames * spf > MAX_STEPS:
         raise SceneError(f"actuation.control_rate: {model_scene.actuation.control_rate:g} Hz is not allowed over "
                          f"{t_end:g} s (at most {MAX_SAMPLES:g} control periods and {MAX_STEPS:g} steps)")
-    t_grid = np.linspace(0.0, t_end, n_frames + 1)  # frame ends
-    t_out = t_grid[::every]
+    t_grid = functools.partial(_grid, t_end, n_frames)  # frame ends, by index
+    t_out = t_grid(np.arange(0, n_frames + 1, every))
 
-    # frame inputs
+    # frame inputs, made a block of frames at a time while the run steps them
     refs = None
-    u_ends = [t_grid[:-1], t_grid[1:]]
-    tab_at = None  # the tabulated controller's references at the frame ends (theta, theta_d, tau_ff)
+    refs_at = None  # t -> the tabulated references at the times t (see _interpolated)
     if loop.kind == "sampled" or (loop.kind == "held" and not loop.pointwise):
         # references on the path's sample grid (or the frames, if coarser), interpolated to
-        # the frames: cubic Hermite in theta (with theta_d), theta_d (with theta_dd) and the
-        # feed-forward (with its spline rate); error ~ h^4, far below 1e-9 at 1 kHz
+        # the frames
         n_s = max(int(round(t_end * scene.path.sample_rate)), 2) + 1
-        t_s = t_grid if len(t_grid) <= n_s else np.linspace(0.0, t_end, n_s)
+        t_s = t_grid(np.arange(n_frames + 1)) if n_frames + 1 <= n_s else np.linspace(0.0, t_end, n_s)
         if eqs.mode == "torque":
             tab = _tabulated(model_scene, t_s, given)
             th, th_d, th_dd, ff = tab.theta_ref, tab.theta_d_ref, tab.theta_dd_ref, tab.tau_ff
@@ -481,21 +500,25 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
         else:
             g = graph_references(scene, t_s)
             th, th_d, th_dd, ff = g.theta_ref, g.theta_d_ref, g.theta_dd_ref, np.zeros_like(g.theta_ref)
-        ffs = CubicSpline(t_s, ff, axis=0) if len(t_s) > 2 else None
-        at = {"th": CubicHermiteSpline(t_s, th, th_d, axis=0)(t_grid),
-              "thd": CubicHermiteSpline(t_s, th_d, th_dd, axis=0)(t_grid),
-              "thdd": CubicSpline(t_s, th_dd, axis=0)(t_grid) if ffs else th_dd,
-              "ff": ffs(t_grid) if ffs else ff, "ffd": ffs(t_grid, 1) if ffs else np.zeros_like(ff)}
-        tab_at = (at["th"], at["thd"], at["ff"])
-        if held:
-            u_ends += [at["th"][:-1], at["thd"][:-1], at["ff"][:-1]]
-        else:
-            u_ends += [v for key in ("th", "thd", "thdd", "ff", "ffd") for v in (at[key][:-1], at[key][1:])]
-    elif held:  # pointwise controller: the path and its derivatives at each control instant
-        u_ends.append(_path_rows(scene, t_grid[:-1]))
+        refs_at = _interpolated(t_s, th, th_d, th_dd, ff)
     elif eqs.mode == "prescribed" and scene.mechanism is not None:
         refs = reference_function(scene)
-    u = np.column_stack(u_ends)
+
+    def rows(a: int, b: int) -> np.ndarray:  # the inputs of frames a..b-1
+        t = t_grid(np.arange(a, b + 1))
+        cols = [t[:-1], t[1:]]
+        if refs_at is not None:
+            at = refs_at(t)
+            cols += ([at["th"][:-1], at["thd"][:-1], at["ff"][:-1]] if held else
+                     [v for key in ("th", "thd", "thdd", "ff", "ffd") for v in (at[key][:-1], at[key][1:])])
+        elif held:  # pointwise controller: the path and its derivatives at each control instant
+            cols.append(_path_rows(scene, t[:-1]))
+        return np.column_stack(cols)
+
+    u = FrameInputs(n_frames, rows(0, 1).shape[1], rows)
+
+    def tabulated_at(t):  # the tabulated controller's (theta, theta_d, tau_ff) at the times t
+        return tuple(refs_at(t)[key] for key in ("th", "thd", "ff")) if refs_at is not None else None
 
     # initial state
     if model.task is not None:
@@ -515,7 +538,7 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     seated = np.zeros(nc)
     if scene.initial.journals == "seated" and nc and (eqs.mode != "free" or scene.graph.drivers):
         tau0 = _controller_efforts(model_scene, loop, model, np.array([0.0]), q0[None, :], qd0[None, :],
-                                   tab_at and tuple(v[:1] for v in tab_at))[0] if (
+                                   tabulated_at(np.array([0.0])))[0] if (
             eqs.mode == "torque") else np.zeros(n)
         offsets = _seated_offsets(scene, eqs, mech, q0, qd0, qdd0, tau0)
         if scene.mechanism is not None:  # closed form; eccentricities of all passive joints
@@ -556,16 +579,13 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     effort = np.zeros((N, n))
     th = th_d = th_dd = np.zeros((N, n))
     if eqs.mode == "torque":
-        effort = _controller_efforts(model_scene, loop, model, t_out, q, qd,
-                                     tab_at and tuple(v[::every] for v in tab_at))
+        effort = _controller_efforts(model_scene, loop, model, t_out, q, qd, tabulated_at(t_out))
     elif eqs.mode == "prescribed" and model.task is not None:
         if refs is not None:
             th, th_d, th_dd = (np.array(v).T for v in refs.map(N)(t_out[None, :])[1:])
         else:
-            th, th_d, th_dd = (np.array(u[:, 2 + n * k:2 + n * (k + 1)]) for k in (0, 2, 4))
-            th, th_d, th_dd = (np.vstack([v, last]) for v, last in
-                               zip((th, th_d, th_dd), (at["th"][-1:], at["thd"][-1:], at["thdd"][-1:]), strict=True))
-            th, th_d, th_dd = th[::every], th_d[::every], th_dd[::every]
+            at = refs_at(t_out)
+            th, th_d, th_dd = at["th"], at["thd"], at["thdd"]
     out = _mapped(eqs.acceleration, q=q.T, qd=qd.T, effort=effort.T, theta_ref=th.T, theta_d_ref=th_d.T,
                   theta_dd_ref=th_dd.T, delta_dot0=z[:, :nc].T, in_contact=z[:, nc:2 * nc].T, t=t_out[None, :])
     k = len(eqs.passive_ideal_joints)

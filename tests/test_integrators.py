@@ -304,3 +304,34 @@ def test_a_compiler_that_refuses_the_fast_flags_builds_a_portable_library(tmp_pa
     assert len(calls) == 2 and "-march=native" in calls[0] and calls[1].startswith(" ".join(PORTABLE_FLAGS))
     assert len(list((tmp_path / "cache").glob("*.so"))) == 1
     assert np.allclose(y_c, y_vm, rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("method", [RK4(), Bathe(), Cvodes()], ids=["rk4", "bathe", "cvodes"])
+def test_frame_inputs_made_a_block_at_a_time_give_the_states_of_the_whole_array(method, monkeypatch):
+    """A long run's frame inputs are made while it steps (FrameInputs), a block of frames at a
+    time, never all at once, and give the states the whole array gives."""
+    from rrr4.integrators import FrameInputs
+    monkeypatch.setattr(FrameInputs, "BLOCK", 16)  # frames per block where a run asks frame by frame
+    sys_ = oscillator(7.0)
+    t = np.linspace(0.0, 0.5, 101)
+    u = np.c_[t[:-1], t[1:]]
+    asked = []
+
+    def rows(a, b):
+        asked.append((a, b))
+        return u[a:b]
+
+    x0 = np.r_[0.0, 1.0, 0.0, 0.0]
+    whole = method.run(sys_, x0, u, 1e-3, 5, every=4).states
+    blocks = method.run(sys_, x0, FrameInputs(len(u), u.shape[1], rows), 1e-3, 5, every=4).states
+    assert np.array_equal(blocks, whole) and whole.shape[0] == 25
+    assert len(asked) > 1 and max(b - a for a, b in asked) < len(u) and min(a for a, _ in asked) == 0
+
+
+def test_frame_ends_made_by_index_are_linspace_bit_for_bit():
+    from rrr4.simulation import _grid
+    rng = np.random.default_rng(3)
+    for t_end, n in [(1.0, 10000), (0.252, 2520), (60.0, 600000), *zip(rng.uniform(1e-3, 100, 20),
+                                                                         rng.integers(1, 10**6, 20), strict=True)]:
+        k = np.r_[0:min(n + 1, 5000), max(n - 5000, 0):n + 1]
+        assert np.array_equal(_grid(t_end, n, k), np.linspace(0.0, t_end, n + 1)[k])

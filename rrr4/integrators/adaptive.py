@@ -14,7 +14,7 @@ from abc import ABC, abstractmethod
 import numpy as np
 
 from ..errors import Rrr4Error
-from .base import Run, System
+from .base import Run, System, frame_inputs
 
 
 class AdaptiveIntegrator(ABC):
@@ -51,7 +51,7 @@ class AdaptiveIntegrator(ABC):
         """States at the end of every `every`-th frame, (n_frames / every, nx), and the solver's
         counters; frame k spans [u[k, 0], u[k, 1]]."""
         self.prepare(system, h)
-        u_frames = np.atleast_2d(np.asarray(u_frames, float))
+        u_frames = frame_inputs(u_frames)
         ny = system.ny
         x = np.asarray(x0, float)
         out, totals = [], {"steps": 0, "rejected_steps": 0, "rhs_evaluations": 0, "jacobians": 0}
@@ -72,10 +72,11 @@ class AdaptiveIntegrator(ABC):
                     break
                 z1 = np.array(system.discrete(t_b, y1, z)).ravel()
                 x = np.r_[t_b, y1, z1]
-                out.append(x)
+                if k % every == every - 1:  # keep the outputs only
+                    out.append(x)
         finally:
             if progress:
                 frames.close()
-        while len(out) < u_frames.shape[0]:
+        while len(out) < u_frames.shape[0] // every:
             out.append(np.full_like(x, np.nan))
-        return Run(np.vstack(out)[every - 1::every], {**totals, "rtol": self.rtol, "atol": self.atol})
+        return Run(np.vstack(out), {**totals, "rtol": self.rtol, "atol": self.atol})

@@ -38,6 +38,42 @@ CALLS = 20  # calls from Python that a run's stepping is split into (progress-ba
 MAX_CHUNK = 2000  # output intervals per call at most (a call holds each one's full state)
 
 
+class FrameInputs:
+    """A run's frame inputs, (n_frames, nu), made a block of frames at a time: rows(a, b) gives
+    the rows of frames a..b-1. A long run then holds the inputs of the frames it is stepping,
+    not of all its frames (at 10 kHz control, 60 s are 6e5 rows), so what it holds grows with
+    its outputs. Indexed like the array it stands for, with a slice or a frame number (a
+    number makes and keeps the block of :attr:`BLOCK` frames around it)."""
+
+    BLOCK = 4096
+
+    def __init__(self, n_frames: int, nu: int, rows):
+        self.shape = (n_frames, nu)
+        self._rows = rows
+        self._block: tuple[int, np.ndarray | None] = (-1, None)
+
+    def __len__(self) -> int:
+        return self.shape[0]
+
+    def __getitem__(self, key):
+        n = self.shape[0]
+        if isinstance(key, slice):
+            a, b, step = key.indices(n)
+            if step != 1:
+                raise IndexError("FrameInputs: only contiguous slices")
+            return np.asarray(self._rows(a, b), float).reshape(max(b - a, 0), self.shape[1])
+        k = int(key) + (n if int(key) < 0 else 0)
+        i = k // self.BLOCK
+        if self._block[0] != i:
+            self._block = (i, self[i * self.BLOCK:min(n, (i + 1) * self.BLOCK)])
+        return self._block[1][k - i * self.BLOCK]
+
+
+def frame_inputs(u_frames) -> FrameInputs | np.ndarray:
+    """`u_frames` as integrators index it: a FrameInputs as it is, else a 2-D float array."""
+    return u_frames if isinstance(u_frames, FrameInputs) else np.atleast_2d(np.asarray(u_frames, float))
+
+
 @dataclass(frozen=True)
 class Run:
     """What an integrator's run returns: states (n_frames, nx) at the end of each frame and
@@ -164,7 +200,7 @@ class FixedStepIntegrator(ABC):
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int | None = None,
             progress: bool = False, every: int = 1) -> Run:
         """States at the end of every `every`-th frame, (n_frames / every, nx), and statistics;
-        u_frames (n_frames, nu), n_frames a multiple of `every`."""
+        u_frames (n_frames, nu), an array or :class:`FrameInputs`; n_frames a multiple of `every`."""
         return Run(self.roll(system, x0, u_frames, h, steps_per_frame, chunk, progress, every=every)[0], {})
 
     def roll(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int | None = None,
@@ -174,7 +210,7 @@ class FixedStepIntegrator(ABC):
         or a method's own state (Newton factors). Converting results out of CasADi costs about
         as much per number as a right-hand side per instruction, so the rest stays inside.
         chunk: frames per call from Python (None: the run in about CALLS calls)."""
-        u_frames = np.atleast_2d(np.asarray(u_frames, float))
+        u_frames = frame_inputs(u_frames)
         n_frames = u_frames.shape[0]
         if n_frames % every:
             raise ValueError(f"{n_frames} frames are not a multiple of every = {every}")

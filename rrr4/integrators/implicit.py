@@ -42,7 +42,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import Rrr4Error
-from .base import FixedStepIntegrator, Run, System
+from .base import FixedStepIntegrator, Run, System, frame_inputs
 from .error_control import ADAPTIVE, adaptive_frame, initial_adaptive
 
 __all__ = ["ImplicitIntegrator", "second_order_split", "NEWTON"]
@@ -396,14 +396,15 @@ class ImplicitIntegrator(FixedStepIntegrator):
             progress: bool = False, every: int = 1) -> Run:
         """As :meth:`FixedStepIntegrator.run`, with the Newton counters in the statistics."""
         x0 = np.asarray(x0, float)
-        u0 = np.atleast_2d(np.asarray(u_frames, float))[0]
+        u_frames = frame_inputs(u_frames)
+        u0 = u_frames[0]
         nq = second_order_split(system)
         nm = self.memory_size(nq)
         states, last = self.roll(system, np.r_[x0, self.initial_extra(system, x0, u0)], u_frames, h,
                                  steps_per_frame, chunk, progress, keep=x0.size, every=every)
         counts = dict(zip(COUNTERS, (int(round(c)) for c in last[x0.size + nm:x0.size + nm + len(COUNTERS)]),
                           strict=True))
-        n_steps = steps_per_frame * np.atleast_2d(u_frames).shape[0]
+        n_steps = steps_per_frame * u_frames.shape[0]
         stats = {"newton": self.newton, **counts}
         if self.tolerance is not None:
             a = dict(zip(ADAPTIVE, last[-len(ADAPTIVE):], strict=True))
