@@ -149,12 +149,17 @@ def memory() -> None:
     print("\n3. peak memory of the default call (max RSS of a child process)")
     print("| simulated | outputs | steps | RSS before [MB] | peak RSS [MB] | growth [MB] | wall [s] |")
     print("|---|---|---|---|---|---|---|")
+    runs = []
     for T in (1.0, 60.0):
         r = subprocess.run([sys.executable, "-c", MEMORY, str(PAPER), str(T)], capture_output=True, text=True,
                            check=True, cwd=ROOT)
         before, peak, n, steps, wall = r.stdout.split()
+        runs.append((int(peak), int(n), int(steps)))
         print(f"| {T:g} s | {n} | {steps} | {int(before) / 1024:.0f} | {int(peak) / 1024:.0f} | "
               f"{(int(peak) - int(before)) / 1024:.0f} | {float(wall):.1f} |")
+    (p1, n1, s1), (p60, n60, s60) = runs
+    print(f"from 1 s to 60 s the peak grows by {(p60 - p1) / 1024:.0f} MB: {(p60 - p1) * 1024 / (n60 - n1):.0f} B per "
+          f"extra output, or {(p60 - p1) * 1024 / (s60 - s1):.0f} B per extra step")
 
 
 def scaling(scene, repeat: int) -> None:

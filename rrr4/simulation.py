@@ -72,7 +72,8 @@ class Simulation:
     on the second); driver_effort (N, n_drivers) [N m or N]; contact_loss_events: passive
     joint -> count of contact -> free-flight transitions (0 for ideal joints); energy: dict of (N,) arrays [J] (see
     :mod:`rrr4.dynamics.energy`); energy_audit_residual = max |W_in - dE - D| / largest
-    energy term; stats: solver statistics (method, step, steps, wall time, graph sizes).
+    energy term; stats: solver statistics (method, step, steps, graph sizes; wall_time [s]: the
+    stepping, without making its frame inputs, input_time [s]).
     :meth:`body` gives the (N, 3) pose of any body.
     """
     scene: Scene
@@ -309,9 +310,9 @@ def _tabulated(scene: Scene, t: np.ndarray, given) -> GraphReferences:
     return graph_references(scene, t, given)
 
 
-def _path_rows(scene: Scene, t: np.ndarray) -> np.ndarray:
-    """(N, 9) [pose, pose_d, pose_dd] of the path at the times t (N,)."""
-    out = _mapped(trajectory_function(scene.path), t=np.asarray(t, float)[None, :])
+def _path_rows(scene: Scene, t: np.ndarray, maps: dict | None = None) -> np.ndarray:
+    """(N, 9) [pose, pose_d, pose_dd] of the path at the times t (N,); maps: see :func:`_mapped`."""
+    out = _mapped(trajectory_function(scene.path), maps=maps, t=np.asarray(t, float)[None, :])
     return np.vstack(list(out.values())).T
 
 
@@ -504,6 +505,8 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     elif eqs.mode == "prescribed" and scene.mechanism is not None:
         refs = reference_function(scene)
 
+    path_maps: dict = {}
+
     def rows(a: int, b: int) -> np.ndarray:  # the inputs of frames a..b-1
         t = t_grid(np.arange(a, b + 1))
         cols = [t[:-1], t[1:]]
@@ -512,7 +515,7 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
             cols += ([at["th"][:-1], at["thd"][:-1], at["ff"][:-1]] if held else
                      [v for key in ("th", "thd", "thdd", "ff", "ffd") for v in (at[key][:-1], at[key][1:])])
         elif held:  # pointwise controller: the path and its derivatives at each control instant
-            cols.append(_path_rows(scene, t[:-1]))
+            cols.append(_path_rows(scene, t[:-1], path_maps))
         return np.column_stack(cols)
 
     u = FrameInputs(n_frames, rows(0, 1).shape[1], rows)
@@ -555,8 +558,8 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     system = _system(eqs, loop, refs, tree)
     wall = time.perf_counter()
     run = method.run(system, x0, u, h, spf, progress=bool(overrides.get("progress", False)), every=every)
-    wall = time.perf_counter() - wall
-    X = np.vstack([x0, run.states])
+    wall = time.perf_counter() - wall - u.seconds  # the stepping, without making its inputs
+    X = np.vstack([x0[:system.kept], run.states])  # [t, y, the discrete state's events]
     if tree:  # back to reference-point coordinates: [t, q, qd, the rest]
         m = y0.size // 2
         qs = _mapped(eqs.tree_state, p=X[:, 1:1 + m].T, pd=X[:, 1 + m:1 + 2 * m].T)
@@ -598,7 +601,8 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     losses.update({j: int(round(v)) for j, v in zip(eqs.clearance_joints, z[-1, 2 * nc:3 * nc], strict=True)})
     energy = energy_terms(eqs.energy, q, qd, W, Dd, Df)
     stats = {"method": method.name, "step": h, "steps": spf * n_frames, "frames": N - 1, "wall_time": wall,
-             "jit": method.jit, "graph": {f.name(): graph_size(f) for f in (eqs.acceleration, system.ode)},
+             "input_time": u.seconds, "jit": method.jit,
+             "graph": {f.name(): graph_size(f) for f in (eqs.acceleration, system.ode)},
              "controller": (controller if loop.control is not None else "none"),
              "coordinates": "tree" if tree else "reference-point",
              "control_rate": model_scene.actuation.control_rate if held else None, "references": loop.kind,
@@ -634,12 +638,13 @@ def _failure_message(failure: dict, method: str, joints, penetration) -> str:
             "larger integrator.max_newton)")
 
 
-def _mapped(f: ca.Function, block: int = 4096, **inputs) -> dict:
+def _mapped(f: ca.Function, block: int = 4096, maps: dict | None = None, **inputs) -> dict:
     """f's outputs at each column of `inputs` (numpy arrays, one column per output instant),
     evaluated `block` columns at a time: the memory a long run's outputs take while they are
-    converted out of CasADi stays bounded by the block, not by the run."""
+    converted out of CasADi stays bounded by the block, not by the run. maps: where f's maps
+    are kept by width between calls (one that is called block after block builds them once)."""
     n = next(iter(inputs.values())).shape[1]
-    maps: dict[int, ca.Function] = {}
+    maps = {} if maps is None else maps
     parts: dict[str, list] = {}
     for a in range(0, n, block):
         m = min(block, n - a)

@@ -335,3 +335,18 @@ def test_frame_ends_made_by_index_are_linspace_bit_for_bit():
                                                                          rng.integers(1, 10**6, 20), strict=True)]:
         k = np.r_[0:min(n + 1, 5000), max(n - 5000, 0):n + 1]
         assert np.array_equal(_grid(t_end, n, k), np.linspace(0.0, t_end, n + 1)[k])
+
+
+@pytest.mark.parametrize("method", [RK4(), Bathe(), Cvodes()], ids=["rk4", "bathe", "cvodes"])
+def test_a_run_returns_t_y_and_the_events_of_z_not_its_constants(method):
+    """The discrete state's constant tail (a scene's parameters and settings) is the initial
+    state's at every output, so a run does not store it (System.kept)."""
+    t, y, z, u = ca.SX.sym("t"), ca.SX.sym("y", 2), ca.SX.sym("z", 3), ca.SX.sym("u", 2)
+    ode = ca.Function("ode", [t, y, z, u], [ca.vertcat(y[1], -z[1] * y[0] - z[2] * y[1])])
+    disc = ca.Function("discrete", [t, y, z], [ca.vertcat(z[0] + (y[0] < 0), z[1], z[2])])
+    sys_ = System(ode, disc, n_events=1)
+    x0 = np.r_[0.0, 1.0, 0.0, 0.0, 25.0, 0.5]
+    u_frames = np.c_[np.arange(40) * 0.05, np.arange(1, 41) * 0.05]
+    states = method.run(sys_, x0, u_frames, 1e-3, 50, every=2).states
+    assert sys_.kept == 4 and states.shape == (20, 4)
+    assert np.all(np.isfinite(states)) and states[-1, 3] >= 1  # the event counter counted

@@ -48,7 +48,7 @@ class AdaptiveIntegrator(ABC):
 
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int | None = None,
             progress: bool = False, every: int = 1) -> Run:
-        """States at the end of every `every`-th frame, (n_frames / every, nx), and the solver's
+        """States at the end of every `every`-th frame, (n_frames / every, system.kept), and the solver's
         counters; frame k spans [u[k, 0], u[k, 1]]."""
         self.prepare(system, h)
         u_frames = frame_inputs(u_frames)
@@ -68,15 +68,15 @@ class AdaptiveIntegrator(ABC):
                 for key in totals:
                     totals[key] += int(counts.get(key, 0))
                 if not np.all(np.isfinite(y1)):
-                    out.append(np.full_like(x, np.nan))
+                    out.append(np.full(system.kept, np.nan))
                     break
                 z1 = np.array(system.discrete(t_b, y1, z)).ravel()
                 x = np.r_[t_b, y1, z1]
                 if k % every == every - 1:  # keep the outputs only
-                    out.append(x)
+                    out.append(x[:system.kept])
         finally:
             if progress:
                 frames.close()
         while len(out) < u_frames.shape[0] // every:
-            out.append(np.full_like(x, np.nan))
+            out.append(np.full(system.kept, np.nan))
         return Run(np.vstack(out), {**totals, "rtol": self.rtol, "atol": self.atol})

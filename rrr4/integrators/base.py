@@ -26,6 +26,7 @@ z <- g(t, y, z) after each step (contact onset/loss). A method only implements
 
 from __future__ import annotations
 
+import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
@@ -43,7 +44,8 @@ class FrameInputs:
     the rows of frames a..b-1. A long run then holds the inputs of the frames it is stepping,
     not of all its frames (at 10 kHz control, 60 s are 6e5 rows), so what it holds grows with
     its outputs. Indexed like the array it stands for, with a slice or a frame number (a
-    number makes and keeps the block of :attr:`BLOCK` frames around it)."""
+    number makes and keeps the block of :attr:`BLOCK` frames around it). `seconds`: the wall
+    time spent making them, so that a run's stepping can be timed without it."""
 
     BLOCK = 4096
 
@@ -51,6 +53,7 @@ class FrameInputs:
         self.shape = (n_frames, nu)
         self._rows = rows
         self._block: tuple[int, np.ndarray | None] = (-1, None)
+        self.seconds = 0.0
 
     def __len__(self) -> int:
         return self.shape[0]
@@ -61,7 +64,10 @@ class FrameInputs:
             a, b, step = key.indices(n)
             if step != 1:
                 raise IndexError("FrameInputs: only contiguous slices")
-            return np.asarray(self._rows(a, b), float).reshape(max(b - a, 0), self.shape[1])
+            t0 = time.perf_counter()
+            block = np.asarray(self._rows(a, b), float).reshape(max(b - a, 0), self.shape[1])
+            self.seconds += time.perf_counter() - t0
+            return block
         k = int(key) + (n if int(key) < 0 else 0)
         i = k // self.BLOCK
         if self._block[0] != i:
@@ -76,8 +82,8 @@ def frame_inputs(u_frames) -> FrameInputs | np.ndarray:
 
 @dataclass(frozen=True)
 class Run:
-    """What an integrator's run returns: states (n_frames, nx) at the end of each frame and
-    its statistics (e.g. Newton iterations, accepted and rejected steps)."""
+    """What an integrator's run returns: states (n_outputs, System.kept) at the end of each
+    output frame, and its statistics (e.g. Newton iterations, accepted and rejected steps)."""
     states: np.ndarray
     stats: dict
 
@@ -117,6 +123,12 @@ class System:
     def events(self) -> int:
         """How many leading entries of z can change at an event (see n_events)."""
         return self.nz if self.n_events is None else self.n_events
+
+    @property
+    def kept(self) -> int:
+        """The entries of a state that a run returns at each output: t, y and the leading
+        `events` entries of z (the rest never changes: it is the initial state's)."""
+        return 1 + self.ny + self.events
 
     @property
     def nu(self) -> int:
@@ -199,9 +211,11 @@ class FixedStepIntegrator(ABC):
 
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int | None = None,
             progress: bool = False, every: int = 1) -> Run:
-        """States at the end of every `every`-th frame, (n_frames / every, nx), and statistics;
-        u_frames (n_frames, nu), an array or :class:`FrameInputs`; n_frames a multiple of `every`."""
-        return Run(self.roll(system, x0, u_frames, h, steps_per_frame, chunk, progress, every=every)[0], {})
+        """States at the end of every `every`-th frame, (n_frames / every, system.kept), and
+        statistics; u_frames (n_frames, nu), an array or :class:`FrameInputs`; n_frames a
+        multiple of `every`."""
+        return Run(self.roll(system, x0, u_frames, h, steps_per_frame, chunk, progress, keep=system.kept,
+                             every=every)[0], {})
 
     def roll(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int | None = None,
              progress: bool = False, keep: int | None = None, every: int = 1) -> tuple[np.ndarray, np.ndarray]:

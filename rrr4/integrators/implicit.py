@@ -397,11 +397,11 @@ class ImplicitIntegrator(FixedStepIntegrator):
         """As :meth:`FixedStepIntegrator.run`, with the Newton counters in the statistics."""
         x0 = np.asarray(x0, float)
         u_frames = frame_inputs(u_frames)
-        u0 = u_frames[0]
+        u0 = u_frames[:1][0]
         nq = second_order_split(system)
         nm = self.memory_size(nq)
         states, last = self.roll(system, np.r_[x0, self.initial_extra(system, x0, u0)], u_frames, h,
-                                 steps_per_frame, chunk, progress, keep=x0.size, every=every)
+                                 steps_per_frame, chunk, progress, keep=system.kept, every=every)
         counts = dict(zip(COUNTERS, (int(round(c)) for c in last[x0.size + nm:x0.size + nm + len(COUNTERS)]),
                           strict=True))
         n_steps = steps_per_frame * u_frames.shape[0]
