@@ -310,9 +310,9 @@ def _tabulated(scene: Scene, t: np.ndarray, given) -> GraphReferences:
     return graph_references(scene, t, given)
 
 
-def _path_rows(scene: Scene, t: np.ndarray, maps: dict | None = None) -> np.ndarray:
-    """(N, 9) [pose, pose_d, pose_dd] of the path at the times t (N,); maps: see :func:`_mapped`."""
-    out = _mapped(trajectory_function(scene.path), maps=maps, t=np.asarray(t, float)[None, :])
+def _path_rows(scene: Scene, t: np.ndarray) -> np.ndarray:
+    """(N, 9) [pose, pose_d, pose_dd] of the path at the times t (N,)."""
+    out = _mapped(trajectory_function(scene.path), t=np.asarray(t, float)[None, :])
     return np.vstack(list(out.values())).T
 
 
@@ -505,8 +505,6 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     elif eqs.mode == "prescribed" and scene.mechanism is not None:
         refs = reference_function(scene)
 
-    path_maps: dict = {}
-
     def rows(a: int, b: int) -> np.ndarray:  # the inputs of frames a..b-1
         t = t_grid(np.arange(a, b + 1))
         cols = [t[:-1], t[1:]]
@@ -515,7 +513,7 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
             cols += ([at["th"][:-1], at["thd"][:-1], at["ff"][:-1]] if held else
                      [v for key in ("th", "thd", "thdd", "ff", "ffd") for v in (at[key][:-1], at[key][1:])])
         elif held:  # pointwise controller: the path and its derivatives at each control instant
-            cols.append(_path_rows(scene, t[:-1], path_maps))
+            cols.append(_path_rows(scene, t[:-1]))
         return np.column_stack(cols)
 
     u = FrameInputs(n_frames, rows(0, 1).shape[1], rows)
@@ -596,7 +594,8 @@ def simulate(scene: Scene, integrator=None, t_end: float | None = None, **overri
     def per_joint(a, rows):
         return np.array(a).reshape(rows, N, -1).transpose(1, 2, 0) if rows == 2 else np.array(a).T
 
-    pose = np.array(model.task_pose_function.map(N)(q.T)).T if model.task else np.zeros((N, 3))
+    pose = (_mapped(model.task_pose_function, **{model.task_pose_function.name_in(0): q.T})[
+        model.task_pose_function.name_out(0)].T if model.task else np.zeros((N, 3)))
     losses = {j.name: 0 for j in scene.joints}
     losses.update({j: int(round(v)) for j, v in zip(eqs.clearance_joints, z[-1, 2 * nc:3 * nc], strict=True)})
     energy = energy_terms(eqs.energy, q, qd, W, Dd, Df)
@@ -638,21 +637,52 @@ def _failure_message(failure: dict, method: str, joints, penetration) -> str:
             "larger integrator.max_newton)")
 
 
-def _mapped(f: ca.Function, block: int = 4096, maps: dict | None = None, **inputs) -> dict:
+@functools.lru_cache(maxsize=128)
+def _map(f: ca.Function, m: int) -> ca.Function:
+    """f.map(m), built once (building one costs about 0.5 ms, as much as evaluating it on a
+    few hundred columns)."""
+    return f.map(m)
+
+
+def _nonzeros(sp: ca.Sparsity) -> np.ndarray:
+    """Where the nonzeros of the pattern `sp` lie in its dense column-major entries."""
+    rows, cols = sp.get_triplet()
+    return np.asarray(cols, int) * sp.size1() + np.asarray(rows, int)
+
+
+def _mapped(f: ca.Function, block: int = 4096, **inputs) -> dict:
     """f's outputs at each column of `inputs` (numpy arrays, one column per output instant),
     evaluated `block` columns at a time: the memory a long run's outputs take while they are
-    converted out of CasADi stays bounded by the block, not by the run. maps: where f's maps
-    are kept by width between calls (one that is called block after block builds them once)."""
+    converted out of CasADi stays bounded by the block, not by the run. Inputs and outputs go
+    through CasADi's buffer interface, straight between numpy arrays and the evaluation
+    (converting a DM to numpy costs about ten times the evaluation). An input not given is
+    zero."""
     n = next(iter(inputs.values())).shape[1]
-    maps = {} if maps is None else maps
-    parts: dict[str, list] = {}
+    ins = {f.index_in(k): (v, _nonzeros(f.sparsity_in(f.index_in(k)))) for k, v in inputs.items()}
+    outs = [(f.sparsity_out(i), _nonzeros(f.sparsity_out(i))) for i in range(f.n_out())]
+    # output i at instant j, column-major (rows, cols): the rows of a C-ordered (cols * n, rows) array
+    out = [np.zeros((sp.size2() * n, sp.size1())) for sp, _ in outs]
     for a in range(0, n, block):
         m = min(block, n - a)
-        if m not in maps:
-            maps[m] = f.map(m)
-        for k, v in maps[m](**{k: v[:, a:a + m] for k, v in inputs.items()}).items():
-            parts.setdefault(k, []).append(np.array(v))
-    return {k: np.hstack(v) for k, v in parts.items()}
+        buf, evaluate = _map(f, m).buffer()
+        args = []
+        for i, (v, nz) in ins.items():
+            if not nz.size:
+                continue
+            w = v.shape[1] // n  # columns per instant
+            dense = np.asfortranarray(v[:, a * w:(a + m) * w], float).reshape(-1, order="F").reshape(m, -1)
+            args.append(np.ascontiguousarray(dense[:, nz]).reshape(-1))
+            buf.set_arg(i, memoryview(args[-1]))
+        res = [np.empty((m, nz.size)) for _, nz in outs]
+        for i, v in enumerate(res):
+            buf.set_res(i, memoryview(v.reshape(-1)))
+        evaluate()
+        if buf.ret():
+            raise SimulationError(f"evaluating {f.name()} on a block of output instants failed")
+        for o, v, (sp, nz) in zip(out, res, outs, strict=True):
+            block_out = o[sp.size2() * a:sp.size2() * (a + m)].reshape(m, -1)  # a view: (m, rows * cols)
+            block_out[:, nz] = v
+    return {f.name_out(i): o.T for i, o in enumerate(out)}
 
 
 def _controller_efforts(scene: Scene, loop: _Loop, model: Model, t: np.ndarray, q: np.ndarray, qd: np.ndarray,
@@ -667,8 +697,9 @@ def _controller_efforts(scene: Scene, loop: _Loop, model: Model, t: np.ndarray, 
     th, th_d = (np.array(v) for v in meas.map(N)(q.T, qd.T))
     if loop.pointwise:
         rows = _path_rows(scene, t)
-        out = loop.control.map(N)(*(rows[:, 3 * k:3 * k + 3].T for k in range(3)), th, th_d, loop.settings)
+        ins = [rows[:, 3 * k:3 * k + 3].T for k in range(3)]
     else:
-        out = loop.control.map(N)(*(v.T for v in refs), th, th_d, loop.settings)
-    out = out[0] if isinstance(out, (list, tuple)) else out
-    return np.array(out).T
+        ins = [v.T for v in refs]
+    settings = np.broadcast_to(np.asarray(loop.settings, float)[:, None], (len(loop.settings), N))
+    out = _mapped(loop.control, **dict(zip(loop.control.name_in(), [*ins, th, th_d, settings], strict=True)))
+    return out[loop.control.name_out(0)].T
