@@ -1,10 +1,10 @@
 """What the compiler flags of the compiled stepping are worth.
 
 The stepping libraries are compiled with :data:`rrr4.integrators.compiled.COMPILE_FLAGS`
-(-O3 -march=native, no floating-point contraction, math functions without errno) and,
-where a compiler refuses them, with ``PORTABLE_FLAGS`` (-O2). This script builds the
-default call on a scene (and compiled RK4 at 2.5e-5 s) with both, checks that both give the
-same states bit for bit, and times their stepping (stats['wall_time']) interleaved in one
+(-O3 -march=native, no floating-point contraction, math functions without errno, CasADi's
+helpers inlined) and, where a compiler refuses them, with ``PORTABLE_FLAGS`` (-O2). This
+script builds the default call on a scene (and compiled RK4 at 2.5e-5 s) with both, checks
+that both give the same states bit for bit, and times their stepping (stats['wall_time']) interleaved in one
 process, medians of --repeat, BLAS threads limited to 1. Prints real-time factors (RTF,
 simulated s per wall s) and the ratio fast / portable, with the machine.
 

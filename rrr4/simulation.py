@@ -47,7 +47,7 @@ from .dynamics.builder import Equations, build_equations, graph_size
 from .dynamics.energy import energy_audit_residual, energy_terms
 from .errors import SceneError, SimulationError
 from .files import c_compiler
-from .integrators import METHODS, FixedStepIntegrator, FrameInputs, System
+from .integrators import METHODS, FixedStepIntegrator, FrameInputs, System, evaluate
 from .mechanism import Mechanism, Model
 from .scene import MAX_SAMPLES, PathSpec, Scene, argument, describe, unknown_value
 from .trajectory import trajectory_function
@@ -664,21 +664,14 @@ def _mapped(f: ca.Function, block: int = 4096, **inputs) -> dict:
     out = [np.zeros((sp.size2() * n, sp.size1())) for sp, _ in outs]
     for a in range(0, n, block):
         m = min(block, n - a)
-        buf, evaluate = _map(f, m).buffer()
-        args = []
+        args = [None] * f.n_in()
         for i, (v, nz) in ins.items():
-            if not nz.size:
-                continue
-            w = v.shape[1] // n  # columns per instant
-            dense = np.asfortranarray(v[:, a * w:(a + m) * w], float).reshape(-1, order="F").reshape(m, -1)
-            args.append(np.ascontiguousarray(dense[:, nz]).reshape(-1))
-            buf.set_arg(i, memoryview(args[-1]))
+            if nz.size:
+                w = v.shape[1] // n  # columns per instant
+                dense = np.asfortranarray(v[:, a * w:(a + m) * w], float).reshape(-1, order="F").reshape(m, -1)
+                args[i] = np.ascontiguousarray(dense[:, nz])
         res = [np.empty((m, nz.size)) for _, nz in outs]
-        for i, v in enumerate(res):
-            buf.set_res(i, memoryview(v.reshape(-1)))
-        evaluate()
-        if buf.ret():
-            raise SimulationError(f"evaluating {f.name()} on a block of output instants failed")
+        evaluate(_map(f, m), args, res)
         for o, v, (sp, nz) in zip(out, res, outs, strict=True):
             block_out = o[sp.size2() * a:sp.size2() * (a + m)].reshape(m, -1)  # a view: (m, rows * cols)
             block_out[:, nz] = v

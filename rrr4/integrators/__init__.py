@@ -4,7 +4,7 @@
 """
 
 from .adaptive import AdaptiveIntegrator
-from .base import FixedStepIntegrator, FrameInputs, Run, System
+from .base import FixedStepIntegrator, FrameInputs, Run, System, evaluate
 from .bathe import Bathe
 from .casadi_plugins import Cvodes, Erk, Idas, Rosenbrock
 from .generalized_alpha import GeneralizedAlpha
@@ -15,5 +15,5 @@ from .scipy_ivp import RK45, Radau
 METHODS = {m.name: m for m in (Bathe, NewmarkTrapezoidal, GeneralizedAlpha, RK4, Erk, Rosenbrock, Cvodes, Idas,
                                 RK45, Radau)}
 
-__all__ = ["FixedStepIntegrator", "FrameInputs", "System", "Run", "RK4", "Bathe", "NewmarkTrapezoidal",
+__all__ = ["FixedStepIntegrator", "FrameInputs", "System", "Run", "evaluate", "RK4", "Bathe", "NewmarkTrapezoidal",
            "GeneralizedAlpha", "AdaptiveIntegrator", "Cvodes", "Idas", "Erk", "Rosenbrock", "RK45", "Radau", "METHODS"]

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..errors import Rrr4Error
+from ..errors import Rrr4Error, SimulationError
 
 CALLS = 20  # calls from Python that a run's stepping is split into (progress-bar updates)
 MAX_CHUNK = 2000  # output intervals per call at most (a call holds each one's full state)
@@ -73,6 +73,23 @@ class FrameInputs:
         if self._block[0] != i:
             self._block = (i, self[i * self.BLOCK:min(n, (i + 1) * self.BLOCK)])
         return self._block[1][k - i * self.BLOCK]
+
+
+def evaluate(f: ca.Function, args, results) -> None:
+    """f on numpy arrays through CasADi's buffer interface: args and results (C-contiguous float
+    arrays, each holding its input's or output's nonzeros in CasADi's column-major order; None:
+    an input left at zero) are read and written in place. Converting to and from DM instead
+    costs about 30 ns per number: with 11 frame inputs per control period, about a tenth of the
+    reference scene's compiled stepping."""
+    buf, run = f.buffer()
+    for i, a in enumerate(args):
+        if a is not None:
+            buf.set_arg(i, memoryview(a.reshape(-1)))
+    for i, r in enumerate(results):
+        buf.set_res(i, memoryview(r.reshape(-1)))
+    run()
+    if buf.ret():
+        raise SimulationError(f"evaluating {f.name()} failed")
 
 
 def frame_inputs(u_frames) -> FrameInputs | np.ndarray:
@@ -258,9 +275,12 @@ class FixedStepIntegrator(ABC):
                     xm, um = ca.MX.sym("x", x.size), ca.MX.sym("u", u_frames.shape[1], k * every)
                     xs = unit.mapaccum("outputs", k)(xm, um)
                     system.frames[key, k, keep] = ca.Function("chunk", [xm, um], [xs[:keep, :], xs[:, -1]])
-                kept, last = system.frames[key, k, keep](x, u_frames[k0 * every:(k0 + k) * every].T)
-                out[k0:k0 + k] = np.array(kept).T
-                x = np.array(last).ravel()
+                # (k * every, nu) rows in C order are the (nu, k * every) input in CasADi's column
+                # order, and the (keep, k) output is out's rows k0..k0+k: no conversion to DM
+                last = np.empty(x.size)
+                evaluate(system.frames[key, k, keep], [x, np.ascontiguousarray(u_frames[k0 * every:(k0 + k) * every],
+                                                                             float)], [out[k0:k0 + k], last])
+                x = last
                 if bar is not None:
                     bar.update(k * every)
         finally:  # an error or interrupt must not leave a half-drawn bar under its message
