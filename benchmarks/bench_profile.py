@@ -80,7 +80,11 @@ def main(argv=None) -> int:
     if shutil.which("valgrind") is None:
         print("bench_profile: valgrind is not installed (it counts the instructions)", file=sys.stderr)
         return 2
-    scene = rrr4.load_scene(args.scene)
+    try:
+        scene = rrr4.load_scene(args.scene)
+    except rrr4.Rrr4Error as e:
+        print(f"bench_profile: {e}", file=sys.stderr)
+        return 2
     if scene.actuation.control_rate is None:
         print("bench_profile: the scene has no actuation.control_rate (a control period to count)", file=sys.stderr)
         return 2
