@@ -9,13 +9,13 @@ processes that need the same one at once (sweep workers) compile it once. The ca
 
 The code is compiled for the CPU it runs on (:data:`COMPILE_FLAGS`: ``-O3 -march=native``),
 with floating-point contraction off and ``errno`` ignored by the math functions, so that it
-computes bit for bit what ``-O2`` code computes, only faster (1.1x to 1.3x on the reference
-scene's stepping: ``benchmarks/bench_flags.py``). ``-fno-semantic-interposition`` lets the
-compiler inline CasADi's small helpers (``casadi_sq``, ``casadi_fmax``, ``casadi_norm_inf``,
-...), which a shared library otherwise calls through its procedure linkage table (the
-default's stepping about 1.2x faster, the same numbers). Because the library is specific to the CPU, the CPU is part of
-its key: a cache shared by different machines keeps one library per CPU. A compiler that
-refuses these flags compiles with :data:`PORTABLE_FLAGS` instead.
+computes bit for bit what ``-O2`` code computes, only faster; ``-fno-semantic-interposition``
+lets the compiler inline CasADi's small helpers (``casadi_sq``, ``casadi_fmax``,
+``casadi_norm_inf``, ...), which a shared library otherwise calls through its procedure
+linkage table. Together 1.5x on the reference scene's stepping (``benchmarks/bench_flags.py``).
+Because the library is specific to the CPU, the CPU is part of its key: a cache shared by
+different machines keeps one library per CPU. A compiler that refuses these flags compiles
+with :data:`PORTABLE_FLAGS` instead.
 """
 
 from __future__ import annotations
