@@ -17,8 +17,9 @@ z <- g(t, y, z) after each step (contact onset/loss). A method only implements
   (optionally JIT-compiled) and rolls the units with ``mapaccum``, keeping only each
   output's public state,
 - runs the output intervals in about :data:`CALLS` calls (so that long runs show a progress
-  bar; each call back to Python costs about 0.1 ms, as much as ten control periods of the
-  reference scene's stepping, so a call per few outputs would cost a third of the run),
+  bar; a call per 50 frames cost a third of the reference scene's stepping), each with its
+  frame inputs and kept states passed through CasADi's buffer interface (:func:`evaluate`),
+  not converted to and from DM,
 - keeps the built (and compiled) frame Function on the system (per method settings, step
   and steps per frame), so a second run of the same scene builds nothing, and dropping the
   system frees them.
