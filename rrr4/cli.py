@@ -32,9 +32,9 @@ def _run(args) -> int:
 
     from tqdm import tqdm
 
+    from .checks import argument
     from .mechanism import load_scene
     from .results import check_target, write_results
-    from .scene import argument
     from .study import run_study
     if args.t_end is not None:
         argument("--t-end", args.t_end)
@@ -83,9 +83,9 @@ def _robustness(args) -> int:
 
     from tqdm import tqdm
 
+    from .checks import argument
     from .mechanism import load_scene
     from .robustness import write_robustness
-    from .scene import argument
     if args.t_end is not None:
         argument("--t-end", args.t_end)
     scene = load_scene(args.scene)

@@ -49,13 +49,13 @@ from .dynamics.builder import contact_parameters, fix_last_input
 from .errors import SceneError
 from .mechanism import Mechanism, Model
 from .scene import FrictionEffect, Scene
+from .scene.vocabulary import COMPENSATIONS
 
 __all__ = ["controller_function", "parametric_controller", "controller_settings", "feedback_function",
            "parametric_feedback", "feedback_settings", "has_preload", "pointwise_controller", "preload_law",
            "preload_sign",
            "seat_gaps", "graph_references", "GraphReferences", "COMPENSATIONS", "CONTROLLERS", "SEAT_FORCE"]
 
-COMPENSATIONS = ("none", "clearance")   # actuation.compensation
 CONTROLLERS = ("python", "generated")   # simulate(controller=...): CasADi's VM/JIT, or the codegen C
 SEAT_FORCE = 1e-6  # [N] below this planned reaction a journal's seat is undetermined: assumed centred
 

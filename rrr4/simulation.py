@@ -31,6 +31,7 @@ import casadi as ca
 import numpy as np
 from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
+from .checks import argument, describe, unknown_value
 from .control import (
     CONTROLLERS,
     GraphReferences,
@@ -49,7 +50,7 @@ from .errors import SceneError, SimulationError
 from .files import c_compiler
 from .integrators import METHODS, FixedStepIntegrator, FrameInputs, System, evaluate
 from .mechanism import Mechanism, Model
-from .scene import MAX_SAMPLES, PathSpec, Scene, argument, describe, unknown_value
+from .scene import MAX_SAMPLES, PathSpec, Scene
 from .trajectory import trajectory_function
 
 __all__ = ["Simulation", "simulate", "scene_system", "OVERRIDES", "default_jit"]

@@ -42,12 +42,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .checks import argument
 from .control import has_preload, pointwise_controller
 from .dynamics.family import effort_family
 from .errors import SceneError
 from .preload import PreloadSolution, solve_preload
 from .preload.solve import PreloadWarning
-from .scene import MAX_SAMPLES, Scene, argument
+from .scene import MAX_SAMPLES, Scene
 from .simulation import Simulation, simulate
 from .trajectory import sample_path
 

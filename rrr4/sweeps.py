@@ -30,7 +30,6 @@ import io
 import itertools
 import json
 import os
-import re
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,8 +37,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from .checks import describe
 from .errors import Rrr4Error, SceneError
-from .scene import describe, parse_scene, read_yaml
+from .scene import get_key, key_steps, parse_scene, read_yaml, set_key
 from .study import PRELOAD_ARMS
 
 __all__ = ["sweep", "load_spec", "SweepSpec", "METRICS", "DISTRIBUTIONS", "case_options", "GEOMETRY_KEYS", "PATH_KEYS"]
@@ -49,7 +49,6 @@ METRICS = ("contact_loss_events", "platform_error_rms_m", "platform_error_max_m"
 DISTRIBUTIONS = ("normal", "uniform")
 SPEC_KEYS = ("scene", "t_end", "arms", "grid", "monte_carlo")
 MAX_CASES = 100_000
-_STEP = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[\d+\])*)$")
 
 
 @dataclass(frozen=True)
@@ -64,48 +63,6 @@ class SweepSpec:
     cases: tuple[dict, ...]
     grid_keys: tuple[str, ...] = ()
     mc_keys: tuple[str, ...] = ()
-
-
-def _steps(key: str) -> list:
-    """'a.b[0].c' -> ['a', 'b', 0, 'c']; SceneError for a malformed path."""
-    out: list = []
-    for part in key.split("."):
-        m = _STEP.match(part)
-        if not m:
-            raise SceneError(f"grid/monte_carlo key {key!r} is not allowed (a dotted scene key path, list items as "
-                             "[i], e.g. mechanism.chains[0].base[1])")
-        out.append(m.group(1))
-        out += [int(i) for i in re.findall(r"\[(\d+)\]", m.group(2))]
-    return out
-
-
-def _get(data, key: str):
-    d = data
-    for s in _steps(key):
-        try:
-            d = d[s]
-        except (KeyError, IndexError, TypeError):
-            return None
-    return d
-
-
-def _set(data, key: str, value) -> None:
-    steps = _steps(key)
-    d = data
-    for i, s in enumerate(steps[:-1]):
-        nxt = steps[i + 1]
-        try:
-            d = d[s]
-        except KeyError:
-            d[s] = [] if isinstance(nxt, int) else {}
-            d = d[s]
-        except (IndexError, TypeError):
-            raise SceneError(f"{key}: the base scene has no {'item' if isinstance(s, int) else 'section'} "
-                             f"{s!r} there") from None
-    try:
-        d[steps[-1]] = value
-    except (IndexError, TypeError):
-        raise SceneError(f"{key}: the base scene has no item {steps[-1]!r} there") from None
 
 
 def _number(key: str, v, what: str) -> float:
@@ -149,7 +106,7 @@ def parse_spec(data: dict, root: Path = Path(".")) -> SweepSpec:
     if not isinstance(grid, dict):
         raise SceneError(f"grid: {describe(grid)} is not allowed (scene key paths -> lists of values)")
     for k, vals in grid.items():
-        _steps(str(k))
+        key_steps(str(k))
         if not isinstance(vals, list) or not vals:
             raise SceneError(f"grid.{k}: {describe(vals)} is not allowed (a non-empty list of values)")
     points = [dict(zip(grid, combo, strict=True)) for combo in itertools.product(*grid.values())] or [{}]
@@ -182,7 +139,7 @@ def _monte_carlo(mc, base) -> tuple[list[dict], list[str]]:
     draws = {}
     for k, dist in keys.items():
         key = f"monte_carlo.keys.{k}"
-        _steps(str(k))
+        key_steps(str(k))
         if not isinstance(dist, dict) or len(dist) != 1 or next(iter(dist)) not in DISTRIBUTIONS:
             raise SceneError(f"{key}: {describe(dist)} is not allowed ({{normal: {{std, mean}}}} or "
                              "{uniform: [low, high]})")
@@ -192,7 +149,7 @@ def _monte_carlo(mc, base) -> tuple[list[dict], list[str]]:
                 raise SceneError(f"{key}.normal: {describe(par)} is not allowed (std, and mean if the base scene "
                                  "has no number at that key)")
             std = _number(f"{key}.normal.std", par["std"], "std")
-            mean = par.get("mean", _get(base, str(k)))
+            mean = par.get("mean", get_key(base, str(k)))
             mean = _number(f"{key}.normal.mean", mean, "the mean (or the base scene's value)")
             if std < 0:
                 raise SceneError(f"{key}.normal.std: {std:g} is not allowed (must be >= 0)")
@@ -211,7 +168,7 @@ def case_scene(base: dict, scene_path: Path, case: dict):
     """(Scene, YAML text) of one case: the base data with the case's values set."""
     data = copy.deepcopy(base)
     for k, v in case.items():
-        _set(data, k, v)
+        set_key(data, k, v)
     text = yaml.safe_dump(data, sort_keys=True)
     try:
         scene = parse_scene(data, name=scene_path.stem, source="")

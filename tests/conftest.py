@@ -24,16 +24,3 @@ def paper_scene():
 def paper_data():
     """The reference scene as a fresh, mutable mapping."""
     return yaml.safe_load(PAPER.read_text())
-
-
-def set_key(data, dotted: str, value):
-    """Set `value` at the key path `dotted` (e.g. 'mechanism.chains.1.base') of a scene
-    mapping; list items by index, missing mappings created."""
-    keys = dotted.split(".")
-    d = data
-    for k in keys[:-1]:
-        d = d[int(k)] if isinstance(d, list) else d.setdefault(k, {})
-    if isinstance(d, list):
-        d[int(keys[-1])] = value
-    else:
-        d[keys[-1]] = value

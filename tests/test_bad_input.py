@@ -12,8 +12,8 @@ import yaml
 
 import rrr4
 from rrr4 import SceneError, check_scene
-from rrr4.scene import parse_scene, read_scene
-from tests.conftest import PAPER, ROOT, set_key
+from rrr4.scene import parse_scene, read_scene, set_key
+from tests.conftest import PAPER, ROOT
 
 LEAF_KEYS = [
     "mechanism.platform.mass", "mechanism.platform.inertia", "mechanism.chain_defaults.driving_link.length",
@@ -235,9 +235,9 @@ def test_sigint_during_a_simulation_ends_in_the_interrupt_line(tmp_path):
     assert "Traceback" not in err and not out.exists()
 
 
-GRAPH_KEYS = ["mechanism.bodies.0.mass", "mechanism.bodies.1.inertia", "mechanism.bodies.2.pose",
-              "mechanism.joints.2.clearance.radial_clearance", "mechanism.joints.3.axis",
-              "mechanism.bodies.0.points", "path.duration", "integrator.step"]
+GRAPH_KEYS = ["mechanism.bodies[0].mass", "mechanism.bodies[1].inertia", "mechanism.bodies[2].pose",
+              "mechanism.joints[2].clearance.radial_clearance", "mechanism.joints[3].axis",
+              "mechanism.bodies[0].points", "path.duration", "integrator.step"]
 
 
 
@@ -265,11 +265,11 @@ def test_any_value_anywhere_is_a_scene_or_one_line(paper_data):
                        st.dictionaries(st.text(max_size=5), st.integers(), max_size=3))
 
     @settings(max_examples=150, deadline=None, suppress_health_check=list(HealthCheck))
-    @given(key=st.sampled_from(LEAF_KEYS + ["name", "mechanism.chains.0.base", "path.type", "effects.contact.law"]),
+    @given(key=st.sampled_from(LEAF_KEYS + ["name", "mechanism.chains[0].base", "path.type", "effects.contact.law"]),
            value=values)
     def check(key, value):
         data = copy.deepcopy(paper_data)
-        if key == "mechanism.chains.0.base":
+        if key == "mechanism.chains[0].base":
             data["mechanism"]["chains"][0]["base"] = value
         else:
             set_key(data, key, value)

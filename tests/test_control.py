@@ -175,9 +175,7 @@ def test_robustness_cases_change_one_parameter_and_the_model_stays_nominal(paper
     ("actuation.preload.method", "nonee", "did you mean 'none'"),
 ])
 def test_bad_controller_keys_are_one_line(paper_data, key, value, match):
-    from rrr4.scene import parse_scene
-
-    from .conftest import set_key
+    from rrr4.scene import parse_scene, set_key
     set_key(paper_data, key, value)
     with pytest.raises(SceneError, match=match) as e:
         parse_scene(paper_data)

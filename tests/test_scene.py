@@ -9,8 +9,7 @@ import pytest
 import yaml
 
 from rrr4 import SceneError, check_scene, load_scene
-from rrr4.scene import PASSIVE_JOINTS, parse_scene
-from tests.conftest import set_key
+from rrr4.scene import PASSIVE_JOINTS, parse_scene, set_key
 
 
 def test_reference_scene_holds_design_parameters(paper_scene):
@@ -55,7 +54,7 @@ BAD = [
     ("path.radius", 0.4, "path: leaves the workspace at t ="),
     ("path.max_condition_number", 5.0, "path: passes through a parallel singularity at t ="),
     ("actuation.torque_limit", [1, 2, 3], "actuation.torque_limit: [1, 2, 3] is not allowed (a list of 4 numbers"),
-    ("mechanism.chains.1.base", [0.3], "mechanism.chains[1].base: [0.3] is not allowed"),
+    ("mechanism.chains[1].base", [0.3], "mechanism.chains[1].base: [0.3] is not allowed"),
 ]
 
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 import casadi as ca
 
 from ..scene import FrictionEffect
+from ..scene.vocabulary import FRICTION_LAWS as FRICTION_LAW_NAMES
 
 
 def _coulomb(v_t, f_n, p: FrictionEffect):
@@ -40,7 +41,8 @@ def _stribeck(v_t, f_n, p: FrictionEffect):
     return -mu * f_n * ca.tanh(v_t / p.v0)
 
 
-FRICTION_LAWS = {"coulomb": _coulomb, "ambrosio": _ambrosio, "smooth": _smooth, "stribeck": _stribeck}
+# the registry, by the names of the scene's vocabulary ('none' has no entry)
+FRICTION_LAWS = dict(zip(FRICTION_LAW_NAMES, (_coulomb, _ambrosio, _smooth, _stribeck), strict=True))
 
 
 def friction_force(p: FrictionEffect, v_t, f_n):

@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import casadi as ca
 
+from ..scene.vocabulary import CONTACT_LAWS
+
 # Floor [m/s] of the captured approach velocity delta_dot0 (grazing / persistent contact).
 V_MIN = 1e-3
 
@@ -81,14 +83,9 @@ def _hysteresis(law):
     return f
 
 
-NORMAL_LAWS = {
-    "hertz": _hertz,
-    "kelvin-voigt": _kelvin_voigt,
-    "hunt-crossley": _hysteresis("hunt-crossley"),
-    "lankarani-nikravesh": _hysteresis("lankarani-nikravesh"),
-    "flores": _hysteresis("flores"),
-    "gonthier": _hysteresis("gonthier"),
-}
+# the registry, by the names of the scene's vocabulary
+NORMAL_LAWS = {law: _hertz if law == "hertz" else _kelvin_voigt if law == "kelvin-voigt" else _hysteresis(law)
+               for law in CONTACT_LAWS}
 
 
 def normal_force(law: str, delta, delta_dot, delta_dot0, stiffness, exponent, restitution, damping=0.0,

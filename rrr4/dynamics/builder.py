@@ -73,6 +73,7 @@ from dataclasses import dataclass, field, replace
 import casadi as ca
 import numpy as np
 
+from ..checks import argument, unknown_value
 from ..contact import (
     clearance_kinematics,
     contact_generalized_forces,
@@ -85,7 +86,7 @@ from ..contact.normal import V_MIN, power
 from ..errors import SceneError
 from ..mechanism.graph import Model, geometry_parameters
 from ..mechanism.tree import tree_map
-from ..scene import Scene, argument, unknown_value
+from ..scene import Scene
 
 __all__ = ["Equations", "build_equations", "joint_stiffness", "contact_parameters", "equation_parameters", "graph_size",
            "fix_last_input", "INPUTS",

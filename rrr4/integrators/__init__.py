@@ -3,6 +3,7 @@
 ``METHODS`` maps a scene's ``integrator.method`` to its class.
 """
 
+from ..scene.vocabulary import INTEGRATORS
 from .adaptive import AdaptiveIntegrator
 from .base import FixedStepIntegrator, FrameInputs, Run, System, evaluate
 from .bathe import Bathe
@@ -12,8 +13,9 @@ from .newmark import NewmarkTrapezoidal
 from .rk4 import RK4
 from .scipy_ivp import RK45, Radau
 
-METHODS = {m.name: m for m in (Bathe, NewmarkTrapezoidal, GeneralizedAlpha, RK4, Erk, Rosenbrock, Cvodes, Idas,
+_CLASSES = {m.name: m for m in (Bathe, NewmarkTrapezoidal, GeneralizedAlpha, RK4, Erk, Rosenbrock, Cvodes, Idas,
                                 RK45, Radau)}
+METHODS = {name: _CLASSES[name] for name in INTEGRATORS}  # the registry, by the scene's vocabulary
 
 __all__ = ["FixedStepIntegrator", "FrameInputs", "System", "Run", "evaluate", "RK4", "Bathe", "NewmarkTrapezoidal",
            "GeneralizedAlpha", "AdaptiveIntegrator", "Cvodes", "Idas", "Erk", "Rosenbrock", "RK45", "Radau", "METHODS"]

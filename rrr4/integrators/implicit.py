@@ -42,12 +42,12 @@ import casadi as ca
 import numpy as np
 
 from ..errors import Rrr4Error
+from ..scene.vocabulary import NEWTON
 from .base import FixedStepIntegrator, Run, System, frame_inputs
 from .error_control import ADAPTIVE, adaptive_frame, initial_adaptive
 
 __all__ = ["ImplicitIntegrator", "second_order_split", "NEWTON"]
 
-NEWTON = ("simplified", "full")  # the choices of integrator.newton
 SIMPLIFIED = 6  # simplified iterations of a stage before it falls back to full Newton
 SLOW = 0.1  # contraction rate above which the factors are renewed for the next step
 ETA_MIN = 0.01  # floor of the carried error estimate: one update is accepted only if 100 x below tolerance

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import casadi as ca
 
-from ..scene import Mechanism_
+from ..scene import NRRRSpec
 from .graph import perp
 
 
@@ -22,12 +22,12 @@ def cross(a, b):
     return a[0] * b[1] - a[1] * b[0]
 
 
-def platform_point(data: Mechanism_, i: int, pose):
+def platform_point(data: NRRRSpec, i: int, pose):
     c = data.chains[i]
     return pose[0:2] + c.attachment_radius * unit(pose[2] + c.attachment_angle)
 
 
-def chain_ik(data: Mechanism_, i: int, pose, mode, shift=None):
+def chain_ik(data: NRRRSpec, i: int, pose, mode, shift=None):
     """Closed-form IK of chain i: B_i is the intersection of circle(A_i, l_i1) and
     circle(C_i - shift, l_i2); mode = +1 picks theta_i1 = atan2(C - A) + acos(...).
     shift (2,) [m] moves the target (used for journals off-centre in clearance joints).
@@ -47,7 +47,7 @@ def chain_ik(data: Mechanism_, i: int, pose, mode, shift=None):
     return theta1, cos_arg, B, C
 
 
-def body_coordinates(data: Mechanism_, pose, modes, eccentricity=None):
+def body_coordinates(data: NRRRSpec, pose, modes, eccentricity=None):
     """q (3(2n+1),) of all bodies for a platform pose, from the closed-form IK.
 
     eccentricity (2, 2n) [m], optional: joint gaps of B1..Bn, C1..Cn (outboard point -
@@ -68,7 +68,7 @@ def body_coordinates(data: Mechanism_, pose, modes, eccentricity=None):
     return ca.vertcat(*blocks)
 
 
-def joint_points(data: Mechanism_, q):
+def joint_points(data: NRRRSpec, q):
     """Joint positions implied by q: for each joint the point on the inboard body
     (nearer the ground) and on the outboard body. Returns a list of
     (name, inboard_point, outboard_point), ordered A1..An, B1..Bn, C1..Cn.
@@ -86,7 +86,7 @@ def joint_points(data: Mechanism_, q):
     return rows_a + rows_b + rows_c
 
 
-def jacobian_parts(data: Mechanism_, pose, modes):
+def jacobian_parts(data: NRRRSpec, pose, modes):
     """Velocity relation of each chain: den_i * dtheta_i = a_i^T dpose, with
     a_i = [(C-B); (C-B) x (C-o)] and den_i = (C-B) . (l_i1 E u_i1).
 

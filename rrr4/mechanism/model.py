@@ -19,7 +19,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import KinematicsError, SceneError
-from ..scene import MATERIALS, JointSpec, Material, Mechanism_, Scene, expand_nrrr
+from ..scene import NRRRSpec, Scene, bare_nrrr_graph
 from . import kinematics as kin
 from .graph import Model
 
@@ -83,8 +83,8 @@ class Mechanism:
     # ------------------------------------------------------------------ construction
 
     @classmethod
-    def from_scene(cls, scene: Scene | Mechanism_) -> Mechanism:
-        if isinstance(scene, Mechanism_):
+    def from_scene(cls, scene: Scene | NRRRSpec) -> Mechanism:
+        if isinstance(scene, NRRRSpec):
             return _nrrr(scene, None)
         if scene.mechanism is not None:
             return _nrrr(scene.mechanism, scene.graph)
@@ -235,8 +235,8 @@ class Mechanism:
 class NRRRMechanism(Mechanism):
     """n-RRR kinematics in closed form (Zhang & Zhang 2017); everything else as :class:`Mechanism`."""
 
-    def __init__(self, data: Mechanism_, graph=None):
-        super().__init__(Model.of(graph or _bare_graph(data)))
+    def __init__(self, data: NRRRSpec, graph=None):
+        super().__init__(Model.of(graph or bare_nrrr_graph(data)))
         self.data = data
         self.n = n = data.n_chains
         self.modes = np.array([c.working_mode for c in data.chains], dtype=float)
@@ -399,16 +399,8 @@ class NRRRMechanism(Mechanism):
         return np.array(found).reshape(-1, 3)
 
 
-def _bare_graph(data: Mechanism_):
-    """The graph of an n-RRR without clearance (kinematics only)."""
-    steel = Material("steel", *MATERIALS["steel"])
-    n = data.n_chains
-    joints = tuple(JointSpec(f"{p}{i + 1}", False, 0.005, 1e-4, steel, steel) for p in "BC" for i in range(n))
-    return expand_nrrr(data, joints, (1.0,) * n)
-
-
 @functools.cache
-def _nrrr(data: Mechanism_, graph) -> NRRRMechanism:
+def _nrrr(data: NRRRSpec, graph) -> NRRRMechanism:
     return NRRRMechanism(data, graph)
 
 

@@ -27,13 +27,12 @@ from dataclasses import dataclass
 
 import casadi as ca
 
-from ..scene import GROUND
+from ..scene.vocabulary import GROUND
 from .graph import Model, rotation
 
-__all__ = ["TreeMap", "tree_map", "COORDINATES"]
+__all__ = ["TreeMap", "tree_map"]
 
 # integrator.coordinates: 'auto' takes the tree wherever it removes a joint
-COORDINATES = ("auto", "tree", "reference-point")
 
 
 @dataclass(frozen=True)

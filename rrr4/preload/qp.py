@@ -28,17 +28,19 @@ from ..dynamics.builder import fix_last_input
 from ..errors import SceneError
 from ..mechanism.graph import Model
 from ..scene import Scene
+from ..scene.vocabulary import QP_SOLVERS
 from .exact import constraint_violation
 
 __all__ = ["qp_preload_function", "scalar_qp_preload_function", "parametric_scalar_qp_preload", "QP_OPTIONS"]
 
-QP_OPTIONS = {
+_OPTIONS = {
     "qrqp": {"print_iter": False, "print_header": False, "print_info": False, "error_on_fail": False},
     "osqp": {"osqp": {"verbose": False, "eps_abs": 1e-10, "eps_rel": 1e-10, "polish": True, "max_iter": 10000},
              "error_on_fail": False},
     "daqp": {"error_on_fail": False},
     "qpoases": {"printLevel": "none", "error_on_fail": False},
 }
+QP_OPTIONS = {name: _OPTIONS[name] for name in QP_SOLVERS}  # the registry, by the scene's vocabulary
 # relative tolerance on the constraints when the result is marked feasible
 FEASIBILITY_TOL = 1e-6
 

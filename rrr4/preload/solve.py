@@ -22,11 +22,13 @@ import warnings
 
 import numpy as np
 
+from ..checks import argument, unknown_value
 from ..dynamics.family import effort_family
 from ..errors import Rrr4Error, SceneError
 from ..mechanism.graph import Model
 from ..mechanism.workspace import near_singular, path_kinematics
-from ..scene import MAX_SAMPLES, Scene, argument, unknown_value
+from ..scene import MAX_SAMPLES, Scene
+from ..scene.vocabulary import PRELOAD_METHODS as PRELOAD_METHOD_NAMES
 from ..trajectory import sample_path
 from .exact import exact_preload_function
 from .nlp import solve_trajectory_nlp
@@ -37,7 +39,9 @@ from .solution import Infeasibility, PreloadSolution
 __all__ = ["solve_preload", "PreloadWarning", "PreloadInfeasibleError", "FEASIBILITY_TOL"]
 
 # the methods and the largest degree of redundancy each handles (None: any)
-PRELOAD_METHODS = {"exact": 1, "qp": None, "nlp": None}
+# the largest degree of redundancy each method handles (None: any), by the scene's vocabulary
+_REDUNDANCY = {"exact": 1, "qp": None, "nlp": None}
+PRELOAD_METHODS = {name: _REDUNDANCY[name] for name in PRELOAD_METHOD_NAMES}
 # relative tolerance of the final check (f_min and torque limits); the QP marks its own result with the same
 FEASIBILITY_TOL = QP_FEASIBILITY_TOL
 # relative f_min increase for the NLP on a grid coarser than the samples

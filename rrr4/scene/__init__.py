@@ -1,0 +1,43 @@
+"""Scenes: the YAML schema as frozen dataclasses (:mod:`.schema`), its reader and validation
+(:mod:`.reader`, :mod:`.fields`), the vocabulary of allowed names (:mod:`.vocabulary`), the
+n-RRR expansion into a graph (:mod:`.nrrr`) and dotted key paths (:mod:`.keys`).
+
+Imports nothing of the package but :mod:`rrr4.errors` and :mod:`rrr4.checks`.
+"""
+
+from ..errors import SceneError
+from .fields import BIG, MAX_MAGNITUDE, MAX_SAMPLES
+from .keys import get_key, key_steps, set_key
+from .nrrr import bare_nrrr_graph, expand_nrrr
+from .reader import parse_scene, read_scene, read_yaml
+from .schema import (
+    PASSIVE_JOINTS,
+    Actuation,
+    ActuatorSpec,
+    Body,
+    Chain,
+    ContactEffect,
+    DriverSpec,
+    Effects,
+    FrictionEffect,
+    Graph,
+    Initial,
+    IntegratorSettings,
+    JointSpec,
+    Link,
+    Material,
+    NRRRSpec,
+    PathSpec,
+    Platform,
+    PreloadSettings,
+    Scene,
+)
+from .vocabulary import GROUND, MATERIALS, choices
+
+__all__ = [
+    "SceneError", "Scene", "Link", "Chain", "Platform", "NRRRSpec", "Material", "JointSpec", "ContactEffect",
+    "FrictionEffect", "Effects", "PreloadSettings", "Actuation", "PathSpec", "Initial", "IntegratorSettings",
+    "Body", "ActuatorSpec", "DriverSpec", "Graph", "GROUND", "MATERIALS", "PASSIVE_JOINTS", "choices",
+    "read_scene", "parse_scene", "read_yaml", "expand_nrrr", "bare_nrrr_graph", "get_key", "set_key", "key_steps",
+    "MAX_MAGNITUDE", "BIG", "MAX_SAMPLES",
+]

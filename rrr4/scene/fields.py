@@ -1,0 +1,151 @@
+"""The validation kit of the scene reader: a :class:`Section` reads one YAML mapping, checks
+each value it is asked for (type, range, magnitude, choices) and rejects unknown keys, every
+error one line with the key path, the value and what is allowed."""
+
+from __future__ import annotations
+
+import difflib
+import math
+
+from ..checks import describe, unknown_value
+from ..errors import SceneError
+
+__all__ = ["Section", "MAX_MAGNITUDE", "BIG", "MAX_SAMPLES"]
+
+
+# largest magnitude a scene number may have (SI units); larger is a unit mistake or an
+# overflow waiting to happen. Material and contact stiffnesses may go up to BIG.
+MAX_MAGNITUDE, BIG = 1e6, 1e15
+# most path samples / output frames a scene may ask for (each frame holds the full state)
+MAX_SAMPLES = 5_000_000
+
+
+
+class Section:
+    """Reads one mapping of the YAML; remembers which keys were used; rejects unknown ones."""
+
+    def __init__(self, data, path: str):
+        if data is None:
+            data = {}
+        if not isinstance(data, dict):
+            raise SceneError(f"{path or '<scene>'}: expected a mapping, got {describe(data)}")
+        self.data, self.path, self.used = data, path, set()
+
+    def key(self, k: str) -> str:
+        return f"{self.path}.{k}" if self.path else k
+
+    def has(self, k: str) -> bool:
+        return k in self.data
+
+    def raw(self, k, default=None):
+        self.used.add(k)
+        return self.data.get(k, default)
+
+    def section(self, k: str) -> Section:
+        return Section(self.raw(k), self.key(k))
+
+    def missing(self, k: str, what: str) -> SceneError:
+        """The error for a required key that is absent, with the section's nearest key when
+        that looks like a misspelling of it."""
+        near = difflib.get_close_matches(k, [str(x) for x in self.data if x != k], n=1, cutoff=0.6)
+        hint = f"; this section has '{near[0]}': a misspelling of '{k}'?" if near else ""
+        return SceneError(f"{self.key(k)}: missing ({what} is required){hint}")
+
+    def number(self, k, default=None, *, positive=False, nonneg=False, lo=None, hi=None,
+               lo_open=False, hi_open=False, big=False):
+        v = self.raw(k, default)
+        key = self.key(k)
+        if v is None:
+            raise self.missing(k, "a number")
+        if isinstance(v, str) and _looks_numeric(v):
+            raise SceneError(f"{key}: {describe(v)} is text, not a number (YAML reads a number in exponent "
+                             f"form only with a dot: write {_with_dot(v)})")
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise SceneError(f"{key}: {describe(v)} is not a number")
+        v = float(v)
+        if not math.isfinite(v):
+            raise SceneError(f"{key}: {v} is not finite (a finite number is required)")
+        cap = BIG if big else MAX_MAGNITUDE
+        if abs(v) > cap:
+            raise SceneError(f"{key}: {v:g} is not allowed (|value| <= {cap:g} in SI units)")
+        if positive and v <= 0:
+            raise SceneError(f"{key}: {v:g} is not allowed (must be > 0)")
+        if nonneg and v < 0:
+            raise SceneError(f"{key}: {v:g} is not allowed (must be >= 0)")
+        if lo is not None and (v < lo or (lo_open and v == lo)):
+            raise SceneError(f"{key}: {v:g} is out of range (allowed: {_interval(lo, hi, lo_open, hi_open)})")
+        if hi is not None and (v > hi or (hi_open and v == hi)):
+            raise SceneError(f"{key}: {v:g} is out of range (allowed: {_interval(lo, hi, lo_open, hi_open)})")
+        return v
+
+    def integer(self, k, default=None, *, positive=False):
+        v = self.raw(k, default)
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise SceneError(f"{self.key(k)}: {describe(v)} is not an integer")
+        if positive and v <= 0:
+            raise SceneError(f"{self.key(k)}: {v} is not allowed (must be > 0)")
+        return v
+
+    def vector(self, k, n, default=None, *, scalar_ok=False):
+        v = self.raw(k, default)
+        key = self.key(k)
+        if v is None:
+            raise self.missing(k, f"a list of {n} numbers")
+        if scalar_ok and isinstance(v, (int, float)) and not isinstance(v, bool):
+            v = [v] * n
+        if not isinstance(v, (list, tuple)) or len(v) != n:
+            raise SceneError(f"{key}: {describe(v)} is not allowed (a list of {n} numbers is required)")
+        out = []
+        for i, x in enumerate(v):
+            if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
+                raise SceneError(f"{key}[{i}]: {describe(x)} is not a finite number")
+            if abs(x) > MAX_MAGNITUDE:
+                raise SceneError(f"{key}[{i}]: {x:g} is not allowed (|value| <= {MAX_MAGNITUDE:g} in SI units)")
+            out.append(float(x))
+        return tuple(out)
+
+    def string(self, k, default=None):
+        v = self.raw(k, default)
+        if not isinstance(v, str):
+            raise SceneError(f"{self.key(k)}: {describe(v)} is not a string")
+        return v
+
+    def choice(self, k, allowed, default=None):
+        v = self.raw(k, default)
+        v = v.lower() if isinstance(v, str) else v
+        if v is None:
+            raise SceneError(f"{self.key(k)}: missing (choose one of: {', '.join(allowed)})")
+        if v not in allowed:
+            raise unknown_value(self.key(k), "value", v, allowed)
+        return v
+
+    def done(self, allowed=None):
+        allowed = sorted(set(allowed or ()) | self.used)
+        for k in self.data:
+            if k not in allowed:
+                near = difflib.get_close_matches(str(k), allowed, n=1)
+                hint = f"did you mean '{near[0]}'? " if near else ""
+                raise SceneError(f"{self.key(str(k))}: unknown key ({hint}"
+                                 f"allowed keys: {', '.join(allowed)})")
+
+
+def _interval(lo, hi, lo_open, hi_open):
+    left = "(" if lo_open else "["
+    right = ")" if hi_open else "]"
+    return f"{left}{'-inf' if lo is None else f'{lo:g}'}, {'inf' if hi is None else f'{hi:g}'}{right}"
+
+
+
+def _looks_numeric(v: str) -> bool:
+    try:
+        float(v)
+    except ValueError:
+        return False
+    return v.strip().lower() not in ("nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity")
+
+
+def _with_dot(v: str) -> str:
+    m, _, e = v.strip().lower().partition("e")
+    return f"{m if '.' in m else m + '.0'}e{e}" if e else v
+
+

@@ -1,0 +1,571 @@
+"""The scene reader: YAML files read into a validated :class:`~rrr4.scene.schema.Scene`.
+
+Every problem raises :class:`SceneError` with the key path, the bad value and what is
+allowed, e.g. ``SceneError: effects.contact.law: unknown value 'lankarani' (choose one of: ...)``.
+All quantities are SI (m, kg, s, rad, N, N m) unless a key says otherwise (``*_deg`` keys
+are in degrees).
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from pathlib import Path
+
+import yaml
+
+from ..checks import describe, unknown_value
+from ..errors import SceneError
+from .fields import MAX_SAMPLES, Section
+from .nrrr import expand_nrrr
+from .schema import (
+    Actuation,
+    ActuatorSpec,
+    Body,
+    Chain,
+    ContactEffect,
+    DriverSpec,
+    Effects,
+    FrictionEffect,
+    Graph,
+    Initial,
+    IntegratorSettings,
+    JointSpec,
+    Link,
+    Material,
+    NRRRSpec,
+    PathSpec,
+    Platform,
+    PreloadSettings,
+    Scene,
+)
+from .vocabulary import (
+    ACTUATION_MODES,
+    GROUND,
+    JOINT_TYPES,
+    JOURNAL_STARTS,
+    MATERIALS,
+    MECHANISM_KINDS,
+    PATH_TYPES,
+    TIME_LAWS,
+    choices,
+)
+
+__all__ = ["read_scene", "parse_scene", "read_yaml"]
+
+
+def _link(sec: Section, defaults: dict | None, defaults_path: str) -> Link:
+    """A link's keys come from the chain's own entry, else from chain_defaults;
+    errors name the key where the value was written."""
+    dsec = Section(defaults, defaults_path)
+
+    def get(k, default=None):
+        src = sec if sec.has(k) else dsec
+        return src.number(k, default, positive=True)
+
+    length, mass = get("length"), get("mass")
+    inertia = get("inertia", mass * length**2 / 12.0)
+    sec.done(["length", "mass", "inertia"])
+    dsec.done(["length", "mass", "inertia"])
+    return Link(length, mass, inertia)
+
+
+def _mechanism(sec: Section) -> NRRRSpec:
+    psec = sec.section("platform")
+    platform = Platform(psec.number("mass", positive=True), psec.number("inertia", positive=True))
+    psec.done()
+    defaults = sec.raw("chain_defaults", {}) or {}
+    if not isinstance(defaults, dict):
+        raise SceneError(f"{sec.key('chain_defaults')}: expected a mapping, got {describe(defaults)}")
+    dsec = Section(defaults, sec.key("chain_defaults"))
+    dsec.done(["driving_link", "following_link", "attachment_radius", "working_mode"])
+    raw_chains = sec.raw("chains")
+    if not isinstance(raw_chains, list) or not 3 <= len(raw_chains) <= 4:
+        raise SceneError(f"{sec.key('chains')}: {describe(raw_chains)} is not allowed "
+                         "(a list of 3 or 4 chains is required)")
+    chains = []
+    for i, raw in enumerate(raw_chains):
+        c = Section(raw, f"{sec.key('chains')}[{i}]")
+        name = str(i + 1)
+        base = c.vector("base", 2)
+        links = [_link(c.section(k), defaults.get(k), dsec.key(k)) for k in ("driving_link", "following_link")]
+        radius_default = defaults.get("attachment_radius")
+        r = c.number("attachment_radius", radius_default, positive=True)
+        ang = math.radians(c.number("attachment_angle_deg"))
+        mode_raw = c.raw("working_mode", defaults.get("working_mode", "+"))
+        if mode_raw not in ("+", "-", "+acos", "-acos", 1, -1):
+            raise SceneError(f"{c.key('working_mode')}: unknown value {describe(mode_raw)} "
+                             "(choose one of: '+', '-')")
+        mode = -1 if mode_raw in ("-", "-acos", -1) else 1
+        c.done()
+        chains.append(Chain(name, base, *links, r, ang, mode))
+    sec.done(["kind"])
+    return NRRRSpec(platform, tuple(chains))
+
+
+def _material(v, key) -> Material:
+    if isinstance(v, str):
+        name = v.lower()
+        if name not in MATERIALS:
+            near = difflib.get_close_matches(name, list(MATERIALS), n=1)
+            hint = f"; did you mean '{near[0]}'?" if near else ""
+            raise SceneError(f"{key}: unknown material {describe(v)} "
+                             f"(choose one of: {', '.join(MATERIALS)}, or give youngs_modulus and poisson_ratio){hint}")
+        return Material(name, *MATERIALS[name])
+    s = Section(v, key)
+    m = Material(s.string("name", "custom"), s.number("youngs_modulus", positive=True, big=True),
+                 s.number("poisson_ratio", lo=0.0, hi=0.5, hi_open=True))
+    s.done()
+    return m
+
+
+def _joints(sec: Section, n_chains: int) -> tuple[JointSpec, ...]:
+    names = tuple(f"B{i}" for i in range(1, n_chains + 1)) + tuple(f"C{i}" for i in range(1, n_chains + 1))
+    cl = sec.raw("clearance", [])
+    if cl == "all":
+        cl = list(names)
+    if cl in (None, "none"):
+        cl = []
+    if not isinstance(cl, list):
+        raise SceneError(f"{sec.key('clearance')}: {describe(cl)} is not allowed "
+                         f"(a list of joint names from {', '.join(names)}, 'all' or 'none')")
+    for j in cl:
+        if j not in names:
+            raise unknown_value(sec.key("clearance"), "joint", j, names)
+    if len(set(cl)) != len(cl):
+        raise SceneError(f"{sec.key('clearance')}: {describe(cl)} names a joint twice")
+    base = {
+        "journal_radius": sec.raw("journal_radius", 0.005),
+        "radial_clearance": sec.raw("radial_clearance", 1e-4),
+        "journal_material": sec.raw("journal_material", "steel"),
+        "bearing_material": sec.raw("bearing_material", "steel"),
+    }
+    per = sec.raw("per_joint", {}) or {}
+    if not isinstance(per, dict):
+        raise SceneError(f"{sec.key('per_joint')}: expected a mapping of joint name to settings")
+    for j in per:
+        if j not in names:
+            raise unknown_value(f"{sec.key('per_joint')}.{j}", "joint", j, names)
+    out = []
+    for name in names:
+        has_own = name in per
+        merged = dict(base)
+        merged.update(per.get(name) or {})
+        key = sec.key(f"per_joint.{name}") if has_own else sec.path
+        s = Section(merged, key)
+        rj = s.number("journal_radius", positive=True)
+        c = s.number("radial_clearance", positive=True)
+        if c >= rj:
+            raise SceneError(f"{s.key('radial_clearance')}: {c:g} m is not allowed "
+                             f"(must be smaller than the journal radius {rj:g} m)")
+        mj = _material(s.raw("journal_material"), s.key("journal_material"))
+        mb = _material(s.raw("bearing_material"), s.key("bearing_material"))
+        s.done()
+        out.append(JointSpec(name, name in cl, rj, c, mj, mb))
+    sec.done()
+    return tuple(out)
+
+
+def _name(sec: Section, k: str = "name", default=None) -> str:
+    v = sec.raw(k, default)
+    if not isinstance(v, str) or not v.strip() or not all(ch.isalnum() or ch in "_-" for ch in v):
+        raise SceneError(f"{sec.key(k)}: {describe(v)} is not allowed (a name of letters, digits, '_' and '-')")
+    return v
+
+
+def _points(sec: Section, k: str) -> tuple[tuple[str, tuple[float, float]], ...]:
+    raw = sec.raw(k, {}) or {}
+    if not isinstance(raw, dict):
+        raise SceneError(f"{sec.key(k)}: expected a mapping of point name to [x, y] in m, got {describe(raw)}")
+    ps = Section(raw, sec.key(k))
+    return tuple((str(name), ps.vector(name, 2)) for name in raw)
+
+
+def _clearance(v, key: str, bodies: tuple[str, str]) -> dict:
+    s = Section(v, key)
+    journal = s.raw("journal", bodies[1])
+    if journal not in bodies or journal == GROUND:
+        raise unknown_value(s.key("journal"), "body", journal, [b for b in bodies if b != GROUND])
+    rj = s.number("journal_radius", positive=True)
+    c = s.number("radial_clearance", positive=True)
+    if c >= rj:
+        raise SceneError(f"{s.key('radial_clearance')}: {c:g} m is not allowed "
+                         f"(must be smaller than the journal radius {rj:g} m)")
+    out = {"clearance": True, "journal_radius": rj, "radial_clearance": c, "journal": bodies.index(journal),
+           "journal_material": _material(s.raw("journal_material", "steel"), s.key("journal_material")),
+           "bearing_material": _material(s.raw("bearing_material", "steel"), s.key("bearing_material"))}
+    s.done()
+    return out
+
+
+def _graph(sec: Section) -> Graph:
+    ground = dict(_points(sec.section("ground"), "points"))
+    sec.section("ground").done(["points"])
+    raw_bodies = sec.raw("bodies")
+    if not isinstance(raw_bodies, list) or not raw_bodies:
+        raise SceneError(f"{sec.key('bodies')}: {describe(raw_bodies)} is not allowed (a list of bodies is required)")
+    bodies, points = [], {GROUND: ground}
+    for i, raw in enumerate(raw_bodies):
+        b = Section(raw, f"{sec.key('bodies')}[{i}]")
+        name = _name(b)
+        if name in points:
+            raise SceneError(f"{b.key('name')}: {name!r} is not allowed (names a body twice, or the ground)")
+        pts = _points(b, "points")
+        bodies.append(Body(name, b.number("mass", positive=True), b.number("inertia", positive=True), pts,
+                           b.vector("pose", 3, [0.0, 0.0, 0.0])))
+        points[name] = dict(pts)
+        b.done()
+    names = [GROUND] + [b.name for b in bodies]
+
+    raw_joints = sec.raw("joints")
+    if not isinstance(raw_joints, list) or not raw_joints:
+        raise SceneError(f"{sec.key('joints')}: {describe(raw_joints)} is not allowed (a list of joints is required)")
+    joints, used = [], set()
+    for i, raw in enumerate(raw_joints):
+        j = Section(raw, f"{sec.key('joints')}[{i}]")
+        name = _name(j)
+        if any(x.name == name for x in joints):
+            raise SceneError(f"{j.key('name')}: {name!r} names a joint twice")
+        kind = j.choice("type", JOINT_TYPES, "revolute")
+        pair = j.raw("bodies")
+        if not isinstance(pair, list) or len(pair) != 2:
+            raise SceneError(f"{j.key('bodies')}: {describe(pair)} is not allowed (a list of two body names)")
+        for b in pair:
+            if b not in names:
+                raise unknown_value(j.key("bodies"), "body", b, names)
+        if pair[0] == pair[1]:
+            raise SceneError(f"{j.key('bodies')}: {describe(pair)} is not allowed (two different bodies)")
+        raw_pts = j.raw("points", [[0.0, 0.0], [0.0, 0.0]])
+        if not isinstance(raw_pts, list) or len(raw_pts) != 2:
+            raise SceneError(f"{j.key('points')}: {describe(raw_pts)} is not allowed "
+                             "(two points, one per body: a point name or [x, y] in m)")
+        pts = []
+        for k, (b, pt) in enumerate(zip(pair, raw_pts, strict=True)):
+            if isinstance(pt, str):
+                if pt not in points[b]:
+                    raise unknown_value(f"{j.key('points')}[{k}]", f"point of {b}", pt, list(points[b]) or ["(none)"])
+                pts.append(points[b][pt])
+            else:
+                pts.append(Section({"p": pt}, f"{j.key('points')}[{k}]").vector("p", 2))
+        extra = {}
+        if kind == "prismatic":
+            axis = j.vector("axis", 2, [1.0, 0.0])
+            norm = math.hypot(*axis)
+            if not norm > 1e-12:
+                raise SceneError(f"{j.key('axis')}: {list(axis)} is not allowed (a direction of non-zero length)")
+            extra = {"axis": (axis[0] / norm, axis[1] / norm), "angle": math.radians(j.number("angle_deg", 0.0))}
+            if j.has("clearance"):
+                raise SceneError(f"{j.key('clearance')}: not allowed on a prismatic joint (revolute clearance only)")
+        cl = {"clearance": False, "journal_radius": 0.005, "radial_clearance": 1e-4,
+              "journal_material": Material("steel", *MATERIALS["steel"]),
+              "bearing_material": Material("steel", *MATERIALS["steel"])}
+        if kind == "revolute" and j.raw("clearance") is not None:
+            cl.update(_clearance(j.raw("clearance"), j.key("clearance"), tuple(pair)))
+        j.done()
+        joints.append(JointSpec(name, type=kind, bodies=tuple(pair), points=tuple(pts), **cl, **extra))
+        used.update(pair)
+    for b in bodies:
+        if b.name not in used:
+            raise SceneError(f"{sec.key('bodies')}: body {b.name!r} is not allowed (it has no joint: "
+                             "every body must be connected)")
+    jnames = [x.name for x in joints]
+
+    def refs(k: str, what: str):
+        raw = sec.raw(k, []) or []
+        if not isinstance(raw, list):
+            raise SceneError(f"{sec.key(k)}: {describe(raw)} is not allowed (a list of {what})")
+        for i, r in enumerate(raw):
+            e = Section(r, f"{sec.key(k)}[{i}]")
+            joint = e.raw("joint")
+            if joint not in jnames:
+                raise unknown_value(e.key("joint"), "joint", joint, jnames)
+            yield e, joint
+
+    actuators = []
+    for e, joint in refs("actuators", "actuators"):
+        actuators.append(ActuatorSpec(_name(e, default=joint), joint, e.number("limit", positive=True)))
+        e.done()
+    drivers = []
+    for e, joint in refs("drivers", "drivers"):
+        jt = joints[jnames.index(joint)]
+        if e.has("speed_rpm"):
+            speed = e.number("speed_rpm") * 2 * math.pi / 60
+            if jt.type != "revolute":
+                raise SceneError(f"{e.key('speed_rpm')}: not allowed on a prismatic joint (give speed in m/s)")
+        else:
+            speed = e.number("speed")
+        initial = math.radians(e.number("initial_deg", 0.0)) if jt.type == "revolute" else e.number("initial", 0.0)
+        drivers.append(DriverSpec(_name(e, default=joint), joint, initial, speed))
+        e.done()
+    seen: dict[str, str] = {}
+    for key, items in (("actuators", actuators), ("drivers", drivers)):
+        for i, x in enumerate(items):
+            if x.name in seen:
+                raise SceneError(f"{sec.key(key)}[{i}].name: {x.name!r} is not allowed (already the name of "
+                                 f"{seen[x.name]}; actuator and driver names must be unique)")
+            seen[x.name] = f"{sec.key(key)}[{i}]"
+    busy = [a.joint for a in actuators] + [d.joint for d in drivers]
+    for j in joints:
+        if busy.count(j.name) > 1:
+            raise SceneError(f"{sec.key('actuators')}: joint {j.name!r} is not allowed to carry more than one "
+                             "actuator or driver")
+        if j.clearance and j.name in busy:
+            raise SceneError(f"{sec.key('joints')}: joint {j.name!r} has clearance and an actuator or driver "
+                             "(clearance is allowed on passive joints only)")
+    task, task_point = sec.raw("task"), None
+    if isinstance(task, dict):  # a point of a body: {body: name, point: name or [x, y]}
+        t = Section(task, sec.key("task"))
+        body, pt = t.raw("body"), t.raw("point")
+        if body not in names[1:]:
+            raise unknown_value(t.key("body"), "body", body, names[1:])
+        if isinstance(pt, str):
+            if pt not in points[body]:
+                raise unknown_value(t.key("point"), f"point of {body}", pt, list(points[body]) or ["(none)"])
+            task_point = points[body][pt]
+        else:
+            task_point = t.vector("point", 2)
+        t.done()
+        task = body
+    elif task in (None, "none"):
+        task = None
+    elif task not in names[1:]:
+        raise unknown_value(sec.key("task"), "body", task, names[1:] + ["none"])
+    sec.done()
+    return Graph(tuple(bodies), tuple(joints), tuple(actuators), tuple(drivers), task, task_point)
+
+
+def _effects(sec: Section) -> Effects:
+    c = sec.section("contact")
+    law = c.choice("law", choices("contact law"), "lankarani-nikravesh")
+    cr = c.number("restitution", 0.9, lo=0.0, hi=1.0, lo_open=True)
+    exponent = c.number("exponent", 1.0 if law == "kelvin-voigt" else 1.5, positive=True)
+    k = c.raw("stiffness", "auto")
+    if k == "auto" or k is None:
+        stiffness = None
+    else:
+        stiffness = c.number("stiffness", positive=True, big=True)
+    damping = c.number("damping", 0.0, nonneg=True)
+    c.done()
+    f = sec.section("friction")
+    flaw = f.choice("law", choices("friction law"), "none")
+    mu = f.number("coefficient", 0.0 if flaw == "none" else None, nonneg=True)
+    mus = f.number("static_coefficient", mu, nonneg=True)
+    v0 = f.number("v0", 1e-4, positive=True)
+    v1 = f.number("v1", 2e-4, positive=True)
+    if v1 <= v0:
+        raise SceneError(f"{f.key('v1')}: {v1:g} m/s is not allowed (must be greater than v0 = {v0:g} m/s)")
+    vs = f.number("stribeck_velocity", 1e-3, positive=True)
+    f.done()
+    g = sec.vector("gravity", 2, [0.0, 0.0])
+    sec.done()
+    return Effects(ContactEffect(law, cr, exponent, stiffness, damping),
+                   FrictionEffect(flaw, mu, mus, v0, v1, vs), g)
+
+
+def _actuation(sec: Section, n: int, graph: Graph | None = None) -> Actuation:
+    """n actuators; for a graph scene their limits come from mechanism.actuators, and the
+    mode defaults to 'free' when there is no task to track."""
+    if graph is None:
+        mode = sec.choice("mode", ACTUATION_MODES, "torque")
+        limits = sec.vector("torque_limit", n, 1e3, scalar_ok=True)
+        for i, v in enumerate(limits):
+            if v <= 0:
+                raise SceneError(f"{sec.key('torque_limit')}[{i}]: {v:g} N m is not allowed (must be > 0)")
+    else:
+        mode = sec.choice("mode", ACTUATION_MODES, "torque" if graph.task and n else "free")
+        if mode != "free" and (graph.task is None or n == 0):
+            raise SceneError(f"{sec.key('mode')}: {mode!r} is not allowed without "
+                             f"{'a task (mechanism.task)' if graph.task is None else 'actuators'} to track the "
+                             "path (choose 'free'; drivers prescribe their joints in every mode)")
+        dof = 3 if graph.task_point is None else 2
+        if mode != "free" and n < dof:
+            raise SceneError(f"{sec.key('mode')}: {mode!r} is not allowed with {n} actuator(s) for a task of {dof} "
+                             f"degrees of freedom (the path cannot be tracked: give at least {dof} actuators, or "
+                             "choose 'free')")
+        limits = tuple(a.limit for a in graph.actuators)
+    p = sec.section("preload")
+    method = p.choice("method", choices("preload method"), "exact")
+    fmin = p.number("min_force", nonneg=True, default=5.0)
+    weights = p.vector("weights", n, 1.0, scalar_ok=True)
+    for i, v in enumerate(weights):
+        if v <= 0:
+            raise SceneError(f"{p.key('weights')}[{i}]: {v:g} is not allowed (must be > 0)")
+    qp = p.choice("qp_solver", choices("qp solver"), "qrqp")
+    smooth = p.number("smoothness_weight", 1e-4, nonneg=True)
+    turn = p.number("max_turn_rate", 50.0, positive=True)
+    p.done()
+    gains = sec.section("gains")
+    kp = gains.number("kp", 200.0, nonneg=True)
+    kd = gains.number("kd", 5.0, nonneg=True)
+    gains.done()
+    rate = sec.number("control_rate", positive=True) if sec.raw("control_rate") is not None else None
+    compensation = sec.choice("compensation", choices("compensation"), "none")
+    sec.done()
+    return Actuation(mode, limits, PreloadSettings(method, fmin, weights, qp, smooth, turn), kp, kd, rate,
+                     compensation)
+
+
+def _path(sec: Section, task: bool = True) -> PathSpec:
+    kind = sec.choice("type", PATH_TYPES, None if task else "none")
+    if (kind == "none") == task:
+        raise SceneError(f"{sec.key('type')}: {kind!r} is not allowed "
+                         + ("(the task body follows a path: circle, line or waypoints)" if task else
+                            "(no task body: the drivers set the motion; use 'none' with duration and sample_rate)"))
+    common = dict(
+        type=kind,
+        duration=sec.number("duration", positive=True),
+        time_law=sec.choice("time_law", TIME_LAWS, "quintic"),
+        sample_rate=sec.number("sample_rate", 1000.0, positive=True),
+        max_condition_number=sec.number("max_condition_number", 1e3, lo=1.0, lo_open=True),
+        min_transmission=sec.number("min_transmission", 0.05, lo=0.0, hi=1.0, hi_open=True),
+    )
+    if common["duration"] * common["sample_rate"] < 2:
+        raise SceneError(f"{sec.key('sample_rate')}: {common['sample_rate']:g} Hz is too low "
+                         f"(need at least 2 samples over duration {common['duration']:g} s)")
+    if kind == "circle":
+        spec = PathSpec(**common, center=sec.vector("center", 2), radius=sec.number("radius", positive=True),
+                        start_angle=sec.number("start_angle", 0.0), revolutions=sec.number("revolutions", 1.0),
+                        orientation=sec.number("orientation", 0.0))
+    elif kind == "line":
+        spec = PathSpec(**common, start=sec.vector("start", 3), end=sec.vector("end", 3))
+    elif kind == "none":
+        spec = PathSpec(**common)
+    else:
+        pts = sec.raw("points")
+        if not isinstance(pts, list) or len(pts) < 2:
+            raise SceneError(f"{sec.key('points')}: {describe(pts)} is not allowed "
+                             "(a list of at least 2 poses [x, y, theta] is required)")
+        points = tuple(Section({"p": p}, f"{sec.key('points')}[{i}]").vector("p", 3) for i, p in enumerate(pts))
+        spec = PathSpec(**common, points=points)
+    sec.done()
+    return spec
+
+
+def _integrator(sec: Section) -> IntegratorSettings:
+    s = IntegratorSettings(
+        method=sec.choice("method", choices("integrator"), "bathe"),
+        step=sec.number("step", 1e-5, positive=True),
+        rtol=sec.number("rtol", 1e-8, positive=True),
+        atol=sec.number("atol", 1e-10, positive=True),
+        gamma=sec.number("gamma", 0.5, lo=0.0, hi=1.0, lo_open=True, hi_open=True),
+        rho_inf=sec.number("rho_inf", 0.0, lo=0.0, hi=1.0),
+        newton_tol=sec.number("newton_tol", 1e-10, positive=True),
+        max_newton=sec.integer("max_newton", 20, positive=True),
+        refine=sec.integer("refine", 1, positive=True),
+        newton=sec.choice("newton", choices("newton"), "simplified"),
+        tolerance=sec.number("tolerance", positive=True) if sec.raw("tolerance") is not None else None,
+        coordinates=sec.choice("coordinates", choices("coordinates"), "auto"),
+    )
+    if s.tolerance is not None and s.method not in choices("error control"):
+        raise SceneError(f"{sec.key('tolerance')}: {s.tolerance:g} is not allowed with method '{s.method}' (error "
+                         f"control is for {', '.join(choices('error control'))}; the adaptive methods take rtol, atol)")
+    sec.done()
+    return s
+
+
+def _initial(sec: Section) -> Initial:
+    v = Initial(sec.vector("platform_velocity", 3, [0.0, 0.0, 0.0]),
+                sec.choice("journals", JOURNAL_STARTS, "centred"))
+    sec.done()
+    return v
+
+
+def parse_scene(data, name: str = "scene", source: str = "") -> Scene:
+    """Build a :class:`Scene` from a parsed YAML mapping (raises SceneError).
+
+    Validates the data only; :func:`rrr4.load_scene` also checks the scene against its
+    model (assembly, workspace, singularities)."""
+    top = Section(data, "")
+    msec = top.section("mechanism")
+    kind = msec.choice("kind", MECHANISM_KINDS, "n-rrr")
+    if kind == "n-rrr":
+        mech = _mechanism(msec)
+        joints = _joints(top.section("joints"), mech.n_chains)
+        actuation = _actuation(top.section("actuation"), mech.n_chains)
+        graph = expand_nrrr(mech, joints, actuation.torque_limit)
+    else:
+        mech, graph = None, _graph(msec)
+        if top.has("joints"):
+            raise SceneError("joints: not allowed with mechanism.kind 'graph' (give each joint's clearance in "
+                             "mechanism.joints)")
+        actuation = _actuation(top.section("actuation"), len(graph.actuators), graph)
+    scene = Scene(
+        name=_name(top, "name", name),
+        description=top.string("description", ""),
+        mechanism=mech,
+        graph=graph,
+        effects=_effects(top.section("effects")),
+        actuation=actuation,
+        path=_path(top.section("path"), graph.task is not None),
+        initial=_initial(top.section("initial")),
+        integrator=_integrator(top.section("integrator")),
+        source=source,
+    )
+    top.done()
+    p = scene.path
+    if p.duration * p.sample_rate > MAX_SAMPLES:
+        raise SceneError(f"path.sample_rate: {p.sample_rate:g} Hz over {p.duration:g} s is not allowed (at most "
+                         f"{MAX_SAMPLES:g} samples)")
+    if scene.integrator.step > p.duration:
+        raise SceneError(f"integrator.step: {scene.integrator.step:g} s is not allowed (must not exceed "
+                         f"path.duration = {p.duration:g} s)")
+    return scene
+
+
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """SafeLoader that refuses a mapping with a key given twice (PyYAML keeps the last)."""
+
+    def construct_mapping(self, node, deep=False):
+        seen = {}
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)
+            try:
+                hash(key)
+            except TypeError:
+                continue  # PyYAML reports unhashable keys itself
+            if key in seen:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"key {describe(key)} appears twice (first at line {seen[key] + 1})",
+                    key_node.start_mark)
+            seen[key] = key_node.start_mark.line
+        return super().construct_mapping(node, deep=deep)
+
+
+def read_yaml(path, what: str = "scene"):
+    """The data of a YAML file (`what` names it in errors: 'scene', 'sweep spec'), with the
+    file checks: it exists, is a regular UTF-8 text file, valid YAML, no key given twice, not
+    empty. Raises :class:`SceneError`."""
+    p = Path(path)
+    if not p.exists():
+        raise SceneError(f"{what} file '{path}' does not exist")
+    if p.is_dir():
+        raise SceneError(f"{what} file '{path}' is a directory (a YAML {what} file is required)")
+    if not p.is_file():
+        raise SceneError(f"{what} file '{path}' is not a regular file (a YAML {what} file is required)")
+    try:
+        raw = p.read_bytes()
+    except OSError as e:
+        raise SceneError(f"{what} file '{path}' cannot be read ({e.strerror})") from None
+    if b"\0" in raw:
+        raise SceneError(f"{what} file '{path}' is binary (a YAML text file is required)")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise SceneError(f"{what} file '{path}' is not UTF-8 text (invalid byte at offset {e.start})") from None
+    try:
+        data = yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 - a SafeLoader subclass
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        raise SceneError(f"{path}: not valid YAML{where} ({getattr(e, 'problem', e)})") from None
+    if data is None:
+        raise SceneError(f"{what} file '{path}' is empty (a {what} mapping is required"
+                         + (": mechanism, path, ...)" if what == "scene" else ")"))
+    return data
+
+
+def read_scene(path) -> Scene:
+    """Read and validate a YAML scene file (data only, see :func:`parse_scene`). Raises :class:`SceneError`."""
+    p = Path(path)
+    data = read_yaml(p)
+    return parse_scene(data, name=p.stem, source=str(p))

@@ -1,0 +1,295 @@
+"""The scene schema: frozen dataclasses, all quantities SI (m, kg, s, rad, N, N m) unless a
+key says otherwise. Plain data: nothing here knows how a scene is read or simulated."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+from .vocabulary import GROUND
+
+__all__ = ["Link", "Chain", "Platform", "NRRRSpec", "Material", "JointSpec", "Body", "ActuatorSpec", "DriverSpec",
+           "Graph", "ContactEffect", "FrictionEffect", "Effects", "PreloadSettings", "Actuation", "PathSpec",
+           "Initial", "IntegratorSettings", "Scene", "PASSIVE_JOINTS"]
+
+@dataclass(frozen=True)
+class Link:
+    """A slender link; centre of mass at mid-length. length [m], mass [kg], inertia [kg m^2] about the CoM."""
+    length: float
+    mass: float
+    inertia: float
+
+
+@dataclass(frozen=True)
+class Chain:
+    """One RRR chain A_i B_i C_i.
+
+    base: (2,) position of A_i [m]; attachment_radius: |C_i - o| [m] (= 0.5 l_i3);
+    attachment_angle: angle of C_i in the platform frame [rad];
+    working_mode: +1 for the "+acos" branch, -1 for "-acos".
+    """
+    name: str
+    base: tuple[float, float]
+    driving: Link
+    following: Link
+    attachment_radius: float
+    attachment_angle: float
+    working_mode: int
+
+
+@dataclass(frozen=True)
+class Platform:
+    mass: float
+    inertia: float
+
+
+@dataclass(frozen=True)
+class NRRRSpec:
+    """The compact n-RRR form of a scene: platform and chains (the kinematics are :class:`rrr4.Mechanism`)."""
+    platform: Platform
+    chains: tuple[Chain, ...]
+
+    @property
+    def n_chains(self) -> int:
+        return len(self.chains)
+
+
+@dataclass(frozen=True)
+class Material:
+    name: str
+    youngs_modulus: float
+    poisson_ratio: float
+
+
+@dataclass(frozen=True)
+class JointSpec:
+    """A joint between two bodies (or a body and 'ground').
+
+    type 'revolute': points (2,) in each body's frame (ground: global) coincide; with
+    clearance=True it is a journal in a bearing (Flores): the body bodies[journal] carries
+    the journal, the other the bearing. type 'prismatic' (always ideal): the second body
+    slides along `axis` (unit, first body's frame) through the first body's point, at the
+    fixed relative angle `angle` [rad]. Joint coordinate: theta_2 - theta_1 [rad] for a
+    revolute, the slide (p_2 - p_1) . axis [m] for a prismatic.
+    """
+    name: str
+    clearance: bool
+    journal_radius: float
+    radial_clearance: float
+    journal_material: Material
+    bearing_material: Material
+    type: str = "revolute"
+    bodies: tuple[str, str] = (GROUND, GROUND)
+    points: tuple[tuple[float, float], tuple[float, float]] = ((0.0, 0.0), (0.0, 0.0))
+    axis: tuple[float, float] = (1.0, 0.0)
+    angle: float = 0.0
+    journal: int = 1
+
+    @property
+    def bearing_radius(self) -> float:
+        return self.journal_radius + self.radial_clearance
+
+    @property
+    def journal_body(self) -> str:
+        return self.bodies[self.journal]
+
+    @property
+    def bearing_body(self) -> str:
+        return self.bodies[1 - self.journal]
+
+
+@dataclass(frozen=True)
+class Body:
+    """A rigid body: mass [kg], inertia [kg m^2] about its centre of mass, named points
+    (x, y) [m] in the body frame (origin at the centre of mass), and a pose guess
+    [x, y, theta] [m, m, rad] for assembling the mechanism."""
+    name: str
+    mass: float
+    inertia: float
+    points: tuple[tuple[str, tuple[float, float]], ...] = ()
+    pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class ActuatorSpec:
+    """An actuator on a joint: a torque [N m] on a revolute, a force [N] on a prismatic,
+    limited to +-limit."""
+    name: str
+    joint: str
+    limit: float
+
+
+@dataclass(frozen=True)
+class DriverSpec:
+    """A joint coordinate prescribed in time: initial + speed t [rad or m, rad/s or m/s]."""
+    name: str
+    joint: str
+    initial: float
+    speed: float
+
+
+@dataclass(frozen=True)
+class Graph:
+    """The planar body/joint graph of a scene: every mechanism is one (an n-RRR expands
+    into it). task: the body whose pose follows the path, or None (drivers set the motion);
+    task_point: None (the task is the body's pose [x, y, theta], 3 DOF) or a point (x, y) [m]
+    in its frame (the task is that point's position, 2 DOF: the path's x and y)."""
+    bodies: tuple[Body, ...]
+    joints: tuple[JointSpec, ...]
+    actuators: tuple[ActuatorSpec, ...]
+    drivers: tuple[DriverSpec, ...]
+    task: str | None
+    task_point: tuple[float, float] | None = None
+
+    @property
+    def passive_joints(self) -> tuple[str, ...]:
+        """Joints with neither an actuator nor a driver, in graph order."""
+        busy = {a.joint for a in self.actuators} | {d.joint for d in self.drivers}
+        return tuple(j.name for j in self.joints if j.name not in busy)
+
+    def joint(self, name: str) -> JointSpec:
+        for j in self.joints:
+            if j.name == name:
+                return j
+        raise KeyError(name)
+
+
+@dataclass(frozen=True)
+class ContactEffect:
+    """Normal force F = K delta^n (1 + chi(c_r) delta_dot / delta_dot0), never pulling.
+
+    stiffness None means computed from materials and radii (Lankarani-Nikravesh / Flores).
+    damping is the Kelvin-Voigt coefficient [N s/m] (only used by that law).
+    """
+    law: str
+    restitution: float
+    exponent: float
+    stiffness: float | None
+    damping: float
+
+
+@dataclass(frozen=True)
+class FrictionEffect:
+    law: str
+    coefficient: float
+    static_coefficient: float
+    v0: float
+    v1: float
+    stribeck_velocity: float
+
+
+@dataclass(frozen=True)
+class Effects:
+    contact: ContactEffect
+    friction: FrictionEffect
+    gravity: tuple[float, float]
+
+
+@dataclass(frozen=True)
+class PreloadSettings:
+    """min_force [N] at every passive joint; weights of the torque norm; NLP terms."""
+    method: str
+    min_force: float
+    weights: tuple[float, ...]
+    qp_solver: str
+    smoothness_weight: float
+    max_turn_rate: float  # [rad/s] of the contact-force direction in each bearing
+
+
+@dataclass(frozen=True)
+class Actuation:
+    mode: str
+    torque_limit: tuple[float, ...]  # [N m] per actuator, symmetric +-
+    preload: PreloadSettings
+    kp: float  # [N m/rad]
+    kd: float  # [N m s/rad]
+    control_rate: float | None = None  # [Hz] sampled controller (zero-order hold); None: continuous
+    compensation: str = "none"         # 'clearance': references closed around the predicted journal seats
+
+
+@dataclass(frozen=True)
+class PathSpec:
+    """Platform path; geometry in m/rad, duration [s], sample_rate [Hz]."""
+    type: str
+    duration: float
+    time_law: str
+    sample_rate: float
+    orientation: float = 0.0
+    center: tuple[float, float] = (0.0, 0.0)
+    radius: float = 0.0
+    start_angle: float = 0.0
+    revolutions: float = 1.0
+    start: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    end: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    points: tuple[tuple[float, float, float], ...] = ()
+    max_condition_number: float = 1.0e3
+    min_transmission: float = 0.05
+
+
+@dataclass(frozen=True)
+class Initial:
+    """Initial state. platform_velocity [m/s, m/s, rad/s] is added to the path's own start
+    velocity. journals: 'centred' starts every journal at its bearing centre; 'seated'
+    starts each clearance journal pressed against its bearing wall under the joint's
+    initial load (direction and Hertzian penetration from the ideal reaction at t = 0)."""
+    platform_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    journals: str = "centred"
+
+
+@dataclass(frozen=True)
+class IntegratorSettings:
+    method: str
+    step: float  # [s] fixed step, or initial step of adaptive methods
+    rtol: float
+    atol: float
+    gamma: float
+    rho_inf: float
+    newton_tol: float
+    max_newton: int
+    refine: int = 1  # sub-steps that re-take a fixed step across a contact onset or loss (1: off)
+    newton: str = "simplified"  # implicit methods: reuse the iteration matrix's factors, or 'full'
+    tolerance: float | None = None  # [m] implicit methods: local position error per step (adaptive); None: fixed step
+    coordinates: str = "auto"  # what the integrator steps: tree coordinates ('auto': wherever a tree exists) or not
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene. mechanism: the compact n-RRR form (None for a graph scene);
+    graph: the body/joint graph every scene has (an n-RRR expands into it)."""
+    name: str
+    description: str
+    mechanism: NRRRSpec | None
+    graph: Graph
+    effects: Effects
+    actuation: Actuation
+    path: PathSpec
+    initial: Initial
+    integrator: IntegratorSettings
+    source: str = field(default="", compare=False)
+
+    @property
+    def joints(self) -> tuple[JointSpec, ...]:
+        """The passive joints (no actuator, no driver) in graph order: B1..Bn, C1..Cn for an n-RRR."""
+        passive = set(self.graph.passive_joints)
+        return tuple(j for j in self.graph.joints if j.name in passive)
+
+    @property
+    def clearance_joints(self) -> tuple[str, ...]:
+        return tuple(j.name for j in self.joints if j.clearance)
+
+    @property
+    def ideal_joints(self) -> tuple[str, ...]:
+        """Passive joints without clearance."""
+        return tuple(j.name for j in self.joints if not j.clearance)
+
+    def joint(self, name: str) -> JointSpec:
+        return self.graph.joint(name)
+
+    def with_joints(self, joints) -> Scene:
+        """This scene with joint specs replaced by `joints` (matched by name), e.g. to
+        change which joints have clearance."""
+        new = {j.name: j for j in joints}
+        return replace(self, graph=replace(self.graph, joints=tuple(new.get(j.name, j) for j in self.graph.joints)))
+
+
+PASSIVE_JOINTS = ("B1", "B2", "B3", "B4", "C1", "C2", "C3", "C4")
+

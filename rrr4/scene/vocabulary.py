@@ -1,0 +1,57 @@
+"""The vocabulary of a scene: every list of allowed names, as plain data.
+
+Each registry (contact laws, friction laws, integrators, preload methods, QP solvers, ...)
+builds its dict from these tuples, and ``tests/test_architecture.py`` checks that they
+match, so a name is added in one place and the scene reader, the error messages and the
+registry agree. Imports nothing.
+"""
+
+from __future__ import annotations
+
+__all__ = ["MECHANISM_KINDS", "JOINT_TYPES", "PATH_TYPES", "TIME_LAWS", "ACTUATION_MODES", "CONTACT_LAWS",
+           "FRICTION_LAWS", "INTEGRATORS", "ERROR_CONTROLLED", "NEWTON", "COORDINATES", "PRELOAD_METHODS",
+           "COMPENSATIONS", "QP_SOLVERS", "JOURNAL_STARTS", "MATERIALS", "GROUND", "choices"]
+
+GROUND = "ground"  # the fixed frame's name in a graph
+MECHANISM_KINDS = ("n-rrr", "graph")
+JOINT_TYPES = ("revolute", "prismatic")
+PATH_TYPES = ("circle", "line", "waypoints", "none")  # none: no task, the drivers set the motion
+TIME_LAWS = ("quintic", "cycloidal", "linear")
+ACTUATION_MODES = ("torque", "prescribed", "free")  # free: zero actuator torque
+CONTACT_LAWS = ("hertz", "kelvin-voigt", "hunt-crossley", "lankarani-nikravesh", "flores", "gonthier")
+FRICTION_LAWS = ("coulomb", "ambrosio", "smooth", "stribeck")  # a scene may also say 'none'
+INTEGRATORS = ("bathe", "newmark", "generalized-alpha", "rk4", "erk", "rosenbrock", "cvodes", "idas", "rk45",
+               "radau")
+ERROR_CONTROLLED = ("bathe", "newmark", "generalized-alpha")  # the methods integrator.tolerance applies to
+NEWTON = ("simplified", "full")  # integrator.newton of the implicit methods
+COORDINATES = ("auto", "tree", "reference-point")  # integrator.coordinates
+PRELOAD_METHODS = ("exact", "qp", "nlp")  # a scene may also say 'none'
+COMPENSATIONS = ("none", "clearance")  # actuation.compensation
+QP_SOLVERS = ("qrqp", "osqp", "daqp", "qpoases")  # actuation.preload.qp_solver (CasADi conic plugins)
+JOURNAL_STARTS = ("centred", "seated")  # initial.journals
+MATERIALS = {  # name: (Young's modulus [Pa], Poisson ratio)
+    "steel": (207e9, 0.3),
+    "aluminium": (70e9, 0.33),
+    "bronze": (110e9, 0.34),
+    "brass": (100e9, 0.34),
+}
+
+
+
+_CHOICES = {
+    "contact law": CONTACT_LAWS,
+    "friction law": ("none", *FRICTION_LAWS),
+    "integrator": INTEGRATORS,
+    "error control": ERROR_CONTROLLED,
+    "coordinates": COORDINATES,
+    "newton": NEWTON,
+    "preload method": ("none", *PRELOAD_METHODS),
+    "compensation": COMPENSATIONS,
+    "qp solver": QP_SOLVERS,
+}
+
+
+def choices(what: str) -> tuple[str, ...]:
+    """The allowed names of a scene setting: 'contact law', 'friction law', 'integrator',
+    'error control', 'coordinates', 'newton', 'preload method', 'compensation' or 'qp solver'."""
+    return _CHOICES[what]
