@@ -49,7 +49,6 @@ def test_no_module_imports_another_modules_private_names():
     assert not bad, "private names imported across modules:\n" + "\n".join(bad)
 
 
-@pytest.mark.xfail(strict=True, reason="simulation/control split pending")
 def test_no_package_file_is_over_700_lines():
     long = {str(p.relative_to(PACKAGE.parent)): n for p in PACKAGE.rglob("*.py")
             if (n := len(p.read_text().splitlines())) > 700}
