@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+import rrr4
 from rrr4 import load_scene
 from rrr4.codegen import KERNELS, build_example, codegen, compile_library, kernels, load_library, preload_branch
 
@@ -105,10 +106,9 @@ _CASE = r"""  {
 def _python_inputs(scene):
     """The harness's inputs, computed with the Python model: dict name -> list of arg tuples."""
     from rrr4 import Mechanism
-    from rrr4.dynamics.inverse import inverse_dynamics_function
     from rrr4.trajectory import trajectory_function
     mech = Mechanism.from_scene(scene)
-    traj, inv = trajectory_function(scene.path), inverse_dynamics_function(scene)
+    traj, inv = trajectory_function(scene.path), rrr4.build(scene).inverse_dynamics()
     args = {k: [] for k in KERNELS}
     for s in range(SAMPLES):
         t = scene.path.duration * (s + 0.5) / SAMPLES
@@ -164,7 +164,7 @@ def compare_controllers(scene, flags, calls: int, rounds: int = 7) -> None:
         for i, (name, (method, comp)) in enumerate(VARIANTS.items()):
             a = scene.actuation
             sc = replace(scene, actuation=replace(a, compensation=comp, preload=replace(a.preload, method=method)))
-            instructions[name] = controller_function(sc).n_instructions()
+            instructions[name] = controller_function(rrr4.build(sc)).n_instructions()
             src = Path(tmp) / f"v{i}"
             codegen(sc, src)
             (src / "main.c").unlink()
@@ -191,8 +191,8 @@ def main(argv=None) -> int:
     ap.add_argument("--calls", type=int, default=50000, help="C calls per kernel and repeat (default 50000)")
     args = ap.parse_args(argv)
     scene = load_scene(args.scene)
-    branch = preload_branch(scene)
-    ks = {k.name: k for k in kernels(scene, branch)}
+    branch = preload_branch(rrr4.build(scene))
+    ks = {k.name: k for k in kernels(rrr4.build(scene), branch)}
     py_args = _python_inputs(scene)
 
     with tempfile.TemporaryDirectory(prefix="rrr4-bench-") as tmp:

@@ -120,9 +120,10 @@ def rhs_and_newton(scene, out: dict) -> None:
     from bench_rhs import chain, inputs
 
     from rrr4.integrators.compiled import compiled
-    from rrr4.simulation import scene_system
+    from rrr4.simulation import problem_system
     cont = replace(scene, actuation=replace(scene.actuation, control_rate=None))
-    odes = {"held efforts (default)": scene_system(scene).ode, "exact references": scene_system(cont, "exact").ode}
+    odes = {"held efforts (default)": problem_system(rrr4.build(scene)).ode,
+            "exact references": problem_system(rrr4.build(cont), "exact").ode}
     K, reps = 2000, 21
     fs = {k: compiled(chain(f, K)) for k, f in odes.items()}
     ins = {k: inputs(f, PAPER) for k, f in odes.items()}

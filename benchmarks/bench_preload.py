@@ -23,9 +23,8 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
+import rrr4
 from rrr4 import load_scene
-from rrr4.dynamics.family import effort_family
-from rrr4.dynamics.inverse import inverse_dynamics_function
 from rrr4.preload.exact import exact_preload_function
 from rrr4.preload.nlp import solve_trajectory_nlp
 from rrr4.preload.qp import qp_preload_function
@@ -52,19 +51,19 @@ def main(argv=None) -> int:
     scene = load_scene(args.scene)
     s = sample_path(scene.path)
     N = len(s.t)
-    fam = effort_family(scene, s.pose, s.pose_d, s.pose_dd)
+    fam = rrr4.build(scene).effort_family(s.pose, s.pose_d, s.pose_dd)
     raw, tau_p, tau_n, r_p, r_n = fam.raw, fam.tau_p, fam.tau_n, fam.r_p, fam.r_n
     pre = scene.actuation.preload
 
     rows: list[tuple[str, float, str]] = []
-    inv = inverse_dynamics_function(scene).map(N)
+    inv = rrr4.build(scene).inverse_dynamics().map(N)
     rows.append(("inverse dynamics (for scale)", best_time(lambda: inv(s.pose.T, s.pose_d.T, s.pose_dd.T),
                                                            args.repeat), "SX, map"))
-    exact = exact_preload_function(scene).map(N)
+    exact = exact_preload_function(rrr4.build(scene)).map(N)
     rows.append(("exact", best_time(lambda: exact(*raw), args.repeat), "closed form, SX, map"))
     alpha0 = None
     for solver in ("qrqp", "osqp", "daqp", "qpoases"):
-        f = qp_preload_function(scene, solver, 1.0).map(N)
+        f = qp_preload_function(rrr4.build(scene), solver, 1.0).map(N)
         rows.append((f"qp {solver}", best_time(lambda f=f: f(*raw), args.repeat), "conic, map"))
         if solver == "qrqp":
             alpha0 = np.array(f(*raw)[0]).T

@@ -1,6 +1,6 @@
 """ns per right-hand side (RHS) of the simulation ODE, compiled, this tree against another.
 
-The ODE is the one the integrators step (:func:`rrr4.simulation.scene_system`; in trees
+The ODE is the one the integrators step (:func:`rrr4.simulation.problem_system`; in trees
 before the shared controller, the scene's equations with closed-form references and a
 given preload: y' = f(t, y, z, u)). Each tree's ODE is built in
 its own process from its own sources, saved, and loaded here; both are compiled with the
@@ -40,10 +40,14 @@ import sys
 sys.path.insert(0, sys.argv[1])
 import rrr4
 scene = rrr4.load_scene(sys.argv[2])
-try:  # the controller in the loop (this tree)
+try:  # this tree: the problem layer
+    from rrr4.simulation import problem_system
+    ode = problem_system(rrr4.build(scene)).ode
+except ImportError:
+  try:  # trees before it: the controller in the loop
     from rrr4.simulation import scene_system
     ode = scene_system(scene).ode
-except ImportError:  # trees before it: references in the right-hand side, preload given
+  except ImportError:  # trees before it: references in the right-hand side, preload given
     from rrr4.dynamics.builder import build_equations
     from rrr4.simulation import _system, reference_function
     ode = _system(build_equations(scene), reference_function(scene, False)).ode
@@ -80,18 +84,17 @@ def inputs(ode: ca.Function, scene_path: Path, seed: int = 0):
     y = np.zeros(ode.size1_in(1))
     n = (y.size - 3) // 2
     if n != nq:  # tree coordinates
-        from rrr4.dynamics.builder import build_equations
-        q, qd = (np.array(v).ravel() for v in build_equations(scene).tree_coordinates(q, qd))
+        q, qd = (np.array(v).ravel() for v in rrr4.build(scene).equations().tree_coordinates(q, qd))
     y[:n], y[n:2 * n] = q, qd
     nc = len(scene.clearance_joints)
     z = np.r_[np.full(nc, 0.05), rng.integers(0, 2, nc), np.zeros(nc)]
     if nz > 3 * nc:  # this tree's ODE carries the parameters (and the controller's settings) after the contact state
         try:
             from rrr4.control import controller_settings
-            from rrr4.dynamics.builder import build_equations
             # the controller's settings; a feedback law's are their prefix (kp, kd, limits)
-            rest = np.r_[build_equations(scene).parameters, controller_settings(scene)]
-        except ImportError:  # an older tree: the contact parameters only
+            problem = rrr4.build(scene)
+            rest = np.r_[problem.equations().parameters, controller_settings(problem)]
+        except (ImportError, AttributeError):  # an older tree: the contact parameters only
             from rrr4.dynamics.builder import contact_parameters
             rest = contact_parameters(scene)
         z = np.r_[z, rest[:nz - z.size]]
@@ -115,21 +118,21 @@ def main(argv=None) -> int:
         from dataclasses import replace
 
         import rrr4
-        from rrr4.simulation import scene_system
+        from rrr4.simulation import problem_system
         sc = rrr4.load_scene(scene)
-        odes = {c: scene_system(replace(sc, integrator=replace(sc.integrator, coordinates=c))).ode
+        odes = {c: problem_system(rrr4.build(replace(sc, integrator=replace(sc.integrator, coordinates=c)))).ode
                 for c in ("reference-point", "tree")}
     elif args.references:
         from dataclasses import replace
 
         import rrr4
-        from rrr4.simulation import scene_system
+        from rrr4.simulation import problem_system
         sc = rrr4.load_scene(scene)
         cont = replace(sc, actuation=replace(sc.actuation, control_rate=None))
-        odes = {"exact (controller step in the RHS)": scene_system(cont, "exact").ode,
-                "sampled (feedback on interpolated references)": scene_system(cont, "sampled").ode,
-                "held (sampled controller, zero-order hold)": scene_system(replace(
-                    sc, actuation=replace(sc.actuation, control_rate=sc.actuation.control_rate or 1e4))).ode}
+        odes = {"exact (controller step in the RHS)": problem_system(rrr4.build(cont), "exact").ode,
+                "sampled (feedback on interpolated references)": problem_system(rrr4.build(cont), "sampled").ode,
+                "held (sampled controller, zero-order hold)": problem_system(rrr4.build(replace(
+                    sc, actuation=replace(sc.actuation, control_rate=sc.actuation.control_rate or 1e4)))).ode}
     else:
         with tempfile.TemporaryDirectory() as tmp:
             trees = {"after (this tree)": ROOT}

@@ -1,16 +1,20 @@
 """rrr4: planar redundantly actuated mechanisms with revolute joint clearance, in CasADi.
 
-Data flows one way: scene -> model -> problem -> solution -> results.
+Data flows one way: scene -> problem -> solution -> results. A scene is read and checked
+once (:func:`load_scene`); :func:`build` makes the :class:`Problem` every algorithm takes
+(the front doors accept either).
 """
 
 from .codegen import codegen
 from .errors import KinematicsError, Rrr4Error, SceneError, SimulationError
 from .mechanism import Mechanism, Model, check_scene, load_scene
 from .preload import PreloadSolution, solve_preload
+from .problem import Problem, build
 from .scene import Scene
 from .simulation import Simulation, simulate
 from .sweeps import sweep
 
-__all__ = ["load_scene", "check_scene", "Model", "Scene", "SceneError", "SimulationError", "KinematicsError",
-           "Rrr4Error", "Mechanism", "codegen", "simulate", "Simulation", "solve_preload", "PreloadSolution", "sweep"]
+__all__ = ["load_scene", "check_scene", "build", "Problem", "Model", "Scene", "SceneError", "SimulationError",
+           "KinematicsError", "Rrr4Error", "Mechanism", "codegen", "simulate", "Simulation", "solve_preload",
+           "PreloadSolution", "sweep"]
 __version__ = "0.1.0"

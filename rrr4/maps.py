@@ -16,12 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .control import has_preload, preload_law
-from .dynamics.family import effort_family
 from .errors import SceneError
 from .files import write_atomic
-from .mechanism import Mechanism
 from .mechanism.workspace import condition_number, path_kinematics
+from .preload import preload_law
+from .problem import Problem
 from .scene import GROUND, Scene
 from .trajectory import PathSamples, sample_path
 
@@ -31,13 +30,11 @@ GRID = 101        # points per axis
 DIRECTIONS = 8    # directions of the peak path acceleration tried at each point
 
 
-def _extent(scene: Scene) -> tuple[float, float, float, float]:
+def _extent(problem: Problem) -> tuple[float, float, float, float]:
     """The square-ish region around the ground anchors (an n-RRR's bases): their centre, 0.75 of
     their half-span; anchors on one line also span the path."""
-    if scene.mechanism is not None:
-        anchors = np.array([c.base for c in scene.mechanism.chains])
-    else:
-        anchors = np.array([j.points[k] for j in scene.graph.joints for k in (0, 1) if j.bodies[k] == GROUND])
+    scene = problem.scene
+    anchors = np.array([j.points[k] for j in scene.graph.joints for k in (0, 1) if j.bodies[k] == GROUND])
     lo, hi = anchors.min(axis=0), anchors.max(axis=0)
     if np.min(hi - lo) < 1e-9:
         pts = np.vstack([anchors, sample_path(scene.path).pose[:, :2]])
@@ -46,15 +43,14 @@ def _extent(scene: Scene) -> tuple[float, float, float, float]:
     return c[0] - h[0], c[0] + h[0], c[1] - h[1], c[1] + h[1]
 
 
-def _preload(scene: Scene, pose, pose_dd, q=None) -> tuple[np.ndarray, np.ndarray]:
+def _preload(problem: Problem, pose, pose_dd, q=None) -> tuple[np.ndarray, np.ndarray]:
     """(feasible (N,) bool, max |tau| (N,) [N m]) of the controller's preload at poses (N, 3)
     at rest with platform acceleration pose_dd (N, 3); NaN torque where unreachable. q: a
     graph's coordinates at the poses."""
     N = len(pose)
-    fam = effort_family(scene, pose, np.zeros_like(pose), pose_dd, q=q)
-    law = preload_law(scene)
-    limits = (np.asarray(scene.actuation.torque_limit) if scene.mechanism is not None else
-              np.array([a.limit for a in scene.graph.actuators]))
+    fam = problem.effort_family(pose, np.zeros_like(pose), pose_dd, q=q)
+    law = preload_law(problem)
+    limits = np.asarray(problem.scene.actuation.torque_limit)
     if law is None:  # no preload: the minimum-norm torques, feasible if within the limits
         tau = fam.tau_p
         feasible = np.all(np.abs(tau) <= limits, axis=1)
@@ -74,13 +70,14 @@ def _snake(grid: int) -> np.ndarray:
     return idx.ravel()
 
 
-def _graph_coordinates(mech: Mechanism, scene: Scene, pose: np.ndarray, order: np.ndarray
+def _graph_coordinates(problem: Problem, pose: np.ndarray, order: np.ndarray
                        ) -> tuple[np.ndarray, np.ndarray]:
     """(q (N, nq), reachable (N,)) of a graph at the grid's poses (row-major), by continuation
     from the path's start assembly: 50 steps to the first grid point, then through the grid in
     `order`; each point's Newton starts from the last one that closed."""
+    mech = problem.mechanism
     k = mech.n_task
-    start = sample_path(scene.path).pose[0, :k]
+    start = sample_path(problem.path).pose[0, :k]
     lead = np.linspace(start, pose[order[0], :k], 50)
     Q, ok = mech.tracked_coordinates(np.vstack([lead, pose[order, :k]]), mech.assemble(start))
     q, reachable = np.empty((len(pose), mech.nq)), np.empty(len(pose), bool)
@@ -88,7 +85,7 @@ def _graph_coordinates(mech: Mechanism, scene: Scene, pose: np.ndarray, order: n
     return q, reachable
 
 
-def workspace_map(scene: Scene, grid: int = GRID) -> dict:
+def workspace_map(scene: Scene | Problem, grid: int = GRID) -> dict:
     """Arrays over a grid x (grid,), y (grid,) [m] at the path's orientation: reachable,
     condition, min_transmission (n-RRR only; NaN for a graph), feasible_rest, torque_rest_Nm,
     feasible_peak, torque_peak_Nm (grid, grid) [y index, x index]; and a_peak [m/s^2], the
@@ -96,25 +93,27 @@ def workspace_map(scene: Scene, grid: int = GRID) -> dict:
     path's start (see :func:`_graph_coordinates`), so its maps show that assembly branch."""
     if not isinstance(grid, int) or isinstance(grid, bool) or not 3 <= grid <= 1001:
         raise SceneError(f"--grid: {grid!r} is not allowed (an integer from 3 to 1001)")
-    if scene.mechanism is None and scene.graph.task is None:
+    problem = Problem.from_scene(scene)
+    scene = problem.scene
+    if problem.model.task is None:
         raise SceneError(f"path.type: 'none' is not allowed for rrr4 map (scene {scene.name!r} has no task body: "
                          "its drivers set the motion, so there is no workspace to map)")
-    x0, x1, y0, y1 = _extent(scene)
+    x0, x1, y0, y1 = _extent(problem)
     x, y = np.linspace(x0, x1, grid), np.linspace(y0, y1, grid)
     X, Y = np.meshgrid(x, y)
     N = X.size
     theta = scene.path.orientation
     pose = np.column_stack([X.ravel(), Y.ravel(), np.full(N, theta)])
     zero = np.zeros_like(pose)
-    if scene.mechanism is not None:
-        pk = path_kinematics(scene, PathSamples(np.zeros(N), pose, zero, zero))
+    if problem.closed_form:
+        pk = path_kinematics(problem.mechanism, PathSamples(np.zeros(N), pose, zero, zero))
         reachable = np.all(np.abs(pk.cos_arg) <= 1.0, axis=1)
         cond = np.where(reachable, pk.condition, np.nan)
         trans = np.where(reachable, np.min(np.abs(pk.sin_transmission), axis=1), np.nan)
         q, at = None, slice(None)
     else:
-        mech, order = Mechanism.from_scene(scene), _snake(grid)
-        q_all, reachable = _graph_coordinates(mech, scene, pose, order)
+        mech, order = problem.mechanism, _snake(grid)
+        q_all, reachable = _graph_coordinates(problem, pose, order)
         at = order[reachable[order]]  # the reachable points in continuation order: the effort
         q = q_all[at]                 # basis is kept continuous from one to the next
         cond, trans = np.full(N, np.nan), np.full(N, np.nan)
@@ -124,13 +123,13 @@ def workspace_map(scene: Scene, grid: int = GRID) -> dict:
     a_peak = float(np.max(np.linalg.norm(s.pose_dd[:, :2], axis=1)))
     feas_rest, tau_rest = np.zeros(N, bool), np.full(N, np.nan)
     if reachable.any():
-        feas_rest[at], tau_rest[at] = _preload(scene, pose[at], zero[at], q)
+        feas_rest[at], tau_rest[at] = _preload(problem, pose[at], zero[at], q)
     feas_peak, tau_peak = feas_rest.copy(), tau_rest.copy()
     for k in range(DIRECTIONS if reachable.any() else 0):
         phi = 2 * np.pi * k / DIRECTIONS
         acc = np.zeros_like(pose)
         acc[:, 0], acc[:, 1] = a_peak * np.cos(phi), a_peak * np.sin(phi)
-        f, t = _preload(scene, pose[at], acc[at], q)
+        f, t = _preload(problem, pose[at], acc[at], q)
         feas_peak[at] &= f
         tau_peak[at] = np.fmax(tau_peak[at], t)
     shape = (grid, grid)
@@ -140,7 +139,7 @@ def workspace_map(scene: Scene, grid: int = GRID) -> dict:
            "torque_rest_Nm": np.where(reachable, tau_rest, np.nan).reshape(shape),
            "feasible_peak": (feas_peak & reachable).reshape(shape),
            "torque_peak_Nm": np.where(reachable, tau_peak, np.nan).reshape(shape), "a_peak": a_peak,
-           "orientation": theta, "preload": has_preload(scene)}
+           "orientation": theta, "preload": problem.has_preload}
     return out
 
 

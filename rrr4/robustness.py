@@ -19,6 +19,7 @@ import yaml
 
 from .errors import SceneError
 from .files import write_atomic
+from .problem import Problem
 from .scene import Scene, parse_scene
 
 __all__ = ["CASES", "robustness", "plot_robustness", "write_robustness"]
@@ -51,15 +52,15 @@ def perturbed(scene: Scene, case: str) -> Scene:
         raise SceneError(f"case: {case!r} is not allowed (choose one of: {', '.join(CASES)})")
     if CASES[case] is None:
         return scene
-    if scene.mechanism is None:
+    problem = Problem.from_scene(scene)
+    if not problem.closed_form:
         raise SceneError("mechanism.kind: robustness cases are defined for n-RRR scenes")
     key, how, v = CASES[case]
     data = copy.deepcopy(_nominal_data(scene))
-    from .dynamics.builder import joint_stiffness
     if key == "joints.radial_clearance":
         data["joints"]["radial_clearance"] = scene.joint(scene.clearance_joints[0]).radial_clearance * v
     elif key == "effects.contact.stiffness":
-        data["effects"]["contact"]["stiffness"] = joint_stiffness(scene, scene.clearance_joints[0]) * v
+        data["effects"]["contact"]["stiffness"] = problem.joint_stiffness(scene.clearance_joints[0]) * v
     elif key == "effects.friction.coefficient":
         data["effects"]["friction"]["coefficient"] = v
     else:
@@ -81,9 +82,10 @@ def robustness(scene: Scene, t_end: float | None = None, progress: bool = False,
     from .simulation import simulate
     from .study import arm_scene
     say = log or (lambda _m: None)
-    if scene.mechanism is None or not scene.clearance_joints:
+    closed_form = Problem.from_scene(scene).closed_form
+    if not closed_form or not scene.clearance_joints:
         raise SceneError("mechanism: robustness cases are defined for n-RRR scenes with clearance joints "
-                         f"(scene {scene.name!r} has {'a graph' if scene.mechanism is None else 'none'})")
+                         f"(scene {scene.name!r} has {'none' if closed_form else 'a graph'})")
     _nominal_data(scene)  # refuse a scene without its YAML before simulating anything
     models = {arm: arm_scene(scene, arm) for arm in ARMS}
     rows = []

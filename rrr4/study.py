@@ -43,16 +43,17 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .checks import argument
-from .control import has_preload, pointwise_controller
-from .dynamics.family import effort_family
+from .control import pointwise_controller
 from .errors import SceneError
+from .files import c_compiler
 from .preload import PreloadSolution, solve_preload
 from .preload.solve import PreloadWarning
+from .problem import Problem
 from .scene import MAX_SAMPLES, Scene
 from .simulation import Simulation, simulate
 from .trajectory import sample_path
 
-__all__ = ["Study", "StudyArm", "run_study", "has_preload_arm", "arm_scene", "study_controller", "ARMS",
+__all__ = ["Study", "StudyArm", "run_study", "arm_scene", "study_controller", "ARMS",
            "PRELOAD_ARMS", "DRIVEN_ARMS"]
 
 PRELOAD_ARMS = ("with_preload", "with_preload_compensated", "without_preload")   # scenes with a task body
@@ -88,11 +89,6 @@ class Study:
     refinement: StudyArm | None = None
 
 
-def has_preload_arm(scene: Scene) -> bool:
-    """True if the study of `scene` has a "with preload" arm (its controller preloads)."""
-    return has_preload(scene)
-
-
 def arm_scene(scene: Scene, arm: str) -> Scene:
     """The scene an arm of the study simulates (see the module docstring)."""
     a = scene.actuation
@@ -107,20 +103,21 @@ def arm_scene(scene: Scene, arm: str) -> Scene:
     return scene
 
 
-def study_controller(scene: Scene) -> str:
+def study_controller(scene: Scene | Problem) -> str:
     """'generated' where the scene's sampled controller has a closed form and a C compiler
     exists, else 'python'."""
-    from .files import c_compiler
-    ok = scene.actuation.control_rate is not None and not pointwise_controller(scene) and c_compiler() is not None
+    problem = Problem.from_scene(scene)
+    scene = problem.scene
+    ok = scene.actuation.control_rate is not None and not pointwise_controller(problem) and c_compiler() is not None
     return "generated" if ok and scene.actuation.mode == "torque" else "python"
 
 
-def _min_norm_torques(scene: Scene, t_path: np.ndarray) -> np.ndarray:
+def _min_norm_torques(problem: Problem, t_path: np.ndarray) -> np.ndarray:
     """tau_p (N, n) [N m] of the ideal inverse dynamics at the path samples (zeros without a task)."""
-    s = sample_path(scene.path)
-    if scene.graph.task is None:
-        return np.zeros((len(t_path), len(scene.graph.actuators)))
-    return effort_family(scene, s.pose, s.pose_d, s.pose_dd).tau_p
+    s = sample_path(problem.path)
+    if problem.model.task is None:
+        return np.zeros((len(t_path), problem.model.n_actuators))
+    return problem.effort_family(s.pose, s.pose_d, s.pose_dd).tau_p
 
 
 def ideal_twin(scene: Scene) -> Scene:
@@ -128,7 +125,7 @@ def ideal_twin(scene: Scene) -> Scene:
     return scene.with_joints(tuple(replace(j, clearance=False) for j in scene.graph.joints))
 
 
-def run_study(scene: Scene, *, t_end: float | None = None, step: float | None = None,
+def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float | None = None,
               integrator: str | None = None, progress: bool = False, log=None) -> Study:
     """Run the study of `scene`.
 
@@ -137,6 +134,8 @@ def run_study(scene: Scene, *, t_end: float | None = None, step: float | None = 
     the simulations' progress bars; log: callable taking one line of text per stage.
     """
     say = log or (lambda _msg: None)
+    problem = Problem.from_scene(scene)
+    scene = problem.scene
     t_end = scene.path.duration if t_end is None else argument("t_end", t_end)
     h = scene.integrator.step if step is None else argument("step", step)
     if t_end / h > MAX_SAMPLES:  # the study keeps every step: refuse before the preload is computed
@@ -144,15 +143,15 @@ def run_study(scene: Scene, *, t_end: float | None = None, step: float | None = 
                          f"{MAX_SAMPLES:g} steps)")
     t_path = sample_path(scene.path).t
     say(f"inverse dynamics of the ideal mechanism at {len(t_path)} path samples")
-    tau_min_norm = _min_norm_torques(scene, t_path)
+    tau_min_norm = _min_norm_torques(problem, t_path)
 
     preload, preload_warning = None, ""
-    if has_preload_arm(scene):
+    if problem.has_preload:
         pre = scene.actuation.preload
         say(f"preload: method {pre.method}, f_min = {pre.min_force:g} N")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", PreloadWarning)
-            preload = solve_preload(scene, pre.method, branch="auto")  # exact: the controller's one branch
+            preload = solve_preload(problem, pre.method, branch="auto")  # exact: the controller's one branch
         preload_warning = "\n".join(str(w.message) for w in caught if issubclass(w.category, PreloadWarning))
         if preload_warning:
             say(f"preload is infeasible at {int(np.sum(~preload.feasible))} samples; simulated anyway")
@@ -166,7 +165,7 @@ def run_study(scene: Scene, *, t_end: float | None = None, step: float | None = 
         return StudyArm(name, sim, time.perf_counter() - wall)
 
     arms, refinement = {}, None
-    if scene.graph.task is None:
+    if problem.model.task is None:
         arms["with_clearance"] = arm("with_clearance", scene)
         arms["ideal"] = arm("ideal", ideal_twin(scene))
         if scene.clearance_joints:

@@ -38,7 +38,6 @@ def _modules():
         yield path, ast.parse(path.read_text(), str(path))
 
 
-@pytest.mark.xfail(strict=True, reason="control.py still imports privates; removed in the problem-layer step")
 def test_no_module_imports_another_modules_private_names():
     bad = []
     for path, tree in _modules():

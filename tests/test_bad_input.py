@@ -11,7 +11,7 @@ import pytest
 import yaml
 
 import rrr4
-from rrr4 import SceneError, check_scene
+from rrr4 import SceneError, build, check_scene
 from rrr4.scene import parse_scene, read_scene, set_key
 from tests.conftest import PAPER, ROOT
 
@@ -154,7 +154,7 @@ def test_missing_path_says_missing(paper_data):
 def test_simulate_compiles_by_default_and_falls_back_with_one_warning(monkeypatch):
     import warnings
 
-    import rrr4.simulation as simulation
+    import rrr4.simulation.run as simulation
     monkeypatch.delenv("RRR4_JIT", raising=False)
     assert simulation.default_jit() is (simulation.c_compiler() is not None)
     monkeypatch.setattr(simulation, "c_compiler", lambda: None)
@@ -172,12 +172,11 @@ def test_v_min_of_the_equations_floors_the_approach_velocity():
     1e-5 m/s and a captured approach of 2e-5 m/s the damping term is 50x that at 1e-3."""
     import numpy as np
 
-    from rrr4.dynamics.builder import build_equations
     from rrr4.mechanism import Mechanism
     s = rrr4.load_scene(PAPER)    # Lankarani-Nikravesh, c_r = 0.9: a hysteresis term
     forces = {}
     for v_min in (1e-5, 1e-3):
-        eqs = build_equations(s, v_min=v_min)
+        eqs = build(s).equations(v_min=v_min)
         mech = Mechanism.from_scene(s)
         _, qd, _ = mech.body_motion([0.0, 0.0, 0.0], [0.05, 0.0, 0.0])
         qd = qd + np.random.default_rng(0).normal(0.0, 1e-3, qd.size)   # journals approach their walls

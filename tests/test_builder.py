@@ -8,9 +8,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from rrr4 import SceneError, load_scene, simulate
-from rrr4.dynamics.builder import build_equations
-from rrr4.dynamics.inverse import inverse_dynamics_function
+from rrr4 import SceneError, build, load_scene, simulate
 from rrr4.mechanism import Mechanism
 from rrr4.trajectory import sample_path
 
@@ -39,8 +37,8 @@ def _with(scene, clearance=None, friction=None, mode=None, restitution=None, rad
 
 
 def test_frictionless_scene_has_no_friction_term_in_its_graph(paper_scene):
-    with_f = build_equations(paper_scene).acceleration
-    without = build_equations(_with(paper_scene, friction="none")).acceleration
+    with_f = build(paper_scene).equations().acceleration
+    without = build(_with(paper_scene, friction="none")).equations().acceleration
     assert ca.OP_SIGN in _ops(with_f)
     assert not _ops(without) & {ca.OP_SIGN, ca.OP_TANH, ca.OP_EXP}
     assert without.n_instructions() < with_f.n_instructions()
@@ -49,12 +47,12 @@ def test_frictionless_scene_has_no_friction_term_in_its_graph(paper_scene):
 
 
 def test_all_ideal_scene_has_no_contact_code(paper_scene):
-    eqs = build_equations(_with(paper_scene, clearance=(), mode="free"))
+    eqs = build(_with(paper_scene, clearance=(), mode="free")).equations()
     f = eqs.acceleration
     assert not _ops(f) & {ca.OP_FMAX, ca.OP_IF_ELSE_ZERO}   # no clamped law, no onset switch
     assert f.size_in("delta_dot0") == (0, 1) and f.size_out("contact_force") == (2, 0)
     assert eqs.n_constraints == 24 and "contact" not in " ".join(eqs.terms)
-    partial = build_equations(_with(paper_scene, clearance=("B2", "C4"), mode="free"))
+    partial = build(_with(paper_scene, clearance=("B2", "C4"), mode="free")).equations()
     assert partial.n_constraints == 8 + 2 * 6 and partial.clearance_joints == ("B2", "C4")
     assert {ca.OP_FMAX, ca.OP_IF_ELSE_ZERO} <= _ops(partial.acceleration)
 
@@ -62,9 +60,9 @@ def test_all_ideal_scene_has_no_contact_code(paper_scene):
 def test_each_mode_depends_on_its_own_inputs(paper_scene):
     """free: no effort, no references; torque: the controller's efforts only (the controller,
     not the equations, holds the references); prescribed: the references only."""
-    free = build_equations(load_scene(CONSERVATIVE)).acceleration
-    torque = build_equations(paper_scene).acceleration
-    prescribed = build_equations(_with(paper_scene, mode="prescribed")).acceleration
+    free = build(load_scene(CONSERVATIVE)).equations().acceleration
+    torque = build(paper_scene).equations().acceleration
+    prescribed = build(_with(paper_scene, mode="prescribed")).equations().acceleration
     refs = ("theta_ref", "theta_d_ref", "theta_dd_ref")
     for name in ("effort", *refs):
         assert not any(free.which_depends(name, ["qdd"], 1, False))
@@ -77,7 +75,7 @@ def test_each_mode_depends_on_its_own_inputs(paper_scene):
 
 def test_feedback_clips_at_the_actuator_limit_and_wraps_the_angle_error(paper_scene):
     from rrr4.control import feedback_function
-    f = feedback_function(paper_scene)
+    f = feedback_function(build(paper_scene))
     th = np.array([0.1, 0.2, 0.3, 0.4])
     tau = np.array(f(th + 2 * np.pi * np.array([1, -1, 0, 2]), np.zeros(4), [100.0, -100.0, 1.0, 0.0], th,
                      np.zeros(4))).ravel()
@@ -88,7 +86,7 @@ def test_feedback_clips_at_the_actuator_limit_and_wraps_the_angle_error(paper_sc
                                              ("torque", ())])
 def test_index1_form_satisfies_the_residual_form(paper_scene, mode, clearance):
     scene = _with(paper_scene, clearance=clearance, mode=mode)
-    eqs = build_equations(scene)
+    eqs = build(scene).equations()
     mech = Mechanism.from_scene(scene)
     rng = np.random.default_rng(3)
     q, qd, _ = mech.body_motion([0.01, 0.005, 0.05], [0.1, -0.2, 0.5])
@@ -107,7 +105,7 @@ def test_index1_form_satisfies_the_residual_form(paper_scene, mode, clearance):
 
 def test_prescribed_mode_on_an_all_ideal_redundant_mechanism_is_refused(paper_scene):
     with pytest.raises(SceneError, match="actuation.mode"):
-        build_equations(_with(paper_scene, clearance=(), mode="prescribed"))
+        build(_with(paper_scene, clearance=(), mode="prescribed")).equations()
 
 
 def test_prescribed_actuator_angles_are_followed(paper_scene):
@@ -126,7 +124,7 @@ def test_clearance_model_converges_to_the_ideal_model(paper_scene):
     start-up impacts) approach the ideal model's platform motion and joint reactions."""
     base = _with(paper_scene, friction="none", restitution=0.3)
     ps = sample_path(base.path)
-    tau_p, tau_n, _, _ = inverse_dynamics_function(base).map(len(ps.t))(ps.pose.T, ps.pose_d.T, ps.pose_dd.T)
+    tau_p, tau_n, _, _ = build(base).inverse_dynamics().map(len(ps.t))(ps.pose.T, ps.pose_d.T, ps.pose_dd.T)
     preload = types.SimpleNamespace(t=ps.t, tau=(np.array(tau_p) + 3.0 * np.array(tau_n)).T)
     ideal = simulate(_with(base, clearance=()), integrator="rk4", step=1e-5, t_end=0.04, preload=preload)
     late = ideal.t >= 0.02
@@ -143,16 +141,20 @@ def test_clearance_model_converges_to_the_ideal_model(paper_scene):
 
 
 def test_changing_only_the_integrator_or_path_rate_does_not_rebuild_the_equations(paper_scene):
-    """The equations are keyed by the scene's physics; the ODE system and its frame Functions
-    are owned by the equations and the system (no module-level caches keyed by id)."""
-    a = build_equations(paper_scene)
+    """The parametric equations and the ODE systems built on them are cached on the Problem
+    of the plant's structure (Problem.plant_key), shared by every problem of that structure;
+    the frame Functions are owned by the system (no module-level caches keyed by id)."""
+    a = build(paper_scene)
     other = dataclasses.replace(paper_scene, name="renamed",
                                 integrator=dataclasses.replace(paper_scene.integrator, step=2e-5),
                                 path=dataclasses.replace(paper_scene.path, sample_rate=500.0))
-    assert build_equations(other) is a
+    b = build(other)
+    assert b is not a and b.structure("plant") is a.structure("plant")
+    assert b.equations().parametric is a.equations().parametric
     simulate(other, t_end=2e-3)
-    assert any(k[2] == 2e-5 for *_, system in a.systems.values() for k in system.frames)
-    assert build_equations(_with(paper_scene, friction="none")) is not a
+    systems = [entry[3] for entry in a.structure("plant").memoized("system")]
+    assert any(k[2] == 2e-5 for system in systems for k in system.frames)
+    assert build(_with(paper_scene, friction="none")).equations().parametric is not a.equations().parametric
 
 
 def test_sampled_references_interpolate_the_exact_ones_and_cut_the_right_hand_side(paper_scene):
@@ -164,15 +166,14 @@ def test_sampled_references_interpolate_the_exact_ones_and_cut_the_right_hand_si
     1e-9 m; the ODE smaller."""
     from dataclasses import replace
 
-    from rrr4.control import controller_function
-    from rrr4.simulation import _path_rows, _tabulated
+    from rrr4.control import controller_function, path_rows, tabulated
     scene = replace(paper_scene, actuation=replace(paper_scene.actuation, control_rate=None))
-    f = controller_function(scene)
+    f = controller_function(build(scene))
     t = np.linspace(0.0, scene.path.duration, 20001)
-    rows = _path_rows(scene, t)
+    rows = path_rows((scene).path, t)
     z = np.zeros((4, len(t)))
     _, tau, th, _, _, _ = (np.array(v).T for v in f.map(len(t))(*(rows[:, 3 * k:3 * k + 3].T for k in range(3)), z, z))
-    tab = _tabulated(scene, np.linspace(0.0, scene.path.duration, 1001), None)
+    tab = tabulated(build(scene), np.linspace(0.0, scene.path.duration, 1001), None)
     from scipy.interpolate import CubicHermiteSpline, CubicSpline
     assert np.max(np.abs(CubicHermiteSpline(tab.t, tab.theta_ref, tab.theta_d_ref, axis=0)(t) - th)) < 1e-10
     err = np.max(np.abs(CubicSpline(tab.t, tab.tau_ff, axis=0)(t) - tau), axis=1)
@@ -192,7 +193,6 @@ def test_scenes_that_differ_only_in_contact_numbers_share_their_compiled_code(pa
     level steps with the first one's compiled code: no new compilation, and a different
     motion (the journals sit deeper in a larger bearing)."""
     from rrr4.control import controller_settings, parametric_controller
-    from rrr4.dynamics.builder import contact_parameters
     from rrr4.integrators.compiled import compilations
     monkeypatch.setenv("RRR4_CACHE", str(tmp_path))
     # a Newton tolerance of its own: no other test compiles (and loads) this stepping
@@ -206,10 +206,11 @@ def test_scenes_that_differ_only_in_contact_numbers_share_their_compiled_code(pa
     other = dataclasses.replace(other, actuation=dataclasses.replace(
         act, kp=1.5 * act.kp, kd=0.5 * act.kd, torque_limit=tuple(2 * v for v in act.torque_limit),
         preload=dataclasses.replace(act.preload, min_force=2 * act.preload.min_force)))
-    assert build_equations(other).parametric is build_equations(paper_scene).parametric
-    assert parametric_controller(other) is parametric_controller(paper_scene)
-    assert np.sum(controller_settings(other) != controller_settings(paper_scene)) == 7  # kp, kd, 4 limits, f_min
-    assert not np.array_equal(contact_parameters(other), contact_parameters(paper_scene))
+    assert build(other).equations().parametric is build(paper_scene).equations().parametric
+    assert parametric_controller(build(other)) is parametric_controller(build(paper_scene))
+    changed = controller_settings(build(other)) != controller_settings(build(paper_scene))
+    assert np.sum(changed) == 7  # kp, kd, 4 limits, f_min
+    assert not np.array_equal(build(other).contact_parameters, build(paper_scene).contact_parameters)
     n0 = compilations()
     a = simulate(paper_scene, t_end=0.01, jit=True)
     n1 = compilations()
@@ -242,8 +243,8 @@ def test_with_geometry_inputs_scenes_that_differ_in_masses_and_geometry_share_th
     data["mechanism"]["platform"]["mass"] = 0.88
     other = parse_scene(data, name="other")
     opts = {"t_end": 0.01, "inputs": "geometry", "references": "sampled"}
-    shared = build_equations(nominal, inputs="geometry").parametric
-    assert build_equations(other, inputs="geometry").parametric is shared
+    shared = build(nominal).equations(inputs="geometry").parametric
+    assert build(other).equations(inputs="geometry").parametric is shared
     n0 = compilations()
     a = simulate(nominal, jit=True, **opts)
     n1 = compilations()

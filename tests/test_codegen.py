@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rrr4 import Mechanism, SceneError
+from rrr4 import Mechanism, SceneError, build
 from rrr4.cli import main as cli_main
 from rrr4.codegen import (
     EXAMPLE_ANGLE_OFFSET,
@@ -20,7 +20,6 @@ from rrr4.codegen import (
     preload_branch,
 )
 from rrr4.control import controller_function
-from rrr4.dynamics.inverse import inverse_dynamics_function
 from rrr4.preload.exact import exact_preload_function
 from rrr4.preload.qp import qp_preload_function
 from rrr4.scene import parse_scene
@@ -39,7 +38,7 @@ def built(tmp_path_factory, paper_scene):
     build run side by side, since each compiles the whole generated file."""
     root = tmp_path_factory.mktemp("codegen")
     src = root / "src"
-    branch = preload_branch(paper_scene)
+    branch = preload_branch(build(paper_scene))
     files = codegen(paper_scene, src, branch=branch)
     plain = subprocess.Popen(["gcc", "-O2", "-Wall", *sorted(p.name for p in src.glob("*.c")), "-lm"],
                              cwd=src, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -100,7 +99,7 @@ def test_every_compiled_kernel_matches_python_on_random_inputs(built, paper_scen
     rng = np.random.default_rng(7)
     mech = Mechanism.from_scene(paper_scene)
     branch = built["branch"]
-    inv, exact = inverse_dynamics_function(paper_scene), exact_preload_function(paper_scene, branch=branch)
+    inv, exact = build(paper_scene).inverse_dynamics(), exact_preload_function(build(paper_scene), branch=branch)
     J_and_s = mech.jacobian_function
     cases = {
         "ik": lambda p: mech.ik_function(p, mech.modes),
@@ -110,8 +109,8 @@ def test_every_compiled_kernel_matches_python_on_random_inputs(built, paper_scen
         "inverse_dynamics": inv,
         "exact_preload": exact,
         "preload": lambda p, pd, pdd: exact(*inv(p, pd, pdd)),
-        "controller_step": controller_function(paper_scene),
-        "qp_preload": qp_preload_function(paper_scene, "qrqp"),
+        "controller_step": controller_function(build(paper_scene)),
+        "qp_preload": qp_preload_function(build(paper_scene), "qrqp"),
     }
     assert set(cases) == set(KERNELS)
     compiled = load_library(built["lib"])
@@ -151,7 +150,7 @@ def test_example_prints_what_the_python_controller_computes(built, example_outpu
             tag, *vals = line.split()
             rows.setdefault(tag, []).append(np.array(vals, dtype=float))
     mech = Mechanism.from_scene(paper_scene)
-    traj, step = trajectory_function(paper_scene.path), controller_function(paper_scene)
+    traj, step = trajectory_function(paper_scene.path), controller_function(build(paper_scene))
 
     kin = rows["kinematics"][0]
     pose0 = np.array(traj(0.0)[0]).ravel()
@@ -189,9 +188,11 @@ def test_controller_step_is_feedforward_plus_clipped_pd(paper_data, method):
     scene = parse_scene(paper_data)
     rng = np.random.default_rng(3)
     mech = Mechanism.from_scene(scene)
-    step = controller_function(scene, sign=1)
-    inv = inverse_dynamics_function(scene)
-    exact = exact_preload_function(scene, branch=1) if method == "exact" else qp_preload_function(scene, "qrqp", 1.0)
+    problem = build(scene)
+    step = controller_function(problem, sign=1)
+    inv = problem.inverse_dynamics()
+    exact = (exact_preload_function(problem, branch=1) if method == "exact" else
+             qp_preload_function(problem, "qrqp", 1.0))
     a, lim = scene.actuation, np.array(scene.actuation.torque_limit)
     saturated = 0
     for _ in range(40):

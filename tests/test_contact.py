@@ -7,7 +7,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from rrr4 import load_scene, simulate
+from rrr4 import build, load_scene, simulate
 from rrr4.contact import (
     NORMAL_LAWS,
     V_MIN,
@@ -16,7 +16,6 @@ from rrr4.contact import (
     normal_force,
     stiffness_internal_cylinder,
 )
-from rrr4.dynamics.builder import build_equations
 from rrr4.mechanism import Mechanism
 from rrr4.mechanism.kinematics import joint_points
 from rrr4.scene import PASSIVE_JOINTS, FrictionEffect
@@ -108,7 +107,7 @@ def test_contact_forces_obey_newtons_third_law(name):
     """The contact's generalised forces sum to zero force and to the moment of f applied
     at P_J and -f at P_B; the outboard body receives exactly the reported contact force."""
     scene = _one_clearance_scene(name)
-    eqs = build_equations(scene)
+    eqs = build(scene).equations()
     mech = Mechanism.from_scene(scene)
     rng = np.random.default_rng(PASSIVE_JOINTS.index(name))
     q0, qd0, _ = mech.body_motion([0.01, -0.005, 0.1], [0.2, -0.1, 1.0])
@@ -143,7 +142,7 @@ def test_contact_forces_obey_newtons_third_law(name):
 
 def test_approach_velocity_is_captured_at_onset_held_and_reset():
     scene = _one_clearance_scene("C2", friction="none")
-    eqs = build_equations(scene)
+    eqs = build(scene).equations()
     mech = Mechanism.from_scene(scene)
     q0, _, _ = mech.body_motion([0.0, 0.0, 0.0])
     io = 6 * mech.n

@@ -9,10 +9,9 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from rrr4 import Mechanism, SceneError, load_scene, simulate
-from rrr4.control import _nrrr_slip, controller_function, seat_gaps
-from rrr4.dynamics.family import effort_family
-from rrr4.dynamics.inverse import inverse_dynamics_function
+from rrr4 import Mechanism, SceneError, build, load_scene, simulate
+from rrr4.control import controller_function, seat_gaps
+from rrr4.control.compensation import nrrr_slip
 from rrr4.preload.qp import qp_preload_function, scalar_qp_preload_function
 from rrr4.trajectory import sample_path
 
@@ -55,10 +54,11 @@ def test_generated_controller_needs_a_closed_form_and_a_rate(paper_scene):
 def test_closed_form_qp_is_the_qp_solvers_optimum(paper_scene):
     """One degree of redundancy: the QP's optimum in closed form equals qrqp's on the path."""
     s = sample_path(paper_scene.path)
-    raw = effort_family(paper_scene, s.pose, s.pose_d, s.pose_dd).raw
+    problem = build(paper_scene)
+    raw = problem.effort_family(s.pose, s.pose_d, s.pose_dd).raw
     for sign in (1.0, -1.0):
-        a, _, feasible, _ = (np.array(v) for v in qp_preload_function(paper_scene, "qrqp", sign).map(len(s.t))(*raw))
-        b, _, feasible_b, _ = (np.array(v) for v in scalar_qp_preload_function(paper_scene, sign).map(len(s.t))(*raw))
+        a, _, feasible, _ = (np.array(v) for v in qp_preload_function(problem, "qrqp", sign).map(len(s.t))(*raw))
+        b, _, feasible_b, _ = (np.array(v) for v in scalar_qp_preload_function(problem, sign).map(len(s.t))(*raw))
         ok = feasible.ravel() > 0.5
         assert ok.sum() > len(s.t) // 2
         np.testing.assert_allclose(b.ravel()[ok], a.ravel()[ok], atol=1e-9)
@@ -66,11 +66,11 @@ def test_closed_form_qp_is_the_qp_solvers_optimum(paper_scene):
     # one sign per joint: a list of equal signs is the scalar law; reversing the C joints (the
     # same link's axial force as B's, pulled the other way) is infeasible everywhere, for both
     mixed = [1.0] * 4 + [-1.0] * 4
-    _, _, feasible, _ = (np.array(v) for v in qp_preload_function(paper_scene, "qrqp", mixed).map(len(s.t))(*raw))
-    _, _, feasible_b, _ = (np.array(v) for v in scalar_qp_preload_function(paper_scene, mixed).map(len(s.t))(*raw))
+    _, _, feasible, _ = (np.array(v) for v in qp_preload_function(problem, "qrqp", mixed).map(len(s.t))(*raw))
+    _, _, feasible_b, _ = (np.array(v) for v in scalar_qp_preload_function(problem, mixed).map(len(s.t))(*raw))
     assert not feasible.any() and not feasible_b.any()
-    same = (np.array(v) for v in scalar_qp_preload_function(paper_scene, [-1.0] * 8).map(len(s.t))(*raw))
-    for u, v in zip(same, scalar_qp_preload_function(paper_scene, -1.0).map(len(s.t))(*raw), strict=True):
+    same = (np.array(v) for v in scalar_qp_preload_function(problem, [-1.0] * 8).map(len(s.t))(*raw))
+    for u, v in zip(same, scalar_qp_preload_function(problem, -1.0).map(len(s.t))(*raw), strict=True):
         np.testing.assert_array_equal(u, np.array(v))
 
 
@@ -80,10 +80,10 @@ def test_compensated_ik_puts_the_platform_on_the_commanded_pose(paper_scene):
     the platform on the commanded pose and the actuators at the compensated references."""
     scene = _act(paper_scene, compensation="clearance")
     mech = Mechanism.from_scene(scene)
-    f = controller_function(scene)
-    inv = inverse_dynamics_function(scene)
+    f = controller_function(build(scene))
+    inv = build(scene).inverse_dynamics()
     p, pd = ca.SX.sym("p", 3), ca.SX.sym("pd", 3)
-    slip_f = ca.Function("slip", [p, pd], [_nrrr_slip(scene, p, pd)])
+    slip_f = ca.Function("slip", [p, pd], [nrrr_slip(build(scene), p, pd)])
     s = sample_path(scene.path, 20.0)
     names = list(mech.model.preload_joints)
     clear = [names.index(j) for j in mech.model.clearance_joints]
@@ -91,7 +91,7 @@ def test_compensated_ik_puts_the_platform_on_the_commanded_pose(paper_scene):
         motion = (s.pose[k], s.pose_d[k], s.pose_dd[k])
         _, _, theta_ref, _, alpha, _ = (np.array(v) for v in f(*motion, np.zeros(4), np.zeros(4)))
         _, _, r_p, r_n = (np.array(v) for v in inv(*motion))
-        gaps = seat_gaps(scene, r_p + alpha.item() * r_n, np.array(slip_f(*motion[:2])).ravel())
+        gaps = seat_gaps(build(scene), r_p + alpha.item() * r_n, np.array(slip_f(*motion[:2])).ravel())
         assert np.all(np.linalg.norm(gaps, axis=0) > 0.99e-4)  # every journal on its wall
         q = mech.assemble(s.pose[k], gaps.T[clear], guess=mech.body_motion(s.pose[k])[0])
         np.testing.assert_allclose(mech.model.task_pose_function(q), s.pose[k][:, None], atol=1e-12)
@@ -134,9 +134,9 @@ def test_unpreloaded_controller_is_the_minimum_norm_one(paper_scene):
             paper_scene.actuation.preload, method="none"))),
                   replace(paper_scene, actuation=replace(paper_scene.actuation, preload=replace(
                       paper_scene.actuation.preload, min_force=0.0)))):
-        f = controller_function(scene)
+        f = controller_function(build(scene))
         s = sample_path(scene.path, 10.0)
-        tau_p = np.array(inverse_dynamics_function(scene)(s.pose[3], s.pose_d[3], s.pose_dd[3])[0]).ravel()
+        tau_p = np.array(build(scene).inverse_dynamics()(s.pose[3], s.pose_d[3], s.pose_dd[3])[0]).ravel()
         out = f(s.pose[3], s.pose_d[3], s.pose_dd[3], np.zeros(4), np.zeros(4))
         np.testing.assert_allclose(np.array(out[1]).ravel(), tau_p, atol=1e-12)
         assert float(out[4]) == 0.0
@@ -145,9 +145,8 @@ def test_unpreloaded_controller_is_the_minimum_norm_one(paper_scene):
 def test_robustness_cases_change_one_parameter_and_the_model_stays_nominal(paper_scene):
     """Each case changes what it names; simulate(model=nominal) runs the nominal controller on
     the changed mechanism (a 50 um longer link moves the platform), and a bad model is refused."""
-    from rrr4.dynamics.builder import joint_stiffness
     from rrr4.robustness import CASES, perturbed
-    nominal_k = joint_stiffness(paper_scene, "B1")
+    nominal_k = build(paper_scene).joint_stiffness("B1")
     checks = {
         "clearance +20 %": lambda s: s.joint("C2").radial_clearance == pytest.approx(1.2e-4),
         "stiffness x0.3": lambda s: s.effects.contact.stiffness == pytest.approx(0.3 * nominal_k),
@@ -186,11 +185,11 @@ def test_graph_compensation_by_newton_equals_the_nrrr_closed_form(paper_scene):
     """The general graph's compensated references (Newton around the seats, friction torques
     by virtual power) equal the n-RRR closed form: angles to 1e-12 rad, feed-forward to
     1e-9 N m (the rates differ by the seats' drift, which the closed form holds fixed)."""
-    from rrr4.simulation import _tabulated
+    from rrr4.control import tabulated
     a = _act(paper_scene, compensation="clearance")
     b = _act(load_scene(PROBLEMS / "paper_circle_graph.yaml"), compensation="clearance")
     t = np.linspace(0.0, 1.0, 21)
-    ra, rb = _tabulated(a, t, None), _tabulated(b, t, None)
+    ra, rb = tabulated(build(a), t, None), tabulated(build(b), t, None)
     assert np.max(np.abs(np.angle(np.exp(1j * (ra.theta_ref - rb.theta_ref))))) < 1e-12
     np.testing.assert_allclose(rb.tau_ff, ra.tau_ff, atol=1e-9)
     assert np.max(np.abs(ra.theta_d_ref - rb.theta_d_ref)) < 1e-3 * np.max(np.abs(ra.theta_d_ref))

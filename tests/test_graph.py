@@ -11,7 +11,7 @@ import pytest
 import yaml
 
 import rrr4
-from rrr4 import Mechanism, Model, SceneError, check_scene, simulate, solve_preload
+from rrr4 import Mechanism, Model, SceneError, build, check_scene, simulate, solve_preload
 from rrr4.scene import parse_scene
 from tests.conftest import ROOT
 
@@ -292,11 +292,10 @@ def test_point_task_five_bar_preload_holds_every_passive_joint():
 def test_two_redundant_effort_basis_is_continuous_along_the_path():
     """Redundancy 2: the null-space basis of each sample is rotated onto the previous one, so
     alpha means the same along the path (the subspace turns slowly; the basis must too)."""
-    from rrr4.dynamics.family import effort_family
     from rrr4.trajectory import sample_path
     scene = check_scene(parse_scene(_five_chain_graph()))
     s = sample_path(scene.path, 100)
-    fam = effort_family(scene, s.pose, s.pose_d, s.pose_dd)
+    fam = build(scene).effort_family(s.pose, s.pose_d, s.pose_dd)
     N = fam.tau_n
     turn = np.linalg.norm(np.einsum("kim,kil->kml", N[1:], N[:-1]) - np.eye(2), axis=(1, 2))
     assert turn.max() < 0.1

@@ -329,12 +329,12 @@ def test_frame_inputs_made_a_block_at_a_time_give_the_states_of_the_whole_array(
 
 
 def test_frame_ends_made_by_index_are_linspace_bit_for_bit():
-    from rrr4.simulation import _grid
+    from rrr4.simulation import frame_times
     rng = np.random.default_rng(3)
     for t_end, n in [(1.0, 10000), (0.252, 2520), (60.0, 600000), *zip(rng.uniform(1e-3, 100, 20),
                                                                          rng.integers(1, 10**6, 20), strict=True)]:
         k = np.r_[0:min(n + 1, 5000), max(n - 5000, 0):n + 1]
-        assert np.array_equal(_grid(t_end, n, k), np.linspace(0.0, t_end, n + 1)[k])
+        assert np.array_equal(frame_times(t_end, n, k), np.linspace(0.0, t_end, n + 1)[k])
 
 
 @pytest.mark.parametrize("method", [RK4(), Bathe(), Cvodes()], ids=["rk4", "bathe", "cvodes"])

@@ -6,7 +6,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from rrr4 import Mechanism
+from rrr4 import Mechanism, build
 from rrr4.dynamics.inverse import actuator_motion_function, inverse_dynamics_function, joint_reactions_function
 from rrr4.mechanism import kinematics as kin
 from rrr4.scene import parse_scene
@@ -94,7 +94,7 @@ def test_jt_tau_equals_platform_newton_euler_wrench_plus_link_inertia(paper_scen
 def test_null_space_torques_are_the_mechanism_null_space_and_minimum_norm_particular(paper_scene):
     """tau_n = Mechanism.null_space(pose) (unit, J^T tau_n = 0) and tau_p is orthogonal to it."""
     mech = Mechanism.from_scene(paper_scene)
-    f = inverse_dynamics_function(paper_scene)
+    f = build(paper_scene).inverse_dynamics()
     for pose, pd, pdd in _random_motions(np.random.default_rng(4)):
         tau_p, tau_n = (np.array(v).ravel() for v in f(pose, pd, pdd)[:2])
         assert np.allclose(tau_n, mech.null_space(pose), atol=1e-14)
@@ -104,7 +104,7 @@ def test_null_space_torques_are_the_mechanism_null_space_and_minimum_norm_partic
 def test_null_space_reactions_are_axial_forces_in_the_following_links(paper_scene):
     """The preload family only adds equal axial forces at B_i and C_i along B_i -> C_i."""
     mech = Mechanism.from_scene(paper_scene)
-    f = inverse_dynamics_function(paper_scene)
+    f = build(paper_scene).inverse_dynamics()
     for pose, pd, pdd in _random_motions(np.random.default_rng(5)):
         r_n = np.array(f(pose, pd, pdd)[3])
         q = mech.body_motion(pose)[0]
@@ -149,13 +149,12 @@ def test_ideal_forward_dynamics_driven_by_the_family_reproduces_the_motion(paper
     """Closing the loop with the equation builder: an all-ideal scene driven by
     tau = tau_p + alpha tau_n (no tracking error, so PD adds nothing) accelerates exactly as
     the path prescribes, and its ideal passive reactions equal r_p + alpha r_n."""
-    from rrr4.dynamics.builder import build_equations
     paper_data["joints"]["clearance"] = "none"
     paper_data["effects"]["gravity"] = [0.0, -9.81]
     scene = parse_scene(paper_data)
-    acc = build_equations(scene).acceleration
+    acc = build(scene).equations().acceleration
     mech = Mechanism.from_scene(scene)
-    f = joint_reactions_function(scene)
+    f = joint_reactions_function(mech, scene.effects.gravity)
     for pose, pd, pdd in _random_motions(np.random.default_rng(6), k=3):
         tau_p, tau_n, r_p, r_n, _, _ = (np.array(v) for v in f(pose, pd, pdd))
         q, qd, qdd = mech.body_motion(pose, pd, pdd)
@@ -169,7 +168,7 @@ def test_ideal_forward_dynamics_driven_by_the_family_reproduces_the_motion(paper
 def test_actuator_motion_matches_the_ik_and_jacobian(paper_scene):
     """driving_direction = [cos, sin](ik(pose)) and theta_d = J(pose) pose_d on random motions."""
     mech = Mechanism.from_scene(paper_scene)
-    f = actuator_motion_function(paper_scene)
+    f = actuator_motion_function(mech)
     for pose, pd, _ in _random_motions(np.random.default_rng(8)):
         u, theta_d = (np.array(v) for v in f(pose, pd, np.zeros((2, 4))))
         theta = mech.ik(pose)

@@ -7,7 +7,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from rrr4 import PreloadSolution, solve_preload
+from rrr4 import PreloadSolution, build, solve_preload
 from rrr4.preload import PreloadInfeasibleError, PreloadWarning, exact_preload_function, qp_preload_function
 from rrr4.preload import qp as qp_module
 from rrr4.scene import parse_scene
@@ -49,7 +49,7 @@ def test_exact_is_the_global_optimum_of_a_dense_alpha_scan(paper_scene, limit):
     disjoint intervals."""
     scene = _with(paper_scene, weights=(1.0, 2.0, 0.5, 1.5), torque_limit=limit)
     sol = solve_preload(scene, "exact", sample_rate=50.0)
-    f = exact_preload_function(scene)
+    f = exact_preload_function(build(scene))
     w, f_min = scene.actuation.preload.weights, scene.actuation.preload.min_force
     checked = 0
     for k in range(0, len(sol.t), 5):
@@ -73,8 +73,7 @@ def test_exact_is_the_global_optimum_of_a_dense_alpha_scan(paper_scene, limit):
 
 def _null_reactions(sol: PreloadSolution, k: int) -> np.ndarray:
     """r_n (8, 2) at sample k from the inverse dynamics (the solution stores the sum)."""
-    from rrr4.dynamics.inverse import inverse_dynamics_function
-    f = inverse_dynamics_function(_null_reactions.scene)
+    f = build(_null_reactions.scene).inverse_dynamics()
     return np.array(f(sol.pose[k], sol.pose_d[k], sol.pose_dd[k])[3]).T
 
 
@@ -190,10 +189,10 @@ def test_unreachable_pose_is_reported_not_returned_as_numbers(paper_data):
 
 def test_exact_preload_is_a_pure_sx_function(paper_scene):
     """Code-generable: an SX Function without free symbols or embedded solver calls."""
-    f = exact_preload_function(paper_scene)
+    f = exact_preload_function(build(paper_scene))
     assert f.is_a("SXFunction") and not f.has_free()
     assert f.name_in() == ["tau_p", "tau_n", "r_p", "r_n"] and f.name_out() == ["alpha", "tau", "feasible", "margin"]
-    q = qp_preload_function(paper_scene)
+    q = qp_preload_function(build(paper_scene))
     assert q.name_out()[:2] == ["alpha", "tau"]
     assert isinstance(q, ca.Function)
 
@@ -259,7 +258,7 @@ def test_exact_equals_the_enumerated_optimum_on_random_families(paper_scene, bra
     it is infeasible alpha stays on the branch and the torques within the limits if the
     branch allows it."""
     scene = _with(paper_scene, weights=(1.0, 2.0, 0.5, 1.5), torque_limit=limit)
-    f = exact_preload_function(scene, branch=branch)
+    f = exact_preload_function(build(scene), branch=branch)
     w, f_min = scene.actuation.preload.weights, scene.actuation.preload.min_force
     counts = {"feasible": 0, "infeasible": 0}
     for tau_p, tau_n, r_p, r_n in _random_families(np.random.default_rng(11 + branch), 400):
@@ -289,7 +288,7 @@ def test_exact_on_a_branch_is_the_optimum_of_a_dense_scan_of_that_branch(paper_s
     alpha restricted to the branch's sign."""
     scene = _with(paper_scene, weights=(1.0, 2.0, 0.5, 1.5), torque_limit=3.3)
     sol = solve_preload(scene, "exact", sample_rate=50.0, branch=branch)
-    f = exact_preload_function(scene, branch=branch)
+    f = exact_preload_function(build(scene), branch=branch)
     w, f_min = scene.actuation.preload.weights, scene.actuation.preload.min_force
     checked = 0
     for k in range(0, len(sol.t), 5):

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from rrr4 import SceneError
+from rrr4 import SceneError, build
 from rrr4.sweeps import METRICS, load_spec, parse_spec, sweep
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -171,7 +171,7 @@ def test_workspace_map_agrees_with_the_controller_at_the_home_pose(paper_scene, 
     assert m["condition"][i, j] == pytest.approx(np.linalg.cond(mech.jacobian([0.0, 0.0, 0.0])), rel=1e-9)
     z = np.zeros(3)
     theta = mech.ik(z)
-    tau_ff = np.array(controller_function(paper_scene)(z, z, z, theta, np.zeros(4))[1]).ravel()
+    tau_ff = np.array(controller_function(build(paper_scene))(z, z, z, theta, np.zeros(4))[1]).ravel()
     assert m["feasible_rest"][i, j] and m["torque_rest_Nm"][i, j] == pytest.approx(np.max(np.abs(tau_ff)), rel=1e-9)
     assert 0.2 < m["reachable"].mean() < 1.0 and not m["reachable"][0, 0]       # the corners are out of reach
     assert m["feasible_peak"].sum() <= m["feasible_rest"].sum()

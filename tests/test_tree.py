@@ -7,8 +7,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from rrr4 import Model, SceneError, load_scene, simulate
-from rrr4.dynamics.builder import build_equations
+from rrr4 import Model, SceneError, build, load_scene, simulate
 from rrr4.mechanism.tree import tree_map
 from rrr4.scene import parse_scene
 
@@ -57,7 +56,7 @@ def test_tree_coordinates_step_the_same_motion(name, t_end, step):
 
 
 def test_tree_is_the_default_where_a_tree_exists_and_bad_values_are_one_line(paper_scene):
-    eqs = build_equations(paper_scene)
+    eqs = build(paper_scene).equations()
     assert eqs.tree_acceleration is not None and eqs.tree_acceleration.size1_in(0) == 19
     assert paper_scene.integrator.coordinates == "auto"
     assert simulate(paper_scene, t_end=2e-4, jit=False).stats["coordinates"] == "tree"

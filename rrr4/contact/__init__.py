@@ -2,13 +2,16 @@
 laws after Flores & Ambrosio (2004) and Flores et al. (2011).
 
 Each law is one small function in a registry (:data:`NORMAL_LAWS`, :data:`FRICTION_LAWS`);
-the equation builder (:mod:`rrr4.dynamics.builder`) picks the ones a scene asks for.
+the equation builder (:mod:`rrr4.dynamics.builder`) picks the ones a scene asks for. The
+journal seat under a steady load (:mod:`.seat`) is the one model of where a preloaded
+journal rests.
 """
 
 from .friction import FRICTION_LAWS, friction_force
 from .geometry import ClearanceKinematics, clearance_kinematics, contact_generalized_forces
 from .normal import NORMAL_LAWS, V_MIN, elastic_force, hysteresis_factor, normal_force, stiffness_internal_cylinder
+from .seat import SEAT_FORCE, joint_stiffness, seat_gap
 
 __all__ = ["ClearanceKinematics", "clearance_kinematics", "contact_generalized_forces", "NORMAL_LAWS",
            "normal_force", "elastic_force", "hysteresis_factor", "stiffness_internal_cylinder", "V_MIN",
-           "FRICTION_LAWS", "friction_force"]
+           "FRICTION_LAWS", "friction_force", "seat_gap", "joint_stiffness", "SEAT_FORCE"]

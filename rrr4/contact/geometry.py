@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import casadi as ca
 
-from ..mechanism.graph import perp
+from ..mechanism.model import perp
 
 # |e| is evaluated as sqrt(e.e + (EPS_REL c)^2) so that n stays finite for a centred journal.
 EPS_REL = 1e-6

@@ -80,16 +80,15 @@ from ..contact import (
     elastic_force,
     friction_force,
     normal_force,
-    stiffness_internal_cylinder,
 )
 from ..contact.normal import V_MIN, power
 from ..errors import SceneError
-from ..mechanism.graph import Model, geometry_parameters
+from ..functions import fix_last_input
+from ..mechanism.model import Model, geometry_parameters
 from ..mechanism.tree import tree_map
-from ..scene import Scene
+from ..scene import Effects
 
-__all__ = ["Equations", "build_equations", "joint_stiffness", "contact_parameters", "equation_parameters", "graph_size",
-           "fix_last_input", "INPUTS",
+__all__ = ["Equations", "build_equations", "INPUTS",
            "BAUMGARTE_OMEGA", "JOINT_PARAMETERS", "EFFECT_PARAMETERS"]
 
 INPUTS = ("contact", "geometry")  # build_equations(inputs=...): the numbers the parametric equations take
@@ -100,9 +99,9 @@ BAUMGARTE_OMEGA = 100.0
 
 @dataclass(frozen=True)
 class Equations:
-    """The built equations of one scene (immutable). See the module docstring."""
-    scene: Scene
-    clearance_joints: tuple[str, ...]   # in scene order
+    """The built equations of one problem (immutable). See the module docstring."""
+    model: Model
+    clearance_joints: tuple[str, ...]   # graph order
     ideal_joints: tuple[str, ...]       # every joint held by an ideal constraint, graph order
     passive_ideal_joints: tuple[str, ...]  # ideal passive revolute joints: the `reaction` columns
     mode: str                           # 'free' | 'torque' | 'prescribed'
@@ -124,14 +123,11 @@ class Equations:
     tree_acceleration: ca.Function | None = None
     tree_state: ca.Function | None = None
     tree_coordinates: ca.Function | None = None
-    # the numbers of this scene that the equations take as an input (:func:`equation_parameters`),
-    # and the same equations with them as the last input "parameters" of every Function: shared
-    # by every scene of the same structure, so that compiled code built on them is too
+    # the numbers that the equations take as an input (Problem.equation_parameters), and the
+    # same equations with them as the last input "parameters" of every Function: shared by
+    # every problem of the same structure, so that compiled code built on them is too
     parameters: np.ndarray = field(default_factory=lambda: np.zeros(0), compare=False, repr=False)
     parametric: Equations | None = field(default=None, compare=False, repr=False)
-    # (loop kind, controller, path, references, tree) -> the ODE System built on these
-    # equations (rrr4.simulation._system): owned here, freed with them
-    systems: dict = field(default_factory=dict, compare=False, repr=False)
 
 
 # The contact numbers that enter the equations as part of their input ``parameters`` rather
@@ -141,130 +137,45 @@ EFFECT_PARAMETERS = ("restitution", "damping", "friction_coefficient", "static_c
                      "stribeck_velocity")
 
 
-def equation_parameters(scene: Scene, geometry: bool = False) -> np.ndarray:
-    """The scene's values of the equations' input ``parameters``: its contact numbers
-    (:func:`contact_parameters`), then with `geometry` masses, inertias and joint points
-    (:func:`rrr4.mechanism.graph.geometry_parameters`)."""
-    return np.r_[contact_parameters(scene), geometry_parameters(scene.graph) if geometry else []]
-
-
-def contact_parameters(scene: Scene) -> np.ndarray:
-    """The scene's contact numbers: JOINT_PARAMETERS of each clearance joint (graph order),
-    then EFFECT_PARAMETERS; empty without a clearance joint (no contact)."""
-    per = [(joint_stiffness(scene, j), scene.joint(j).journal_radius, scene.joint(j).bearing_radius)
-           for j in Model.of(scene.graph).clearance_joints]
-    if not per:
-        return np.zeros(0)
-    ce, fe = scene.effects.contact, scene.effects.friction
-    return np.array([*(v for row in per for v in row), ce.restitution, ce.damping, fe.coefficient,
-                     fe.static_coefficient, fe.v0, fe.v1, fe.stribeck_velocity], float)
-
-
-def _structure(scene: Scene) -> Scene:
-    """`scene` without the numbers of :func:`contact_parameters` (nor its actuators' limits,
-    which only the controller uses)."""
-    joints = tuple(replace(j, journal_radius=1.0, radial_clearance=1.0) if j.clearance else j
-                   for j in scene.graph.joints)
-    ce, fe = scene.effects.contact, scene.effects.friction
-    effects = replace(scene.effects, contact=replace(ce, restitution=1.0, damping=0.0, stiffness=None),
-                      friction=replace(fe, coefficient=0.0, static_coefficient=0.0, v0=1.0, v1=2.0,
-                                       stribeck_velocity=1.0))
-    actuators = tuple(replace(a, limit=1.0) for a in scene.graph.actuators)  # the controller's numbers
-    return replace(scene, graph=replace(scene.graph, joints=joints, actuators=actuators), effects=effects)
-
-
-def _plant_structure(scene: Scene) -> Scene:
-    """physics(scene) without the numbers of :func:`equation_parameters` (nor the pose
-    guesses and the task point, which the equations do not use): scenes that differ only in
-    those share one set of parametric equations."""
-    s = _structure(scene)
-    g = s.graph
-    bodies = tuple(replace(b, mass=1.0, inertia=1.0, pose=(0.0, 0.0, 0.0),
-                           points=tuple((name, (0.0, 0.0)) for name, _ in b.points)) for b in g.bodies)
-    joints = tuple(replace(j, points=((0.0, 0.0), (0.0, 0.0))) for j in g.joints)
-    task_point = None if g.task_point is None else (0.0, 0.0)  # outputs only
-    return replace(s, mechanism=None, graph=replace(g, bodies=bodies, joints=joints, task_point=task_point))
-
-
-def fix_last_input(f: ca.Function, values) -> ca.Function:
-    """f with its last input (such as "parameters" or "settings") fixed to `values`:
-    the same SX graph, the numbers folded in as constants."""
-    ins = [ca.SX.sym(f.name_in(i), f.sparsity_in(i)) for i in range(f.n_in() - 1)]
-    out = f.call([*ins, ca.DM(values)])
-    return ca.Function(f.name(), ins, out, f.name_in()[:-1], f.name_out())
-
-
-def joint_stiffness(scene: Scene, name: str) -> float:
-    """K [N/m^n] of joint `name`: the scene's value, else from materials and radii."""
-    if scene.effects.contact.stiffness is not None:
-        return scene.effects.contact.stiffness
-    j = scene.joint(name)
-    return stiffness_internal_cylinder(j.journal_radius, j.bearing_radius, j.journal_material.youngs_modulus,
-                                       j.journal_material.poisson_ratio, j.bearing_material.youngs_modulus,
-                                       j.bearing_material.poisson_ratio)
-
-
-def graph_size(f: ca.Function) -> dict:
-    """Size of a Function's graph: SX instructions, nodes and free-variable count."""
-    return {"instructions": f.n_instructions(), "nodes": f.n_nodes(), "inputs": f.nnz_in()}
-
-
-def build_equations(scene: Scene, v_min: float = V_MIN, baumgarte: float = BAUMGARTE_OMEGA,
-                    inputs: str = "contact") -> Equations:
-    """Build (once per scene and options, cached) the equations of `scene`.
+def build_equations(model: Model, effects: Effects, mode: str, parameters, v_min: float = V_MIN,
+                    baumgarte: float = BAUMGARTE_OMEGA, inputs: str = "contact") -> Equations:
+    """The equations of the structure (model, effects, actuation mode) with their input
+    ``parameters`` fixed to `parameters` (``Problem.equation_parameters``); use
+    :meth:`rrr4.problem.Problem.equations`, which passes its structure keys.
 
     v_min [m/s] floors the approach velocity delta_dot0; baumgarte = omega_b [rad/s].
     inputs (:data:`INPUTS`): which numbers the parametric equations take as their input
-    ``parameters`` (:func:`equation_parameters`): 'contact' (default) or 'geometry' (the
-    contact numbers, masses, inertias and joint points; about 20 % more instructions, since
-    zeros and ones in the geometry no longer simplify, for sweeps over the mechanism).
-    Raises SceneError if the actuation mode over-constrains the mechanism.
+    ``parameters``: 'contact' (default) or 'geometry' (the contact numbers, masses, inertias
+    and joint points; about 20 % more instructions, since zeros and ones in the geometry no
+    longer simplify, for sweeps over the mechanism). The parametric equations are built once
+    per structure and options. Raises SceneError if the actuation mode over-constrains the
+    mechanism.
     """
     v_min = argument("v_min", v_min)
     baumgarte = argument("baumgarte", baumgarte, allow_zero=True)
     if inputs not in INPUTS:
         raise unknown_value("inputs", "value", inputs, INPUTS)
-    return _build(physics(scene), float(v_min), float(baumgarte), inputs == "geometry")
-
-
-@functools.lru_cache(maxsize=16)
-def _build(scene: Scene, v_min: float, omega: float, geometry: bool) -> Equations:
-    """The equations of one scene: the parametric equations of its structure with its
-    parameters fixed."""
-    par = _parametric(_plant_structure(scene) if geometry else _structure(scene), v_min, omega, geometry)
-    p = equation_parameters(scene, geometry)
+    par = _parametric(model, effects, mode, float(v_min), float(baumgarte), inputs == "geometry")
+    p = np.asarray(parameters, float)
     nc = len(par.clearance_joints)
     k = len(JOINT_PARAMETERS)
-    return replace(par, scene=scene, stiffness=tuple(p[:k * nc:k]), parameters=p, parametric=par, systems={},
+    return replace(par, stiffness=tuple(p[:k * nc:k]), parameters=p, parametric=par,
                    **{k: fix_last_input(getattr(par, k), p) for k in ("acceleration", "residual", "contact_update",
                                                                        "energy", "actuator_coordinates",
                                                                        "tree_acceleration", "tree_state",
                                                                        "tree_coordinates") if getattr(par, k)})
 
 
-def physics(scene: Scene) -> Scene:
-    """The part of `scene` the equations depend on (graph, effects, actuation mode): the key
-    under which they are built once. Changing the path, the integrator, the initial state,
-    the controller's settings (preload, gains, limits, rate, compensation) or the names does
-    not rebuild them."""
-    return replace(scene, name="", description="", source="", path=None, integrator=None, initial=None,
-                   actuation=replace(scene.actuation, preload=None, kp=0.0, kd=0.0, torque_limit=(),
-                                     control_rate=None, compensation="none"))
-
-
 @functools.lru_cache(maxsize=16)
-def _parametric(scene: Scene, v_min: float, omega: float, geometry: bool) -> Equations:
-    """The equations of a structure scene (:func:`_structure`, or with `geometry`
-    :func:`_plant_structure`), every Function with the input ``parameters``
-    (:func:`equation_parameters`) last."""
-    model = Model.of(scene.graph)
-    graph = scene.graph
+def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: float, geometry: bool) -> Equations:
+    """The equations of a structure (``Problem.plant_key``, or with `geometry`
+    ``Problem.geometry_key``), every Function with the input ``parameters`` last."""
+    graph = model.graph
     n, nq, nd = model.n_actuators, model.nq, len(graph.drivers)
-    act = scene.actuation
     clear = model.clearance_joints
     ideal = model.constrained_joints
     dof = nq - 2 * len(ideal) - nd
-    if act.mode == "prescribed" and n > dof:
+    if mode == "prescribed" and n > dof:
         raise SceneError(f"actuation.mode: 'prescribed' is not allowed here ({n} driving constraints over-constrain "
                          f"a mechanism with {dof} degrees of freedom; use 'torque')")
     nc = len(clear)
@@ -285,24 +196,24 @@ def _parametric(scene: Scene, v_min: float, omega: float, geometry: bool) -> Equ
     S = ca.jacobian(theta, q)
     theta_d = S @ qd
     terms = []
-    Q = model.gravity_forces(scene.effects.gravity, G)
+    Q = model.gravity_forces(effects.gravity, G)
     if not geometry:
         m_diag, Q = ca.DM(m_diag), ca.SX(ca.DM(Q))
-    if scene.effects.gravity != (0.0, 0.0):
+    if effects.gravity != (0.0, 0.0):
         terms.append("gravity")
 
     # ---- actuation: generalised forces S^T tau of the actuator efforts (virtual work)
-    if act.mode == "torque":
+    if mode == "torque":
         tau = effort
         Q = Q + S.T @ tau
         terms.append("actuator efforts (the controller's)")
-    elif act.mode == "free":
+    elif mode == "free":
         tau = ca.SX.zeros(n)
         terms.append("free actuators" if n else "no actuators")
 
     # ---- contacts
-    ce = scene.effects.contact
-    fe = scene.effects.friction
+    ce = effects.contact
+    fe = effects.friction
     if nc:
         restitution, damping, mu, mu_s, v0, v1, v_s = ca.vertsplit(P[len(JOINT_PARAMETERS) * nc:nk])
         fe = replace(fe, coefficient=mu, static_coefficient=mu_s, v0=v0, v1=v1, stribeck_velocity=v_s)
@@ -354,7 +265,7 @@ def _parametric(scene: Scene, v_min: float, omega: float, geometry: bool) -> Equ
         phi, phi_dot = phi - off, phi_dot - ca.vertcat(ca.SX.zeros(2 * len(ideal)), rate)
         gamma = gamma + ca.vertcat(ca.SX.zeros(2 * len(ideal)), acc_d)
         terms.append("drivers " + " ".join(f"{d.name} ({d.joint})" for d in graph.drivers))
-    if act.mode == "prescribed":
+    if mode == "prescribed":
         phi = ca.vertcat(phi, theta - th_ref)
         phi_q = ca.vertcat(phi_q, S)
         gamma = ca.vertcat(gamma, thdd_ref - ca.jtimes(theta_d, q, qd))
@@ -365,13 +276,13 @@ def _parametric(scene: Scene, v_min: float, omega: float, geometry: bool) -> Equ
     m_inv = 1.0 / m_diag
     lam = ca.solve(phi_q @ ca.diag(m_inv) @ phi_q.T, phi_q @ (m_inv * Q) - gamma_s)
     qdd = m_inv * (Q - phi_q.T @ lam)
-    if act.mode == "prescribed":
+    if mode == "prescribed":
         tau = -lam[n_con - n:]
     reacting = tuple(j for j in model.ideal_passive_joints if graph.joint(j).type == "revolute")
     rows = [2 * ideal.index(j) + c for j in reacting for c in (0, 1)]
     reaction = ca.reshape(-lam[rows], 2, len(reacting)) if reacting else ca.SX(2, 0)
     power_in = ca.dot(tau, theta_d)
-    if act.mode == "free":
+    if mode == "free":
         power_in = ca.SX(0)
     # drivers: effort -lambda_d on their coordinate [N m or N]; power -lambda_d . (S_d qd)
     drv = lam[2 * len(ideal):2 * len(ideal) + nd] if nd else ca.SX(0, 1)
@@ -405,7 +316,7 @@ def _parametric(scene: Scene, v_min: float, omega: float, geometry: bool) -> Equ
                       ["delta_dot0_next", "in_contact_next", "loss"])
 
     kinetic = 0.5 * ca.dot(qd, m_diag * qd)
-    potential = V_contact - ca.dot(ca.SX(model.gravity_forces(scene.effects.gravity, G)), q)
+    potential = V_contact - ca.dot(ca.SX(model.gravity_forces(effects.gravity, G)), q)
     energy = ca.Function("energy", [q, qd, P], [kinetic, potential], ["q", "qd", "parameters"],
                          ["kinetic", "potential"])
 
@@ -431,8 +342,8 @@ def _parametric(scene: Scene, v_min: float, omega: float, geometry: bool) -> Equ
             lam_t = ca.solve(phi_p @ m_phi, phi_p @ ca.solve(M_t, rhs) - gamma_p)
             rhs = rhs - phi_p.T @ lam_t
         pdd = ca.solve(M_t, rhs)
-        tau_t = -lam_t[lam_t.shape[0] - n:] if act.mode == "prescribed" else tau
-        power_t = ca.SX(0) if act.mode == "free" else ca.dot(tau_t, on_tree(theta_d))
+        tau_t = -lam_t[lam_t.shape[0] - n:] if mode == "prescribed" else tau
+        power_t = ca.SX(0) if mode == "free" else ca.dot(tau_t, on_tree(theta_d))
         if nd:
             k = 2 * len(tree.closures)
             power_t += ca.dot(-lam_t[k:k + nd], on_tree(phi_q[2 * len(ideal):2 * len(ideal) + nd, :] @ qd))
@@ -447,5 +358,5 @@ def _parametric(scene: Scene, v_min: float, omega: float, geometry: bool) -> Equ
                         ["q", "qd", "parameters"], ["p", "pd"]))
 
     actuators = ca.Function("actuator_coordinates", [q, P], [theta, S], ["q", "parameters"], ["s", "S"])
-    return Equations(scene, clear, ideal, reacting, act.mode, tuple(terms), (), nq, n, n_con, acc, res, upd,
+    return Equations(model, clear, ideal, reacting, mode, tuple(terms), (), nq, n, n_con, acc, res, upd,
                      energy, v_min, omega, actuators, *tree_fns)

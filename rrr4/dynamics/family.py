@@ -7,8 +7,9 @@ A = [Phi_q^T, -S^T], whose dimension is the degree of actuation redundancy m:
     u = u_p + N alpha,     r_j = r_p,j + sum_k alpha_k r_n,j,k,
 
 with u_p orthogonal to the columns of N (the minimum-norm efforts) and N orthonormal. The
-preload layer only ever sees this family (:class:`EffortFamily`). An n-RRR scene uses its
-closed form (:mod:`rrr4.dynamics.inverse`); any other graph gets it here from one batched
+preload layer only ever sees this family (:class:`EffortFamily`; ``Problem.effort_family``
+picks the source). An n-RRR scene uses its closed form (:mod:`rrr4.dynamics.inverse`); any
+other graph gets it here from one batched
 SVD per path (numpy), with the sign of a one-dimensional null space kept continuous along
 the path (for m >= 2 the basis of every sample is rotated onto the previous one's, so
 alpha means the same along the path). Reactions are those of the passive revolute joints (``Model.preload_joints``),
@@ -21,11 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..mechanism import Mechanism
-from ..mechanism.graph import Model
-from ..scene import Scene
+from ..mechanism import Mechanism, Model
 
-__all__ = ["EffortFamily", "effort_family"]
+__all__ = ["EffortFamily", "graph_family"]
 
 
 @dataclass(frozen=True)
@@ -56,21 +55,6 @@ class EffortFamily:
         return EffortFamily(tp.T, tn.reshape(n, N, m).transpose(1, 0, 2),
                             rp.reshape(2, N, nj).transpose(1, 2, 0),
                             rn.reshape(2, N, m, nj).transpose(1, 3, 0, 2))
-
-
-def effort_family(scene: Scene, pose, pose_d, pose_dd, q=None) -> EffortFamily:
-    """The family at task poses (N, 3) and their rates (N, 3) of `scene`'s ideal mechanism.
-    q: a graph's coordinates (N, nq) at the poses, if known (default: tracked along the poses)."""
-    pose, pose_d, pose_dd = (np.atleast_2d(np.asarray(v, float)) for v in (pose, pose_d, pose_dd))
-    if scene.mechanism is not None:
-        from .inverse import inverse_dynamics_function
-        N = pose.shape[0]
-        return EffortFamily.from_raw(inverse_dynamics_function(scene).map(N)(pose.T, pose_d.T, pose_dd.T))
-    mech = Mechanism.from_scene(scene)
-    k = mech.n_task
-    q = mech.path_coordinates(pose[:, :k]) if q is None else np.asarray(q, float)
-    _, qdd, _, _ = mech.motion(q, pose_d[:, :k], pose_dd[:, :k])
-    return graph_family(mech, q, qdd, scene.effects.gravity)
 
 
 def graph_family(mech: Mechanism, q: np.ndarray, qdd: np.ndarray, gravity) -> EffortFamily:

@@ -35,68 +35,8 @@ import casadi as ca
 
 from ..mechanism import Mechanism
 from ..mechanism import kinematics as kin
-from ..scene import Scene
 
 __all__ = ["inverse_dynamics_function", "joint_reactions_function", "actuator_motion_function"]
-
-# |T_i| = l_i1 |sin(transmission angle)| below this [m] is treated as a serial singularity.
-_SERIAL_EPS = 1e-12
-
-
-def _as_model(model: Mechanism | Scene, gravity):
-    """(Mechanism, gravity (2,) [m/s^2]) from a Mechanism or a Scene (whose gravity is used)."""
-    if isinstance(model, Scene):
-        g = model.effects.gravity if gravity is None else gravity
-        return Mechanism.from_scene(model), tuple(float(v) for v in g)
-    return model, tuple(float(v) for v in (gravity or (0.0, 0.0)))
-
-
-def _guarded(x, eps):
-    """x pushed away from zero to |x| >= eps, keeping its sign (sign(0) := +1)."""
-    return ca.if_else(x >= 0, 1.0, -1.0) * ca.fmax(ca.fabs(x), eps)
-
-
-def _chain_motion(c, o, w_o, al_o, cs):
-    """Closed-form motion of one chain for a platform motion, without angles or AD.
-
-    c: chain data; o, w_o, al_o: platform position (2,) [m], angular rate [rad/s] and
-    acceleration [rad/s^2]; cs: (cos theta_o, sin theta_o) [-]; the platform's linear
-    velocity and acceleration enter through (o_d, o_dd) in the caller's C_d, C_dd.
-    Returns (u1, e, Co, Cd_rel, Cdd_rel, B): unit vectors of the driving (A -> B) and
-    following (B -> C) link, C - o [m] and the rotational parts of C's velocity and
-    acceleration [m/s, m/s^2], and B [m].
-
-    u1 = cos(acos k) d/|d| + mode sin(acos k) E d/|d| with d = C - A and
-    k = (l1^2 + |d|^2 - l2^2)/(2 l1 |d|): the IK of :func:`rrr4.mechanism.kinematics.chain_ik`
-    written with unit vectors.
-    """
-    l1, l2 = c.driving.length, c.following.length
-    cphi, sphi = ca.cos(c.attachment_angle), ca.sin(c.attachment_angle)
-    u = ca.vertcat(cs[0] * cphi - cs[1] * sphi, cs[1] * cphi + cs[0] * sphi) * c.attachment_radius
-    C = o + u
-    d = C - ca.DM(c.base)
-    dist2 = ca.sumsqr(d)
-    inv_dist = 1 / ca.sqrt(dist2)
-    k = (l1**2 - l2**2 + dist2) * inv_dist / (2 * l1)
-    u1 = (k * d + c.working_mode * ca.sqrt(1 - k**2) * kin.perp(d)) * inv_dist
-    B = ca.DM(c.base) + l1 * u1
-    e = (C - B) / l2
-    return u1, e, u, w_o * kin.perp(u), al_o * kin.perp(u) - w_o**2 * u, B
-
-
-def _transmission(c, u1, e):
-    """(T, T guarded away from 0, 1 / guarded T) [m, m, 1/m], T = (B - A) x e = l1 (u1 x e)."""
-    T = c.driving.length * kin.cross(u1, e)
-    Ts = _guarded(T, _SERIAL_EPS)
-    return T, Ts, 1 / Ts
-
-
-def _link_rates(c, u1, e, v, inv_T):
-    """Rates (w1, w2) of the driving and following link [rad/s] with
-    v = l1 w1 E u1 + l2 w2 E e (v = C_d); with v = C_dd + l1 w1^2 u1 + l2 w2^2 e, the
-    angular accelerations [rad/s^2]. Dot products with e and u1, u1 x e = T / l1."""
-    return ca.dot(e, v) * inv_T, -ca.dot(u1, v) * inv_T * (c.driving.length / c.following.length)
-
 
 @functools.cache
 def _actuator_motion(mech: Mechanism) -> ca.Function:
@@ -104,14 +44,14 @@ def _actuator_motion(mech: Mechanism) -> ca.Function:
     cs = (ca.cos(pose[2]), ca.sin(pose[2]))
     u1s, rates = [], []
     for i, c in enumerate(mech.data.chains):
-        u1, e, _, Cd_rel, _, _ = _chain_motion(c, pose[0:2] - shift[:, i], pose_d[2], 0, cs)
+        u1, e, _, Cd_rel, _, _ = kin.chain_motion(c, pose[0:2] - shift[:, i], pose_d[2], 0, cs)
         u1s.append(u1)
-        rates.append(_link_rates(c, u1, e, pose_d[0:2] + Cd_rel, _transmission(c, u1, e)[2])[0])
+        rates.append(kin.link_rates(c, u1, e, pose_d[0:2] + Cd_rel, kin.transmission(c, u1, e)[2])[0])
     return ca.Function("actuator_motion", [pose, pose_d, shift], [ca.horzcat(*u1s), ca.vertcat(*rates)],
                        ["pose", "pose_d", "shift"], ["driving_direction", "theta_d"])
 
 
-def actuator_motion_function(model: Mechanism | Scene) -> ca.Function:
+def actuator_motion_function(mech: Mechanism) -> ca.Function:
     """SX Function 'actuator_motion': pose (3) [m, m, rad], pose_d (3), shift (2, n) [m] ->
     driving_direction (2, n) [-] = [cos theta_i, sin theta_i] of the IK actuator angles in
     the scene's working modes, theta_d (n,) [rad/s] = J pose_d, with chain i's platform
@@ -121,7 +61,7 @@ def actuator_motion_function(model: Mechanism | Scene) -> ca.Function:
     The same closed-form expressions as the inverse dynamics (no trigonometry of the
     angles), so a controller built from both shares them. Built once per mechanism.
     """
-    return _actuator_motion(_as_model(model, None)[0])
+    return _actuator_motion(mech)
 
 
 @functools.cache
@@ -137,11 +77,11 @@ def _build(mech: Mechanism, gravity: tuple[float, float]) -> ca.Function:
         m1, I1, m2, I2 = c.driving.mass, c.driving.inertia, c.following.mass, c.following.inertia
         l1, l2 = c.driving.length, c.following.length
         A = ca.DM(c.base)
-        u1, ei, Coi, Cd_rel, Cdd_rel, B = _chain_motion(c, pose[0:2], pose_d[2], pose_dd[2], cs)
+        u1, ei, Coi, Cd_rel, Cdd_rel, B = kin.chain_motion(c, pose[0:2], pose_d[2], pose_dd[2], cs)
         # link rates from C_d = l1 w1 E u1 + l2 w2 E e (and its derivative), T = l1 (u1 x e)
-        Ti, Tsi, inv_Ti = _transmission(c, u1, ei)
-        w1, w2 = _link_rates(c, u1, ei, pose_d[0:2] + Cd_rel, inv_Ti)
-        al1, al2 = _link_rates(c, u1, ei, pose_dd[0:2] + Cdd_rel + l1 * w1**2 * u1 + l2 * w2**2 * ei, inv_Ti)
+        Ti, Tsi, inv_Ti = kin.transmission(c, u1, ei)
+        w1, w2 = kin.link_rates(c, u1, ei, pose_d[0:2] + Cd_rel, inv_Ti)
+        al1, al2 = kin.link_rates(c, u1, ei, pose_dd[0:2] + Cdd_rel + l1 * w1**2 * u1 + l2 * w2**2 * ei, inv_Ti)
         aB = l1 * (al1 * kin.perp(u1) - w1**2 * u1)
         a1 = 0.5 * aB  # centre of mass of the driving link
         a2 = aB + 0.5 * l2 * (al2 * kin.perp(ei) - w2**2 * ei)
@@ -194,17 +134,16 @@ def _build(mech: Mechanism, gravity: tuple[float, float]) -> ca.Function:
                        ["pose", "pose_d", "pose_dd"], ["tau_p", "tau_n", "r_p", "r_n", "transmission", "J"])
 
 
-def joint_reactions_function(model: Mechanism | Scene, gravity=None) -> ca.Function:
+def joint_reactions_function(mech: Mechanism, gravity=(0.0, 0.0)) -> ca.Function:
     """SX Function 'joint_reactions': pose (3), pose_d (3), pose_dd (3) ->
     tau_p (n,) [N m], tau_n (n, n-3), r_p (2, 3n) [N], r_n (2, 3n (n-3)) [N],
     transmission (n,) [m] = (B_i - A_i) x e_i (0 at a serial singularity), J (n, 3): the
     Jacobian d theta = J d pose (from the same expressions, no angles).
 
     Reactions of all 3n ideal joints A1..An, B1..Bn, C1..Cn; column j + 3n k of r_n
-    belongs to null-space direction k. gravity (2,) [m/s^2] defaults to the scene's
-    (or none for a bare Mechanism).
+    belongs to null-space direction k. gravity (2,) [m/s^2] (``Problem.gravity``).
     """
-    return _build(*_as_model(model, gravity))
+    return _build(mech, tuple(float(v) for v in gravity))
 
 
 @functools.cache
@@ -220,7 +159,7 @@ def _passive(mech: Mechanism, gravity: tuple[float, float]) -> ca.Function:
                        ["pose", "pose_d", "pose_dd"], ["tau_p", "tau_n", "r_p", "r_n"])
 
 
-def inverse_dynamics_function(model: Mechanism | Scene, gravity=None) -> ca.Function:
+def inverse_dynamics_function(mech: Mechanism, gravity=(0.0, 0.0)) -> ca.Function:
     """SX Function 'inverse_dynamics': pose (3) [m, m, rad], pose_d (3), pose_dd (3) ->
     tau_p (n,) [N m], tau_n (n, n-3), r_p (2, 2n) [N], r_n (2, 2n (n-3)) [N].
 
@@ -228,7 +167,7 @@ def inverse_dynamics_function(model: Mechanism | Scene, gravity=None) -> ca.Func
     null-space direction k. For the 4-RRR: tau = tau_p + alpha tau_n and
     r_j = r_p[:, j] + alpha r_n[:, j], with tau_n = ``Mechanism.null_space(pose)``.
     r_j is the force the inboard body exerts on the outboard body (= -lambda_j).
-    Pass a Scene to include its gravity, or gravity (2,) [m/s^2] explicitly.
+    gravity (2,) [m/s^2] (``Problem.gravity``; ``Problem.inverse_dynamics`` passes it).
     Built once per (mechanism, gravity) and cached.
     """
-    return _passive(*_as_model(model, gravity))
+    return _passive(mech, tuple(float(v) for v in gravity))

@@ -34,7 +34,8 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..errors import Rrr4Error, SimulationError
+from ..errors import Rrr4Error
+from ..functions import evaluate
 
 CALLS = 20  # calls from Python that a run's stepping is split into (progress-bar updates)
 MAX_CHUNK = 2000  # output intervals per call at most (a call holds each one's full state)
@@ -74,23 +75,6 @@ class FrameInputs:
         if self._block[0] != i:
             self._block = (i, self[i * self.BLOCK:min(n, (i + 1) * self.BLOCK)])
         return self._block[1][k - i * self.BLOCK]
-
-
-def evaluate(f: ca.Function, args, results) -> None:
-    """f on numpy arrays through CasADi's buffer interface: args and results (C-contiguous float
-    arrays, each holding its input's or output's nonzeros in CasADi's column-major order; None:
-    an input left at zero) are read and written in place. Converting to and from DM instead
-    costs about 30 ns per number: with 11 frame inputs per control period, about a tenth of the
-    reference scene's compiled stepping."""
-    buf, run = f.buffer()
-    for i, a in enumerate(args):
-        if a is not None:
-            buf.set_arg(i, memoryview(a.reshape(-1)))
-    for i, r in enumerate(results):
-        buf.set_res(i, memoryview(r.reshape(-1)))
-    run()
-    if buf.ret():
-        raise SimulationError(f"evaluating {f.name()} failed")
 
 
 def frame_inputs(u_frames) -> FrameInputs | np.ndarray:

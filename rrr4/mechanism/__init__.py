@@ -1,8 +1,11 @@
-"""Planar mechanisms: the body/joint graph model, its kinematics (any graph; closed-form
-n-RRR IK as a specialisation) and the checks of a scene against its model."""
+"""Planar mechanisms: the immutable body/joint graph :class:`Model` (names -> indices,
+joint equations; :mod:`.model`), its kinematics :class:`Mechanism` (any graph; the
+closed-form n-RRR as a specialisation; :mod:`.mechanism`), the n-RRR's closed forms
+(:mod:`.kinematics`), tree coordinates (:mod:`.tree`) and the checks of a scene against
+its model (:mod:`.workspace`)."""
 
-from .graph import Model
-from .model import Mechanism, NRRRMechanism
+from .mechanism import Mechanism, NRRRMechanism
+from .model import Model, geometry_parameters
 from .workspace import check_scene, load_scene
 
-__all__ = ["Model", "Mechanism", "NRRRMechanism", "check_scene", "load_scene"]
+__all__ = ["Model", "Mechanism", "NRRRMechanism", "geometry_parameters", "check_scene", "load_scene"]

@@ -11,7 +11,7 @@ from __future__ import annotations
 import casadi as ca
 
 from ..scene import NRRRSpec
-from .graph import perp
+from .model import perp
 
 
 def unit(a):
@@ -100,3 +100,56 @@ def jacobian_parts(data: NRRRSpec, pose, modes):
         rows.append(ca.horzcat(w[0], w[1], cross(C - pose[0:2], w)))
         dens.append(ca.dot(w, c.driving.length * perp(unit(th1))))
     return ca.vertcat(*rows), ca.vertcat(*dens)
+
+
+# ----------------------------------------------------------------------------- chain motion without angles
+
+# |T_i| = l_i1 |sin(transmission angle)| below this [m] is treated as a serial singularity.
+SERIAL_EPS = 1e-12
+
+
+def guarded(x, eps):
+    """x pushed away from zero to |x| >= eps, keeping its sign (sign(0) := +1)."""
+    return ca.if_else(x >= 0, 1.0, -1.0) * ca.fmax(ca.fabs(x), eps)
+
+
+def chain_motion(c, o, w_o, al_o, cs):
+    """Closed-form motion of one chain for a platform motion, without angles or AD.
+
+    c: chain data; o, w_o, al_o: platform position (2,) [m], angular rate [rad/s] and
+    acceleration [rad/s^2]; cs: (cos theta_o, sin theta_o) [-]; the platform's linear
+    velocity and acceleration enter through (o_d, o_dd) in the caller's C_d, C_dd.
+    Returns (u1, e, Co, Cd_rel, Cdd_rel, B): unit vectors of the driving (A -> B) and
+    following (B -> C) link, C - o [m] and the rotational parts of C's velocity and
+    acceleration [m/s, m/s^2], and B [m].
+
+    u1 = cos(acos k) d/|d| + mode sin(acos k) E d/|d| with d = C - A and
+    k = (l1^2 + |d|^2 - l2^2)/(2 l1 |d|): the IK of :func:`chain_ik`
+    written with unit vectors.
+    """
+    l1, l2 = c.driving.length, c.following.length
+    cphi, sphi = ca.cos(c.attachment_angle), ca.sin(c.attachment_angle)
+    u = ca.vertcat(cs[0] * cphi - cs[1] * sphi, cs[1] * cphi + cs[0] * sphi) * c.attachment_radius
+    C = o + u
+    d = C - ca.DM(c.base)
+    dist2 = ca.sumsqr(d)
+    inv_dist = 1 / ca.sqrt(dist2)
+    k = (l1**2 - l2**2 + dist2) * inv_dist / (2 * l1)
+    u1 = (k * d + c.working_mode * ca.sqrt(1 - k**2) * perp(d)) * inv_dist
+    B = ca.DM(c.base) + l1 * u1
+    e = (C - B) / l2
+    return u1, e, u, w_o * perp(u), al_o * perp(u) - w_o**2 * u, B
+
+
+def transmission(c, u1, e):
+    """(T, T guarded away from 0, 1 / guarded T) [m, m, 1/m], T = (B - A) x e = l1 (u1 x e)."""
+    T = c.driving.length * cross(u1, e)
+    Ts = guarded(T, SERIAL_EPS)
+    return T, Ts, 1 / Ts
+
+
+def link_rates(c, u1, e, v, inv_T):
+    """Rates (w1, w2) of the driving and following link [rad/s] with
+    v = l1 w1 E u1 + l2 w2 E e (v = C_d); with v = C_dd + l1 w1^2 u1 + l2 w2^2 e, the
+    angular accelerations [rad/s^2]. Dot products with e and u1, u1 x e = T / l1."""
+    return ca.dot(e, v) * inv_T, -ca.dot(u1, v) * inv_T * (c.driving.length / c.following.length)

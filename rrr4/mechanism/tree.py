@@ -1,6 +1,6 @@
 """Tree coordinates: minimal coordinates p for the ideal joints that form a spanning tree.
 
-Reference-point coordinates (:mod:`rrr4.mechanism.graph`) give every body [x, y, theta] and
+Reference-point coordinates (:mod:`rrr4.mechanism.model`) give every body [x, y, theta] and
 hold every ideal joint by two constraint rows. Where the ideal joints connect a body to one
 already placed (the ground first), the body's pose follows from the placed one and one joint
 coordinate, so the joint's rows disappear (the velocity transformation, Nikravesh 1988,
@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import casadi as ca
 
 from ..scene.vocabulary import GROUND
-from .graph import Model, rotation
+from .model import Model, rotation
 
 __all__ = ["TreeMap", "tree_map"]
 
@@ -49,7 +49,7 @@ class TreeMap:
 
 def tree_map(model: Model, geometry=None) -> TreeMap:
     """The tree coordinates of `model` (joint points from the symbols `geometry` if given, see
-    :func:`rrr4.mechanism.graph.geometry_parameters`). Bodies are placed breadth first from
+    :func:`rrr4.mechanism.model.geometry_parameters`). Bodies are placed breadth first from
     the ground through the ideal joints in graph order, then from each free body in body order."""
     ideal = [model.graph.joint(j) for j in model.constrained_joints]
     qs = ca.SX.sym("q", model.nq)

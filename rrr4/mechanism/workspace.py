@@ -9,9 +9,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import KinematicsError, SceneError
-from ..scene import Scene, read_scene
-from ..trajectory import sample_path
-from .model import Mechanism
+from ..scene import PathSpec, Scene, read_scene
+from ..trajectory import PathSamples, sample_path
+from .mechanism import Mechanism, NRRRMechanism
 
 __all__ = ["PathKinematics", "path_kinematics", "check_scene", "load_scene", "near_singular"]
 
@@ -36,28 +36,27 @@ def condition_number(J: np.ndarray) -> np.ndarray:
         return np.where(np.all(np.isfinite(J), axis=(1, 2)), np.linalg.cond(np.nan_to_num(J)), np.inf)
 
 
-def path_kinematics(scene: Scene, samples=None) -> PathKinematics:
-    """Quality of the motion at the path samples (default: the scene's own). Raises
-    KinematicsError where a general graph does not assemble."""
-    mech = Mechanism.from_scene(scene)
-    s = samples or sample_path(scene.path)
+def path_kinematics(mech: Mechanism, s: PathSamples) -> PathKinematics:
+    """Quality of the motion at the path samples `s` (:func:`rrr4.trajectory.sample_path`).
+    Raises KinematicsError where a general graph does not assemble."""
     N = len(s.t)
-    if scene.mechanism is not None:
+    if isinstance(mech, NRRRMechanism):  # closed form
         _, cos_arg = mech.ik_function.map(N)(s.pose.T, np.tile(mech.modes[:, None], (1, N)))
         J, _, _, sin_tr = mech.jacobian_function.map(N)(s.pose.T)
         J = np.array(J).T.reshape(N, 3, mech.n).transpose(0, 2, 1)
         return PathKinematics(s.t, condition_number(J), np.array(cos_arg).T, np.array(sin_tr).T)
-    if scene.graph.task is None:
+    if mech.model.task is None:
         mech.path_coordinates(mech.driver_targets(s.t))
         return PathKinematics(s.t, np.ones(N), None, None)
     J = mech.path_jacobians(mech.path_coordinates(s.pose[:, :mech.n_task]))
     return PathKinematics(s.t, condition_number(J), None, None)
 
 
-def near_singular(scene: Scene, pk: PathKinematics) -> np.ndarray:
-    """(N,) reason string or '' per sample: near a serial or parallel singularity."""
+def near_singular(path: PathSpec, pk: PathKinematics) -> np.ndarray:
+    """(N,) reason string or '' per sample: near a serial or parallel singularity (the
+    margins of `path`)."""
     out = np.full(len(pk.t), "", dtype=object)
-    cmax, smin = scene.path.max_condition_number, scene.path.min_transmission
+    cmax, smin = path.max_condition_number, path.min_transmission
     sin_tr = np.ones((len(pk.t), 1)) if pk.sin_transmission is None else np.abs(pk.sin_transmission)
     for k in np.flatnonzero(~(pk.condition <= cmax) | np.any(~(sin_tr >= smin), axis=1)):
         why = f"near-singular pose: cond(J) = {pk.condition[k]:.3g} (allowed <= {cmax:g})"
@@ -73,8 +72,8 @@ def check_scene(scene: Scene) -> Scene:
     of the workspace boundary, working-mode flips and singularities; else raise SceneError
     naming the time and the chain or body."""
     try:
-        Mechanism.from_scene(scene)
-        pk = path_kinematics(scene)
+        mech = Mechanism.from_scene(scene)
+        pk = path_kinematics(mech, sample_path(scene.path))
     except KinematicsError as e:
         raise SceneError(f"mechanism: {e}") from None
     p = scene.path
@@ -84,7 +83,7 @@ def check_scene(scene: Scene) -> Scene:
             k, i = np.argwhere(reach)[0]
             raise SceneError(f"path: leaves the workspace at t = {pk.t[k]:.4g} s: chain {i + 1} cannot reach the "
                              f"platform (IK cos argument {pk.cos_arg[k, i]:.12g}, allowed [-1, 1])")
-        sign = np.sign(pk.sin_transmission) * np.array([c.working_mode for c in scene.mechanism.chains])
+        sign = np.sign(pk.sin_transmission) * mech.modes
         flip = sign != sign[0]
         if flip.any():
             k, i = np.argwhere(flip)[0]

@@ -40,10 +40,9 @@ import functools
 
 import casadi as ca
 
-from ..dynamics.builder import fix_last_input
 from ..errors import SceneError
-from ..mechanism.graph import Model
-from ..scene import Scene
+from ..functions import fix_last_input
+from ..problem import Problem
 
 __all__ = ["exact_preload_function", "parametric_exact_preload", "constraint_violation"]
 
@@ -143,7 +142,7 @@ def parametric_exact_preload(n: int, nj: int) -> ca.Function:
                        ["tau_p", "tau_n", "r_p", "r_n", "settings"], ["alpha", "tau", "feasible", "margin"])
 
 
-def exact_preload_function(scene: Scene, f_min: float | None = None, branch: int = 0) -> ca.Function:
+def exact_preload_function(problem: Problem, f_min: float | None = None, branch: int = 0) -> ca.Function:
     """SX Function 'exact_preload' for a scene with one degree of redundancy (the 4-RRR:
     tau_p (4,) [N m], tau_n (4, 1), r_p (2, 8) [N], r_n (2, 8) [N]) ->
     alpha [N m], tau (4,) [N m], feasible (1.0 / 0.0), margin [N] = min_j ||r_j|| - f_min.
@@ -154,13 +153,13 @@ def exact_preload_function(scene: Scene, f_min: float | None = None, branch: int
     alpha >= 0 (<= 0): still closed form, and continuous along a path where the global
     optimum would jump between the two branches of equal cost. Cached per arguments.
     """
-    model = Model.of(scene.graph)
+    model = problem.model
     if model.redundancy != 1:
         raise SceneError(f"actuation.preload.method: 'exact' is not allowed with {model.redundancy} degrees of "
                          "actuation redundancy (it needs exactly one; use qp or nlp)")
-    p = scene.actuation.preload
+    p = problem.scene.actuation.preload
     fm = p.min_force if f_min is None else float(f_min)
     if branch not in (0, 1, -1):
         raise SceneError(f"branch: {branch!r} is not allowed (0 for both, +1 or -1)")
-    return _fixed(float(fm), tuple(p.weights), tuple(scene.actuation.torque_limit), int(branch),
+    return _fixed(float(fm), tuple(p.weights), tuple(problem.scene.actuation.torque_limit), int(branch),
                   len(model.preload_joints))

@@ -24,10 +24,9 @@ import functools
 
 import casadi as ca
 
-from ..dynamics.builder import fix_last_input
 from ..errors import SceneError
-from ..mechanism.graph import Model
-from ..scene import Scene
+from ..functions import fix_last_input
+from ..problem import Problem
 from ..scene.vocabulary import QP_SOLVERS
 from .exact import constraint_violation
 
@@ -105,7 +104,7 @@ def _build(solver: str, f_min: float, weights: tuple[float, ...], limits: tuple[
                        ["tau_p", "tau_n", "r_p", "r_n"], ["alpha", "tau", "feasible", "margin"])
 
 
-def qp_preload_function(scene: Scene, solver: str = "qrqp", signs=1.0, f_min: float | None = None) -> ca.Function:
+def qp_preload_function(problem: Problem, solver: str = "qrqp", signs=1.0, f_min: float | None = None) -> ca.Function:
     """MX Function 'qp_preload' (a plain ``casadi.conic`` call):
     tau_p (n,) [N m], tau_n (n, n-3), r_p (2, 2n) [N], r_n (2, 2n (n-3)) [N] ->
     alpha (n-3,) [N m], tau (n,) [N m], feasible (1.0 / 0.0), margin [N] = min_j ||r_j|| - f_min.
@@ -118,7 +117,7 @@ def qp_preload_function(scene: Scene, solver: str = "qrqp", signs=1.0, f_min: fl
     if solver not in QP_OPTIONS:
         raise SceneError(f"actuation.preload.qp_solver: unknown value {solver!r} "
                          f"(choose one of: {', '.join(QP_OPTIONS)})")
-    model = Model.of(scene.graph)
+    model = problem.model
     m, nj = model.redundancy, len(model.preload_joints)
     if m < 1:
         raise SceneError(f"mechanism: a preload is not allowed without actuation redundancy ({model.n_actuators} "
@@ -126,9 +125,9 @@ def qp_preload_function(scene: Scene, solver: str = "qrqp", signs=1.0, f_min: fl
     s = [float(signs)] * nj if isinstance(signs, (int, float)) else [float(v) for v in signs]
     if len(s) != nj or any(v not in (1.0, -1.0) for v in s):
         raise SceneError(f"signs: {signs!r} is not allowed (+1 or -1, or a list of {nj} of them)")
-    p = scene.actuation.preload
+    p = problem.scene.actuation.preload
     fm = p.min_force if f_min is None else float(f_min)
-    return _build(solver, float(fm), tuple(p.weights), tuple(scene.actuation.torque_limit), tuple(s), m)
+    return _build(solver, float(fm), tuple(p.weights), tuple(problem.scene.actuation.torque_limit), tuple(s), m)
 
 
 _BIG = 1e30  # stands for an infinite bound in the closed-form QP
@@ -177,7 +176,7 @@ def parametric_scalar_qp_preload(n: int, nj: int) -> ca.Function:
                        ["tau_p", "tau_n", "r_p", "r_n", "settings"], ["alpha", "tau", "feasible", "margin"])
 
 
-def scalar_qp_preload_function(scene: Scene, signs=1.0) -> ca.Function:
+def scalar_qp_preload_function(problem: Problem, signs=1.0) -> ca.Function:
     """The QP of :func:`qp_preload_function` for one degree of redundancy, solved in closed
     form: SX Function 'qp_preload' with the same inputs and outputs, no solver, no iterations.
 
@@ -187,7 +186,7 @@ def scalar_qp_preload_function(scene: Scene, signs=1.0) -> ca.Function:
     (feasible = 0) alpha keeps the contact rows and leaves the torque limits to the
     controller's clipping. Code-generable and cheap enough for a controller step.
     """
-    model = Model.of(scene.graph)
+    model = problem.model
     if model.redundancy != 1:
         raise SceneError(f"actuation.preload.method: the closed-form QP needs one degree of actuation redundancy, "
                          f"the scene has {model.redundancy} (use qp_preload_function)")
@@ -195,5 +194,5 @@ def scalar_qp_preload_function(scene: Scene, signs=1.0) -> ca.Function:
     s = [float(signs)] * nj if isinstance(signs, (int, float)) else [float(v) for v in signs]
     if len(s) != nj or any(v not in (1.0, -1.0) for v in s):
         raise SceneError(f"signs: {signs!r} is not allowed (+1 or -1, or a list of {nj} of them)")
-    p = scene.actuation.preload
-    return _fixed_scalar(float(p.min_force), tuple(p.weights), tuple(scene.actuation.torque_limit), tuple(s))
+    p = problem.scene.actuation.preload
+    return _fixed_scalar(float(p.min_force), tuple(p.weights), tuple(problem.scene.actuation.torque_limit), tuple(s))

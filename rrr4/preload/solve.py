@@ -23,10 +23,9 @@ import warnings
 import numpy as np
 
 from ..checks import argument, unknown_value
-from ..dynamics.family import effort_family
 from ..errors import Rrr4Error, SceneError
-from ..mechanism.graph import Model
 from ..mechanism.workspace import near_singular, path_kinematics
+from ..problem import Problem
 from ..scene import MAX_SAMPLES, Scene
 from ..scene.vocabulary import PRELOAD_METHODS as PRELOAD_METHOD_NAMES
 from ..trajectory import sample_path
@@ -34,6 +33,7 @@ from .exact import exact_preload_function
 from .nlp import solve_trajectory_nlp
 from .qp import FEASIBILITY_TOL as QP_FEASIBILITY_TOL
 from .qp import QP_OPTIONS, qp_preload_function
+from .signs import choose_signs
 from .solution import Infeasibility, PreloadSolution
 
 __all__ = ["solve_preload", "PreloadWarning", "PreloadInfeasibleError", "FEASIBILITY_TOL"]
@@ -56,21 +56,7 @@ class PreloadInfeasibleError(Rrr4Error, RuntimeError):
     """solve_preload(..., strict=True) found samples that cannot be preloaded."""
 
 
-def _choose_signs(scene, raw, solver, exact=False):
-    """Uniform fixed sign (+1 or -1) feasible at more samples; ties -> less effort.
-    With exact=True the sign is the branch of the exact method (alpha >= 0 or <= 0)."""
-    best = None
-    for s in (1.0, -1.0):
-        f = exact_preload_function(scene, branch=int(s)) if exact else qp_preload_function(scene, solver, s)
-        alpha, tau, feas, _ = (np.array(v) for v in f.map(raw[0].shape[1])(*raw))
-        effort = np.nansum(tau**2)
-        key = (-np.nansum(feas), effort)
-        if best is None or key < best[0]:
-            best = (key, s, alpha, feas)
-    return best[1], best[2], best[3]
-
-
-def solve_preload(scene: Scene, method: str | None = None, *, qp_solver: str | None = None, signs=None,
+def solve_preload(scene: Scene | Problem, method: str | None = None, *, qp_solver: str | None = None, signs=None,
                   branch: int | str = 0, sample_rate: float | None = None, nlp_rate: float | None = None,
                   strict: bool = False) -> PreloadSolution:
     """Preload torques along the scene's path.
@@ -84,7 +70,10 @@ def solve_preload(scene: Scene, method: str | None = None, *, qp_solver: str | N
     nlp_rate [Hz]: grid of the horizon NLP (default: every sample); alpha is interpolated
     linearly between its points and every sample is checked.
     strict: raise PreloadInfeasibleError instead of warning when a sample is infeasible.
+    scene: a Scene or its built :class:`~rrr4.problem.Problem`.
     """
+    problem = Problem.from_scene(scene)
+    scene = problem.scene
     pre = scene.actuation.preload
     method = pre.method if method is None else method
     if method not in PRELOAD_METHODS:
@@ -99,7 +88,7 @@ def solve_preload(scene: Scene, method: str | None = None, *, qp_solver: str | N
                              f"{scene.path.duration:g} s)")
     if nlp_rate is not None:
         nlp_rate = argument("nlp_rate", nlp_rate)
-    model = Model.of(scene.graph)
+    model = problem.model
     m = model.redundancy
     if m < 1:
         raise SceneError(f"mechanism: redundancy {m} is not allowed for a preload (needs more actuators than "
@@ -111,7 +100,7 @@ def solve_preload(scene: Scene, method: str | None = None, *, qp_solver: str | N
     N = len(samples.t)
     f_min, limits = pre.min_force, np.asarray(scene.actuation.torque_limit, float)
     t_start = time.perf_counter()
-    fam = effort_family(scene, samples.pose, samples.pose_d, samples.pose_dd)
+    fam = problem.effort_family(samples.pose, samples.pose_d, samples.pose_dd)
     raw, tau_p, tau_n, r_p, r_n = fam.raw, fam.tau_p, fam.tau_n, fam.r_p, fam.r_n
     stats: dict = {"method": method, "points": N}
     method_ok = np.ones(N, bool)
@@ -119,22 +108,22 @@ def solve_preload(scene: Scene, method: str | None = None, *, qp_solver: str | N
 
     if method == "exact":
         if branch == "auto":
-            branch, alpha, feas = _choose_signs(scene, raw, solver, exact=True)
+            branch, alpha, feas = choose_signs(problem, raw, solver, exact=True)
             branch = int(branch)
         else:
-            alpha, _, feas, _ = (np.array(v) for v in exact_preload_function(scene, branch=branch).map(N)(*raw))
+            alpha, _, feas, _ = (np.array(v) for v in exact_preload_function(problem, branch=branch).map(N)(*raw))
         alpha, method_ok = alpha.T, feas.ravel() > 0.5
         stats.update(solver="closed form", branch=branch)
     elif method == "qp":
         if signs is None:
-            used_signs, alpha, feas = _choose_signs(scene, raw, solver)
+            used_signs, alpha, feas = choose_signs(problem, raw, solver)
         else:
             used_signs = signs
-            alpha, _, feas, _ = (np.array(v) for v in qp_preload_function(scene, solver, signs).map(N)(*raw))
+            alpha, _, feas, _ = (np.array(v) for v in qp_preload_function(problem, solver, signs).map(N)(*raw))
         alpha, method_ok = alpha.T, feas.ravel() > 0.5
         stats.update(solver=solver, signs=used_signs)
     else:
-        used_signs, alpha0, _ = _choose_signs(scene, raw, solver)
+        used_signs, alpha0, _ = choose_signs(problem, raw, solver)
         grid = np.arange(N)
         if nlp_rate is not None:
             step = max(1, int(round((N - 1) / max(scene.path.duration * nlp_rate, 1))))
@@ -158,7 +147,7 @@ def solve_preload(scene: Scene, method: str | None = None, *, qp_solver: str | N
     reactions = r_p + np.einsum("kjcm,km->kjc", r_n, alpha)
     norms = np.linalg.norm(reactions, axis=2)
     margin = norms.min(axis=1) - f_min
-    singular = near_singular(scene, path_kinematics(scene, samples))
+    singular = near_singular(scene.path, path_kinematics(problem.mechanism, samples))
     finite = np.all(np.isfinite(tau), axis=1) & np.all(np.isfinite(norms), axis=1)
     # non-finite samples (unreachable or singular pose) are flagged below and zeroed
     tau[~finite], reactions[~finite] = 0.0, 0.0

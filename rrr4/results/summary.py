@@ -10,9 +10,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..control import has_preload
+from ..functions import graph_size
 from ..mechanism import Model
 from ..mechanism.workspace import path_kinematics
+from ..problem import Problem
 from ..scene import Scene
 from ..study import PRELOAD_ARMS, Study
 from ..trajectory import sample_path
@@ -137,8 +138,10 @@ def _ideal_at(sim, ideal):
     return replace(ideal, t=sim.t, qdd=qdd)
 
 
-def scene_summary(scene: Scene) -> str:
-    model = Model.of(scene.graph)
+def scene_summary(scene: Scene | Problem) -> str:
+    """What `rrr4 check` prints: the bodies, joints, effects, equations and path of a scene."""
+    problem = Problem.from_scene(scene)
+    scene, model = problem.scene, problem.model
     m = scene.mechanism
     lines = [f"scene {scene.name}: {scene.description}".rstrip(": "), ""]
     lines.append(f"bodies ({len(model.body_names)}, {model.nq} coordinates):")
@@ -191,7 +194,7 @@ def scene_summary(scene: Scene) -> str:
     lines.append(f"  gravity: {'none' if g == (0.0, 0.0) else f'({g[0]:g}, {g[1]:g}) m/s^2'}")
     a = scene.actuation
     if a.mode == "torque":
-        pre = (f"{a.preload.method} preload (f_min = {a.preload.min_force:g} N)" if has_preload(scene)
+        pre = (f"{a.preload.method} preload (f_min = {a.preload.min_force:g} N)" if problem.has_preload
                else "no preload")
         comp = ", clearance compensation" if a.compensation == "clearance" else ""
         rate = f"sampled at {a.control_rate:g} Hz" if a.control_rate else "continuous"
@@ -202,10 +205,10 @@ def scene_summary(scene: Scene) -> str:
     else:
         lines.append("  actuation: prescribed actuator angles (driving constraints)")
     lines.append("")
-    lines += _graph_lines(scene)
+    lines += _graph_lines(problem)
     lines.append("")
     s = sample_path(scene.path)
-    pk = path_kinematics(scene)
+    pk = path_kinematics(problem.mechanism, s)
     if scene.graph.task is None:
         lines.append(f"path: none; the drivers set the motion for {scene.path.duration:g} s")
         integ = scene.integrator
@@ -230,17 +233,16 @@ def scene_summary(scene: Scene) -> str:
     return "\n".join(lines)
 
 
-def _graph_lines(scene: Scene) -> list[str]:
+def _graph_lines(problem: Problem) -> list[str]:
     """Terms in the generated equations and the size of each CasADi graph."""
-    from ..dynamics.builder import build_equations, graph_size
-    eqs = build_equations(scene)
+    eqs = problem.equations()
     lines = [f"equations: {eqs.nq} coordinates, {eqs.n_constraints} constraint rows; terms: "
              + "; ".join(eqs.terms)]
     for f in (eqs.acceleration, eqs.residual, eqs.contact_update, eqs.energy, eqs.tree_acceleration):
         if f is not None:
             g = graph_size(f)
             lines.append(f"  graph {f.name()}: {g['instructions']} SX instructions, {g['nodes']} nodes")
-    c = scene.integrator.coordinates
+    c = problem.scene.integrator.coordinates
     if eqs.tree_acceleration is not None and c != "reference-point":
         lines.append(f"  stepped in {eqs.tree_acceleration.size1_in(0)} tree coordinates (integrator.coordinates: {c})")
     else:

@@ -1,0 +1,140 @@
+"""Clearance compensation: the controller's references closed around the predicted journal
+seats (DESIGN section 7).
+
+Under preload each clearance journal rests on the side of its bearing that the planned
+reaction pushes it to (:func:`rrr4.contact.seat_gap`, with the friction law's coefficient
+at the planned slip velocity). An n-RRR chain closes around its two gaps exactly like an
+ideal chain whose platform point is moved by -(g_B + g_C)
+(:func:`rrr4.mechanism.kinematics.chain_ik`), so its compensated IK is closed form; any
+other graph closes its loops around the gaps by Newton (:func:`compensated_ik`). The seated
+journals' friction moments are overcome by a minimum-norm feed-forward, by virtual power.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import casadi as ca
+import numpy as np
+
+from ..contact import friction_force, seat_gap
+from ..dynamics.builder import JOINT_PARAMETERS
+from ..dynamics.inverse import joint_reactions_function
+from ..mechanism import kinematics as kin
+from ..problem import Problem
+from ..scene import FrictionEffect
+
+__all__ = ["seat_gaps", "seats", "contact_numbers", "nrrr_slip", "friction_feed_forward", "slip_rows",
+           "compensated_ik"]
+
+
+def contact_numbers(problem: Problem, contact) -> tuple[dict, FrictionEffect]:
+    """({clearance joint: (K [N/m^n], journal radius, bearing radius [m])}, the friction law
+    with its coefficients) read from `contact`, a vector like ``Problem.contact_parameters``
+    (numbers or symbols)."""
+    k, clear = len(JOINT_PARAMETERS), problem.clearance_joints
+    per = {name: tuple(contact[k * j + i] for i in range(k)) for j, name in enumerate(clear)}
+    mu, mu_s, v0, v1, v_s = (contact[k * len(clear) + 2 + i] for i in range(5))
+    fe = replace(problem.scene.effects.friction, coefficient=mu, static_coefficient=mu_s, v0=v0, v1=v1,
+                 stribeck_velocity=v_s)
+    return per, fe
+
+
+def seats(problem: Problem, r, slip, contact):
+    """(gaps (2, nj) [m], friction forces f_t (nj,) [N]) of the passive revolute joints
+    (``Model.preload_joints`` order) under their planned reactions r (2, nj) [N] and slip
+    velocities slip (nj,) [m/s] (None: frictionless), symbolic, with the contact numbers
+    from `contact` (see :func:`contact_numbers`); 0 at ideal joints."""
+    names = problem.model.preload_joints
+    per, fe = contact_numbers(problem, contact) if problem.clearance_joints else ({}, problem.scene.effects.friction)
+    n_exp = problem.scene.effects.contact.exponent
+    cols, f_t = [], []
+    for j, name in enumerate(names):
+        if name not in per:
+            cols.append(ca.DM.zeros(2))
+            f_t.append(0.0)
+            continue
+        stiffness, r_journal, r_bearing = per[name]
+        mu = 0.0 if slip is None or fe.law == "none" else friction_force(fe, slip[j], 1.0)
+        gap, f_n = seat_gap(r[:, j], r_bearing - r_journal, stiffness, n_exp, mu)
+        cols.append(gap)
+        f_t.append(mu * f_n)
+    return ca.horzcat(*cols), ca.vertcat(*f_t)
+
+
+def seat_gaps(problem: Problem, r, slip=None):
+    """Predicted gaps (2, nj) [m] (second joint point - first) of the passive revolute joints
+    under their planned reactions r (2, nj) [N] (force of the first body on the second) and
+    slip velocities slip (nj,) [m/s] (R_J omega_J - R_B omega_B; None: mu = 0), with the
+    problem's contact numbers. SX or numeric."""
+    gaps, _ = seats(problem, r, slip, problem.contact_parameters)
+    return np.array(ca.evalf(gaps)) if not isinstance(r, (ca.SX, ca.MX)) else gaps
+
+
+def nrrr_slip(problem: Problem, pose, pose_d, contact=None):
+    """Slip velocities (2n,) [m/s] R_J omega_J - R_B omega_B of the passive joints B1..Bn,
+    C1..Cn of an n-RRR at the desired motion (journals on the outboard bodies); the radii of
+    the clearance joints from `contact` (default: the problem's, see :func:`contact_numbers`)."""
+    mech = problem.mechanism
+    per = {} if not problem.clearance_joints else contact_numbers(
+        problem, problem.contact_parameters if contact is None else contact)[0]
+
+    def radii(name):
+        j = problem.joint(name)
+        return per[name][1:] if name in per else (j.journal_radius, j.bearing_radius)
+
+    cs = (ca.cos(pose[2]), ca.sin(pose[2]))
+    b, c = [], []
+    for i, ch in enumerate(mech.data.chains):
+        u1, e, _, cd_rel, _, _ = kin.chain_motion(ch, pose[0:2], pose_d[2], 0, cs)
+        w1, w2 = kin.link_rates(ch, u1, e, pose_d[0:2] + cd_rel, kin.transmission(ch, u1, e)[2])
+        (rb_j, rb_b), (rc_j, rc_b) = radii(f"B{i + 1}"), radii(f"C{i + 1}")
+        b.append(rb_j * w2 - rb_b * w1)
+        c.append(rc_j * pose_d[2] - rc_b * w2)
+    return ca.vertcat(*b, *c)
+
+
+def friction_feed_forward(problem: Problem, pose, pose_d, slip, f_t):
+    """Actuator torques (n,) [N m] that overcome the friction moments of the seated clearance
+    journals (minimum norm): by virtual power, J^T dtau = -G^T f_t with f_t (nj,) [N] the
+    friction forces at the planned normal forces and G = d slip / d pose_d (slip is linear
+    in the platform twist)."""
+    G = ca.jacobian(slip, pose_d)
+    J = joint_reactions_function(problem.mechanism, problem.gravity)(pose, pose_d, pose_d)[5]  # J: the pose only
+    return J @ ca.solve(J.T @ J, -G.T @ f_t)
+
+
+def slip_rows(problem: Problem) -> np.ndarray:
+    """W (nj, nq): slip velocities R_J omega_J - R_B omega_B = W qd of the passive revolute
+    joints (``Model.preload_joints``; zero rows for ideal joints)."""
+    model = problem.model
+    W = np.zeros((len(model.preload_joints), model.nq))
+    for j, name in enumerate(model.preload_joints):
+        spec = problem.joint(name)
+        if not spec.clearance:
+            continue
+        for body, radius in ((spec.journal_body, spec.journal_radius), (spec.bearing_body, -spec.bearing_radius)):
+            i = model.rotation_index(body)
+            if i is not None:
+                W[j, i] += radius
+    return W
+
+
+def compensated_ik(problem: Problem, task: np.ndarray, r: np.ndarray, slip: np.ndarray,
+                   guess: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Actuator coordinates (N, n) that put the task at `task` (N, k) with every clearance
+    joint opened by its predicted seat under the reactions r (N, nj, 2) and slip velocities
+    (N, nj), by Newton from `guess` (N, nq); and the seated journals' friction forces f_t
+    (N, nj) [N]."""
+    mech, model = problem.mechanism, problem.model
+    names = model.preload_joints
+    clear = [names.index(j) for j in model.clearance_joints]
+    out, f_t = np.empty((len(task), mech.n)), np.zeros((len(task), len(names)))
+    contact = problem.contact_parameters
+    for i in range(len(task)):
+        gaps, ft = seats(problem, ca.DM(r[i].T), ca.DM(slip[i]), contact)
+        offsets = np.array(ca.evalf(gaps)).T[clear]
+        f_t[i] = np.array(ca.evalf(ft)).ravel()
+        qi = mech.assemble(task[i], offsets, guess=guess[i])
+        out[i] = np.array(model.actuator_coordinates_function(qi)[0]).ravel()
+    return out, f_t

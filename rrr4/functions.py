@@ -1,0 +1,85 @@
+"""Helpers for CasADi Functions that every layer uses: evaluation on numpy arrays through the
+buffer interface, mapped evaluation a block at a time, fixing a Function's last input
+(``parameters`` or ``settings``) to numbers, and the size of a Function's graph."""
+
+from __future__ import annotations
+
+import functools
+
+import casadi as ca
+import numpy as np
+
+from .errors import SimulationError
+
+__all__ = ["evaluate", "mapped", "mapped_function", "nonzeros", "fix_last_input", "graph_size"]
+
+
+def evaluate(f: ca.Function, args, results) -> None:
+    """f on numpy arrays through CasADi's buffer interface: args and results (C-contiguous float
+    arrays, each holding its input's or output's nonzeros in CasADi's column-major order; None:
+    an input left at zero) are read and written in place. Converting to and from DM instead
+    costs about 30 ns per number: with 11 frame inputs per control period, about a tenth of the
+    reference scene's compiled stepping."""
+    buf, run = f.buffer()
+    for i, a in enumerate(args):
+        if a is not None:
+            buf.set_arg(i, memoryview(a.reshape(-1)))
+    for i, r in enumerate(results):
+        buf.set_res(i, memoryview(r.reshape(-1)))
+    run()
+    if buf.ret():
+        raise SimulationError(f"evaluating {f.name()} failed")
+
+
+def fix_last_input(f: ca.Function, values) -> ca.Function:
+    """f with its last input (such as "parameters" or "settings") fixed to `values`:
+    the same SX graph, the numbers folded in as constants."""
+    ins = [ca.SX.sym(f.name_in(i), f.sparsity_in(i)) for i in range(f.n_in() - 1)]
+    out = f.call([*ins, ca.DM(values)])
+    return ca.Function(f.name(), ins, out, f.name_in()[:-1], f.name_out())
+
+
+def graph_size(f: ca.Function) -> dict:
+    """Size of a Function's graph: SX instructions, nodes and free-variable count."""
+    return {"instructions": f.n_instructions(), "nodes": f.n_nodes(), "inputs": f.nnz_in()}
+
+
+@functools.lru_cache(maxsize=128)
+def mapped_function(f: ca.Function, m: int) -> ca.Function:
+    """f.map(m), built once (building one costs about 0.5 ms, as much as evaluating it on a
+    few hundred columns)."""
+    return f.map(m)
+
+
+def nonzeros(sp: ca.Sparsity) -> np.ndarray:
+    """Where the nonzeros of the pattern `sp` lie in its dense column-major entries."""
+    rows, cols = sp.get_triplet()
+    return np.asarray(cols, int) * sp.size1() + np.asarray(rows, int)
+
+
+def mapped(f: ca.Function, block: int = 4096, **inputs) -> dict:
+    """f's outputs at each column of `inputs` (numpy arrays, one column per output instant),
+    evaluated `block` columns at a time: the memory a long run's outputs take while they are
+    converted out of CasADi stays bounded by the block, not by the run. Inputs and outputs go
+    through CasADi's buffer interface, straight between numpy arrays and the evaluation
+    (converting a DM to numpy costs about ten times the evaluation). An input not given is
+    zero."""
+    n = next(iter(inputs.values())).shape[1]
+    ins = {f.index_in(k): (v, nonzeros(f.sparsity_in(f.index_in(k)))) for k, v in inputs.items()}
+    outs = [(f.sparsity_out(i), nonzeros(f.sparsity_out(i))) for i in range(f.n_out())]
+    # output i at instant j, column-major (rows, cols): the rows of a C-ordered (cols * n, rows) array
+    out = [np.zeros((sp.size2() * n, sp.size1())) for sp, _ in outs]
+    for a in range(0, n, block):
+        m = min(block, n - a)
+        args = [None] * f.n_in()
+        for i, (v, nz) in ins.items():
+            if nz.size:
+                w = v.shape[1] // n  # columns per instant
+                dense = np.asfortranarray(v[:, a * w:(a + m) * w], float).reshape(-1, order="F").reshape(m, -1)
+                args[i] = np.ascontiguousarray(dense[:, nz])
+        res = [np.empty((m, nz.size)) for _, nz in outs]
+        evaluate(mapped_function(f, m), args, res)
+        for o, v, (sp, nz) in zip(out, res, outs, strict=True):
+            block_out = o[sp.size2() * a:sp.size2() * (a + m)].reshape(m, -1)  # a view: (m, rows * cols)
+            block_out[:, nz] = v
+    return {f.name_out(i): o.T for i, o in enumerate(out)}

@@ -1,0 +1,265 @@
+"""`Problem`: a scene built once, what every algorithm takes.
+
+Data flows one way: scene -> problem -> solution -> results. A :class:`Problem` is made
+from a validated :class:`~rrr4.scene.Scene` (:meth:`Problem.from_scene`, or
+:func:`rrr4.build`) and holds
+
+- the immutable graph :class:`~rrr4.mechanism.Model` and the kinematic
+  :class:`~rrr4.mechanism.Mechanism` (closed form for an n-RRR, Newton for any graph);
+- the structure/parameter split: the numbers that enter compiled Functions as inputs
+  (:attr:`contact_parameters`, :meth:`equation_parameters`) and the structure keys that
+  name what is built once for every problem of the same structure (:attr:`plant_key`,
+  :attr:`controller_key`, :attr:`path_key`);
+- the equations of motion (:meth:`equations`) and the effort family along a motion
+  (:meth:`effort_family`);
+- the caches of what is built and compiled for it (:meth:`memo`): per problem, or shared
+  by every problem of one structure through :meth:`structure` (the Problem of a structure
+  key, itself built once).
+
+It is the only place that dispatches n-RRR against graph, and the only reader of the
+scene below the front doors (``solve_preload``, ``simulate``, ``codegen``, ``sweep``,
+the studies), which accept a Scene or a Problem.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import replace
+
+import numpy as np
+
+from .checks import argument, unknown_value
+from .contact import V_MIN, joint_stiffness
+from .dynamics.builder import BAUMGARTE_OMEGA, EFFECT_PARAMETERS, INPUTS, Equations, build_equations
+from .dynamics.family import EffortFamily, graph_family
+from .dynamics.inverse import inverse_dynamics_function
+from .mechanism import Mechanism, Model, geometry_parameters
+from .scene import JointSpec, Scene
+
+__all__ = ["Problem", "build"]
+
+
+class Problem:
+    """A scene built once (see the module docstring). Never changes after construction;
+    what it builds lazily is cached on it."""
+
+    def __init__(self, scene: Scene):
+        self.scene = scene
+        self.model: Model = Model.of(scene.graph)
+        self._memo: dict = {}
+
+    @staticmethod
+    def from_scene(scene: Scene | Problem) -> Problem:
+        """The Problem of `scene` (built once per scene; a Problem is returned as is)."""
+        return scene if isinstance(scene, Problem) else _problem(scene)
+
+    def __repr__(self) -> str:
+        return f"Problem({self.scene.name!r})"
+
+    # ------------------------------------------------------------------ what the scene says
+
+    @property
+    def name(self) -> str:
+        return self.scene.name
+
+    @property
+    def path(self):
+        return self.scene.path
+
+    @property
+    def closed_form(self) -> bool:
+        """True for an n-RRR scene (closed-form IK, inverse dynamics and controller step)."""
+        return self.scene.mechanism is not None
+
+    @functools.cached_property
+    def mechanism(self) -> Mechanism:
+        return Mechanism.from_scene(self.scene)
+
+    @property
+    def gravity(self) -> tuple[float, float]:
+        return tuple(float(v) for v in self.scene.effects.gravity)
+
+    @property
+    def mode(self) -> str:
+        return self.scene.actuation.mode
+
+    @property
+    def clearance_joints(self) -> tuple[str, ...]:
+        return self.model.clearance_joints
+
+    @property
+    def redundancy(self) -> int:
+        return self.model.redundancy
+
+    @property
+    def has_preload(self) -> bool:
+        """True if the scene's controller preloads: redundancy, min_force > 0 and a method other than none."""
+        p = self.scene.actuation.preload
+        return self.model.redundancy >= 1 and p.min_force > 0 and p.method != "none"
+
+    @property
+    def compensates(self) -> bool:
+        """True if the controller closes its references around the predicted journal seats."""
+        return self.scene.actuation.compensation == "clearance" and bool(self.clearance_joints)
+
+    def joint(self, name: str) -> JointSpec:
+        return self.scene.graph.joint(name)
+
+    # ------------------------------------------------------------------ parameters
+
+    def joint_stiffness(self, name: str) -> float:
+        """K [N/m^n] of clearance joint `name`: the scene's value, else from materials and radii."""
+        return joint_stiffness(self.joint(name), self.scene.effects.contact.stiffness)
+
+    @functools.cached_property
+    def contact_parameters(self) -> np.ndarray:
+        """The contact numbers the equations take as inputs: per clearance joint (graph order)
+        stiffness [N/m^n], journal and bearing radius [m], then restitution, damping and the
+        friction law's coefficients (:data:`rrr4.dynamics.builder.EFFECT_PARAMETERS`); empty
+        without a clearance joint (no contact)."""
+        per = [(self.joint_stiffness(j), self.joint(j).journal_radius, self.joint(j).bearing_radius)
+               for j in self.clearance_joints]
+        if not per:
+            return np.zeros(0)
+        ce, fe = self.scene.effects.contact, self.scene.effects.friction
+        values = dict(restitution=ce.restitution, damping=ce.damping, friction_coefficient=fe.coefficient,
+                      static_coefficient=fe.static_coefficient, v0=fe.v0, v1=fe.v1,
+                      stribeck_velocity=fe.stribeck_velocity)
+        return np.array([*(v for row in per for v in row), *(values[k] for k in EFFECT_PARAMETERS)], float)
+
+    def equation_parameters(self, geometry: bool = False) -> np.ndarray:
+        """The values of the equations' input ``parameters``: the contact numbers, then with
+        `geometry` masses, inertias and joint points (:func:`rrr4.mechanism.geometry_parameters`)."""
+        return np.r_[self.contact_parameters, geometry_parameters(self.scene.graph) if geometry else []]
+
+    # ------------------------------------------------------------------ structure keys
+
+    @functools.cached_property
+    def controller_key(self) -> Scene:
+        """What the parametric controller step depends on: the scene without its names, path,
+        integrator and initial state, without the contact numbers and the actuators' limits,
+        and with the controller's numbers (gains, limits, f_min, weights, rate) neutral."""
+        s = self.scene
+        joints = tuple(replace(j, journal_radius=1.0, radial_clearance=1.0) if j.clearance else j
+                       for j in s.graph.joints)
+        ce, fe = s.effects.contact, s.effects.friction
+        effects = replace(s.effects, contact=replace(ce, restitution=1.0, damping=0.0, stiffness=None),
+                          friction=replace(fe, coefficient=0.0, static_coefficient=0.0, v0=1.0, v1=2.0,
+                                           stribeck_velocity=1.0))
+        actuators = tuple(replace(a, limit=1.0) for a in s.graph.actuators)
+        a, n = s.actuation, self.model.n_actuators
+        preload = replace(a.preload, min_force=float(a.preload.min_force > 0), weights=(1.0,) * n,
+                          qp_solver="qrqp", smoothness_weight=0.0, max_turn_rate=0.0)  # not in a pointwise law
+        actuation = replace(a, kp=0.0, kd=0.0, torque_limit=(1.0,) * n, control_rate=None, preload=preload)
+        return replace(s, name="", description="", source="", path=None, integrator=None, initial=None,
+                       graph=replace(s.graph, joints=joints, actuators=actuators), effects=effects,
+                       actuation=actuation)
+
+    @functools.cached_property
+    def plant_key(self) -> Scene:
+        """What the equations of motion depend on (graph, effects, actuation mode), without the
+        contact numbers: changing the path, the integrator, the initial state, the controller's
+        settings or the names does not rebuild them."""
+        s = self.controller_key
+        return replace(s, actuation=replace(s.actuation, preload=None, kp=0.0, kd=0.0, torque_limit=(),
+                                            control_rate=None, compensation="none"))
+
+    @functools.cached_property
+    def geometry_key(self) -> Scene:
+        """:attr:`plant_key` without the masses, inertias and joint points either (nor the pose
+        guesses and the task point, which the equations do not use)."""
+        s = self.plant_key
+        g = s.graph
+        bodies = tuple(replace(b, mass=1.0, inertia=1.0, pose=(0.0, 0.0, 0.0),
+                               points=tuple((name, (0.0, 0.0)) for name, _ in b.points)) for b in g.bodies)
+        joints = tuple(replace(j, points=((0.0, 0.0), (0.0, 0.0))) for j in g.joints)
+        task_point = None if g.task_point is None else (0.0, 0.0)
+        return replace(s, mechanism=None, graph=replace(g, bodies=bodies, joints=joints, task_point=task_point))
+
+    @functools.cached_property
+    def path_key(self) -> Scene:
+        """What references along the path depend on: the mechanism and the path, not the
+        actuation, effects, integrator or initial state."""
+        s = self.scene
+        return replace(s, name="", description="", source="", integrator=None, initial=None, actuation=None)
+
+    def structure(self, key: str) -> Problem:
+        """The Problem of one of the structure keys ('controller', 'plant', 'geometry',
+        'path'): shared by every problem of that structure, so what is cached on it (its
+        :meth:`memo`) is built once for all of them."""
+        return _problem(getattr(self, f"{key}_key"))
+
+    def memo(self, key, build):
+        """build() once per problem and key (what is built and compiled for this problem)."""
+        if key not in self._memo:
+            self._memo[key] = build()
+        return self._memo[key]
+
+    def memoized(self, kind: str) -> list:
+        """What :meth:`memo` holds under keys that are tuples starting with `kind` (e.g. 'system')."""
+        return [v for k, v in self._memo.items() if isinstance(k, tuple) and k and k[0] == kind]
+
+    # ------------------------------------------------------------------ built things
+
+    def equations(self, v_min: float = V_MIN, baumgarte: float = BAUMGARTE_OMEGA,
+                  inputs: str = "contact") -> Equations:
+        """The equations of motion with exactly the effects the scene asks for
+        (:func:`rrr4.dynamics.builder.build_equations`), built once per structure and options."""
+        v_min, baumgarte = argument("v_min", v_min), argument("baumgarte", baumgarte, allow_zero=True)
+        if inputs not in INPUTS:
+            raise unknown_value("inputs", "value", inputs, INPUTS)
+        geometry = inputs == "geometry"
+        key = self.structure("geometry" if geometry else "plant")
+        return self.memo(("equations", v_min, baumgarte, inputs), lambda: build_equations(
+            key.model, key.scene.effects, key.mode, self.equation_parameters(geometry), v_min=v_min,
+            baumgarte=baumgarte, inputs=inputs))
+
+    def inverse_dynamics(self):
+        """The n-RRR's closed-form 'inverse_dynamics' Function (pose, pose_d, pose_dd ->
+        tau_p, tau_n, r_p, r_n) with the scene's gravity."""
+        return inverse_dynamics_function(self.mechanism, self.gravity)
+
+    def effort_family(self, pose, pose_d, pose_dd, q=None) -> EffortFamily:
+        """The affine family of efforts and passive-joint reactions of the ideal mechanism at
+        task poses (N, 3) and their rates: the closed form of an n-RRR, else the graph's SVD
+        (q: the graph's coordinates at the poses, if known)."""
+        pose, pose_d, pose_dd = (np.atleast_2d(np.asarray(v, float)) for v in (pose, pose_d, pose_dd))
+        if self.closed_form:
+            N = pose.shape[0]
+            return EffortFamily.from_raw(self.inverse_dynamics().map(N)(pose.T, pose_d.T, pose_dd.T))
+        mech = self.mechanism
+        k = mech.n_task
+        q = mech.path_coordinates(pose[:, :k]) if q is None else np.asarray(q, float)
+        _, qdd, _, _ = mech.motion(q, pose_d[:, :k], pose_dd[:, :k])
+        return graph_family(mech, q, qdd, self.gravity)
+
+    def body_motion(self, target, target_d, target_dd):
+        """q, qd, qdd (nq,) of every body with the task (or the drivers) at `target` and its
+        rates: the closed form of an n-RRR, else Newton and the velocity analysis."""
+        mech = self.mechanism
+        if self.closed_form:
+            return mech.body_motion(target, target_d, target_dd)
+        q0 = mech.assemble(target)
+        qd0, qdd0, _, _ = (v.ravel() for v in mech.motion(q0, target_d, target_dd))
+        return q0, qd0, qdd0
+
+    def seated_coordinates(self, target, offsets, guess) -> np.ndarray:
+        """q (nq,) with the task at `target` and each clearance joint opened by its offset
+        (nc, 2) [m] (second point minus first): the closed form of an n-RRR, else Newton from `guess`."""
+        mech = self.mechanism
+        if self.closed_form:  # eccentricities of all passive joints, B1..Bn, C1..Cn
+            names = self.model.preload_joints
+            ecc = np.zeros((len(names), 2))
+            ecc[[names.index(c) for c in self.clearance_joints]] = offsets
+            return mech.seated_coordinates(target, ecc)
+        return mech.assemble(target, offsets, guess=guess)
+
+
+@functools.lru_cache(maxsize=64)
+def _problem(scene: Scene) -> Problem:
+    return Problem(scene)
+
+
+def build(scene: Scene | Problem) -> Problem:
+    """The :class:`Problem` of a scene (built once per scene)."""
+    return Problem.from_scene(scene)

@@ -1,0 +1,9 @@
+"""Contact-dynamics simulation: the plant and the controller coupled into one ODE system
+(:mod:`.system`), its initial state (:mod:`.initial`), the run (:func:`simulate`,
+:mod:`.run`) and its result (:class:`Simulation`, :mod:`.result`)."""
+
+from .result import Simulation
+from .run import OVERRIDES, default_jit, frame_times, simulate
+from .system import REFERENCES, problem_system
+
+__all__ = ["Simulation", "simulate", "problem_system", "OVERRIDES", "REFERENCES", "default_jit", "frame_times"]

@@ -1,0 +1,63 @@
+"""The initial state of a simulation: the mechanism at the path's start (or the drivers'
+initial values), with the path's start velocity plus ``initial.platform_velocity``; every
+clearance journal centred, or with ``initial.journals: seated`` resting on its bearing
+wall under the ideal reaction at t = 0 of the controller's efforts there
+(:func:`rrr4.contact.seat_gap`, frictionless)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..contact import seat_gap
+from ..dynamics.builder import Equations
+from ..dynamics.family import graph_family
+from ..problem import Problem
+from ..trajectory import trajectory_function
+
+__all__ = ["initial_state", "seated_offsets"]
+
+
+def seated_offsets(problem: Problem, eqs: Equations, q0, qdd0, tau0) -> np.ndarray:
+    """Offsets (nc, 2) [m] (second joint point - first) of the clearance joints with each
+    journal seated (:func:`rrr4.contact.seat_gap`, no friction) under the ideal reaction r_j
+    at the state (q0, qdd0) of the efforts tau0 (n,); joints carrying less than
+    ``SEAT_FORCE`` stay centred."""
+    fam = graph_family(problem.mechanism, np.atleast_2d(q0), np.atleast_2d(qdd0), problem.gravity)
+    tau_n = fam.tau_n[0]
+    alpha = np.linalg.pinv(tau_n) @ (tau0 - fam.tau_p[0]) if tau_n.size else np.zeros(0)
+    r = fam.r_p[0] + (fam.r_n[0] @ alpha if alpha.size else 0.0)
+    names = problem.model.preload_joints
+    exponent = problem.scene.effects.contact.exponent
+    out = np.zeros((len(eqs.clearance_joints), 2))
+    for k, (j, K) in enumerate(zip(eqs.clearance_joints, eqs.stiffness, strict=True)):
+        gap, _ = seat_gap(r[names.index(j)], problem.joint(j).radial_clearance, K, exponent)
+        out[k] = np.array(gap).ravel()
+    return out
+
+
+def initial_state(problem: Problem, eqs: Equations, efforts, tree: bool, settings) -> np.ndarray:
+    """x0 = [t = 0, y0, W_in, D_damping, D_friction = 0, delta_dot0 = v_min, in_contact,
+    losses = 0 (nc each), the equations' parameters, the controller's settings]; y0 = [q,
+    qd], or the tree coordinates with `tree`. efforts(t, q, qd): the controller's efforts at
+    states (torque mode), for the seated journals' loads."""
+    scene, mech, model = problem.scene, problem.mechanism, problem.model
+    nc = len(eqs.clearance_joints)
+    if model.task is not None:
+        pose0, pose_d0, pose_dd0 = (np.array(v).ravel() for v in trajectory_function(scene.path)(0.0))
+        k = mech.n_task
+        target, target_d, target_dd = (pose0[:k], (pose_d0 + np.asarray(scene.initial.platform_velocity))[:k],
+                                       pose_dd0[:k])
+    else:
+        target = mech.driver_targets(0.0)[0]
+        target_d = np.array([d.speed for d in scene.graph.drivers])
+        target_dd = np.zeros(len(target))
+    q0, qd0, qdd0 = problem.body_motion(target, target_d, target_dd)
+    seated = np.zeros(nc)
+    if scene.initial.journals == "seated" and nc and (eqs.mode != "free" or scene.graph.drivers):
+        tau0 = efforts(np.array([0.0]), q0[None, :], qd0[None, :])[0] if eqs.mode == "torque" else \
+            np.zeros(eqs.n_actuators)
+        offsets = seated_offsets(problem, eqs, q0, qdd0, tau0)
+        q0 = problem.seated_coordinates(target, offsets, guess=q0)
+        seated = np.any(offsets != 0, axis=1).astype(float)
+    y0 = np.r_[q0, qd0] if not tree else np.hstack([np.array(v).ravel() for v in eqs.tree_coordinates(q0, qd0)])
+    return np.r_[0.0, y0, 0.0, 0.0, 0.0, np.full(nc, eqs.v_min), seated, np.zeros(nc), eqs.parameters, settings]

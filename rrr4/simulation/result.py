@@ -1,0 +1,61 @@
+"""The result of :func:`rrr4.simulate`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..checks import unknown_value
+from ..problem import Problem
+from ..scene import Scene
+
+__all__ = ["Simulation"]
+
+
+@dataclass(frozen=True)
+class Simulation:
+    """Result of :func:`simulate`. N output instants (t = 0 included), nc clearance joints.
+
+    t (N,) [s]; q, qd, qdd (N, nq); pose, pose_ref (N, 3) [m, m, rad] of the task body (zeros
+    without one); platform_error (N,) [m] (position distance to the commanded path); tau
+    (N, n) [N m or N]; contact_force (N, nc, 2) [N] on the journal body, global frame (the
+    reaction convention when the journal sits on the joint's second body, as in every
+    n-RRR); normal_force (N, nc) [N]; eccentricity (N, nc, 2) [m]; penetration (N, nc) [m];
+    reaction (N, k, 2) [N] of the k ideal passive revolute joints (force of the first body
+    on the second); driver_effort (N, n_drivers) [N m or N]; contact_loss_events: passive
+    joint -> count of contact -> free-flight transitions (0 for ideal joints); energy: dict of (N,) arrays [J] (see
+    :mod:`rrr4.dynamics.energy`); energy_audit_residual = max |W_in - dE - D| / largest
+    energy term; stats: solver statistics (method, step, steps, graph sizes; wall_time [s]: the
+    stepping, without making its frame inputs, input_time [s]).
+    :meth:`body` gives the (N, 3) pose of any body.
+    """
+    scene: Scene
+    clearance_joints: tuple[str, ...]
+    ideal_passive_joints: tuple[str, ...]
+    terms: tuple[str, ...]
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    pose: np.ndarray
+    pose_ref: np.ndarray
+    platform_error: np.ndarray
+    tau: np.ndarray
+    contact_force: np.ndarray
+    normal_force: np.ndarray
+    eccentricity: np.ndarray
+    penetration: np.ndarray
+    reaction: np.ndarray
+    driver_effort: np.ndarray
+    contact_loss_events: dict
+    energy: dict
+    energy_audit_residual: float
+    stats: dict = field(default_factory=dict)
+
+    def body(self, name: str) -> np.ndarray:
+        """(N, 3) pose [x, y, theta] [m, m, rad] of the centre of mass of the body `name`."""
+        model = Problem.from_scene(self.scene).model
+        if name not in model.body_names:
+            raise unknown_value("body", "body", name, model.body_names)
+        return model.body_poses(self.q, name)

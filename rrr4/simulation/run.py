@@ -1,0 +1,358 @@
+"""`rrr4.simulate`: the front door of contact-dynamics simulation.
+
+The problem decides the equations (``Problem.equations``); this module feeds them with
+references, picks the integrator, rolls it inside compiled CasADi and collects the results.
+
+Torque mode: the efforts are the problem's controller's (:mod:`rrr4.control`: feed-forward,
+preload, compensation, PD), run continuously inside the right-hand side or sampled at
+``actuation.control_rate`` with a zero-order hold (then the right-hand side only takes the
+held efforts). An n-RRR runs its closed-form controller step (in CasADi, or its generated C
+in the loop); any other graph with a task body tabulates the controller's references on the
+path samples and runs the same feedback law on them, interpolated (cubic Hermite). A
+``preload`` override (anything with ``t`` (N,) [s] and ``tau`` (N, n), e.g. a
+PreloadSolution) replaces the controller's feed-forward.
+
+Prescribed mode: theta_ref(t), theta_d_ref, theta_dd_ref from the path's IK (closed form for
+an n-RRR, inside the graph; Newton and interpolation for other graphs). In the 'free' mode
+the actuators carry no effort. A graph without a task body moves by its drivers
+(prescribed joint coordinates, constraint rows in time).
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import time
+import warnings
+from dataclasses import replace
+
+import casadi as ca
+import numpy as np
+from scipy.interpolate import CubicHermiteSpline, CubicSpline
+
+from ..checks import argument, describe, unknown_value
+from ..control import CONTROLLERS, graph_references, path_rows, reference_function, tabulated
+from ..dynamics.energy import energy_audit_residual, energy_terms
+from ..errors import SceneError, SimulationError
+from ..files import c_compiler
+from ..functions import graph_size, mapped
+from ..integrators import METHODS, FixedStepIntegrator, FrameInputs
+from ..problem import Problem
+from ..scene import MAX_SAMPLES, Scene
+from .initial import initial_state
+from .result import Simulation
+from .system import REFERENCES, Loop, in_tree, loop_of, measured, system_of
+
+__all__ = ["simulate", "OVERRIDES", "default_jit", "frame_times"]
+
+OVERRIDES = ("step", "output_rate", "preload", "v_min", "baumgarte", "jit", "progress", "references", "controller",
+             "model", "inputs")
+MAX_STEPS = 1e10  # integrator steps one simulate call may take
+
+
+_NO_COMPILER_WARNED = False
+
+
+def default_jit() -> bool:
+    """Whether simulate compiles its stepping by default: when a C compiler exists (cached on
+    disk, so a scene compiles once), unless the environment sets RRR4_JIT=0. Without a
+    compiler it warns once and steps in CasADi's virtual machine, 5 to 10 times slower."""
+    global _NO_COMPILER_WARNED
+    if os.environ.get("RRR4_JIT", "1").strip() == "0":
+        return False
+    if c_compiler() is None:
+        if not _NO_COMPILER_WARNED:
+            warnings.warn("no C compiler found (set CC or install gcc): simulate steps in CasADi's virtual "
+                          "machine, several times slower", RuntimeWarning, stacklevel=3)
+            _NO_COMPILER_WARNED = True
+        return False
+    return True
+
+
+def _integrator(scene: Scene, integrator, jit: bool) -> FixedStepIntegrator:
+    """The integrator instance of a run: `integrator` itself, or the named method (default
+    the scene's) with the scene's settings."""
+    if hasattr(integrator, "run"):  # an integrator instance (fixed-step or adaptive)
+        return integrator
+    name = scene.integrator.method if integrator is None else integrator
+    if name not in METHODS:
+        raise unknown_value("integrator.method" if integrator is None else "integrator", "integrator", name, METHODS)
+    return METHODS[name].from_settings(scene.integrator, jit=jit)
+
+
+def frame_times(t_end: float, n: int, k) -> np.ndarray:
+    """``np.linspace(0, t_end, n + 1)[k]`` bit for bit, for the indices k, without the rest
+    (a long run's frame ends are made a block at a time)."""
+    k = np.asarray(k)
+    return np.where(k == n, t_end, k * (t_end / n))
+
+
+def _interpolated(t_s: np.ndarray, th, th_d, th_dd, ff):
+    """t -> {th, thd, thdd, ff, ffd} at the times t: references tabulated at the times t_s,
+    interpolated cubic Hermite in theta (with theta_d) and theta_d (with theta_dd), cubic
+    splines in theta_dd and the feed-forward (ffd: its rate); error ~ h^4, far below 1e-9 at
+    1 kHz. With two samples (a run of one frame, t_s its ends) the samples themselves."""
+    hermite = CubicHermiteSpline(t_s, th, th_d, axis=0), CubicHermiteSpline(t_s, th_d, th_dd, axis=0)
+    if len(t_s) > 2:
+        spline_dd, spline_ff = CubicSpline(t_s, th_dd, axis=0), CubicSpline(t_s, ff, axis=0)
+        return lambda t: {"th": hermite[0](t), "thd": hermite[1](t), "thdd": spline_dd(t), "ff": spline_ff(t),
+                          "ffd": spline_ff(t, 1)}
+    return lambda t: {"th": hermite[0](t), "thd": hermite[1](t), "thdd": th_dd[np.searchsorted(t_s, t)],
+                      "ff": ff[np.searchsorted(t_s, t)], "ffd": np.zeros((len(t), ff.shape[1]))}
+
+
+def _frames(ctrl: Problem, t_end: float, rate: float, held: bool) -> tuple[int, int]:
+    """(number of frames, frames per output): frames are the output intervals, or the
+    control periods of a sampled controller (then every m-th frame is an output)."""
+    if not held:
+        return max(int(round(t_end * rate)), 1), 1
+    c = ctrl.scene.actuation.control_rate
+    n = int(round(t_end * c))
+    if n < 1 or abs(n - t_end * c) > 1e-6 * max(1.0, t_end * c):
+        raise SceneError(f"actuation.control_rate: {c:g} Hz is not allowed with t_end {t_end:g} s (the run must be "
+                         "a whole number of control periods)")
+    m = max(int(round(c / rate)), 1)
+    while n % m:
+        m -= 1
+    return n, m
+
+
+def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None, **overrides) -> Simulation:
+    """Simulate `scene` from the path's start pose; journals centred, or seated under
+    their initial load when the scene says ``initial.journals: seated``.
+
+    In torque mode the actuators get what the scene's controller (:mod:`rrr4.control`)
+    commands: inverse-dynamics feed-forward, the preload of ``actuation.preload`` and the
+    clearance compensation of ``actuation.compensation``, with PD feedback on the measured
+    actuator coordinates; continuously, or sampled at ``actuation.control_rate`` with a
+    zero-order hold.
+
+    integrator: None (the scene's integrator.method), a name from
+    :data:`rrr4.integrators.METHODS`, or an integrator instance. t_end [s] defaults to the
+    path duration. overrides: step [s] (rounded so a whole number of steps fits one output
+    interval or control period), output_rate [Hz] (default: path.sample_rate; with a sampled
+    controller, at most its rate), controller: 'python' (default; the controller step in
+    CasADi) or 'generated' (the C that :func:`rrr4.codegen` writes, compiled with the C
+    compiler and called through ``casadi.external``; needs a control rate), preload (object
+    with t, tau, e.g. a PreloadSolution: the feed-forward efforts instead of the controller's
+    own), model (a Scene: the controller's model of the simulated mechanism, default the scene
+    itself; e.g. nominal parameters against a mechanism built with tolerances), v_min [m/s],
+    baumgarte [rad/s], jit (step in compiled C; default: yes when a C
+    compiler exists and RRR4_JIT is not 0, see :func:`default_jit`), progress (bar),
+    references: 'exact' (default; an n-RRR controller runs its closed form inside every
+    right-hand side, or at every control instant when sampled) or 'sampled' (its references,
+    feed-forward included, evaluated once per path sample and interpolated, cubic Hermite:
+    only the feedback law is compiled; what a graph scene with a task always does), inputs:
+    which of the scene's numbers the compiled stepping takes as inputs rather than constants
+    (see :func:`rrr4.dynamics.builder.build_equations`; the controller's gains, limits and
+    preload numbers always are): 'contact' (default) or 'geometry' (with references='sampled',
+    scenes that differ in masses and geometry then share one compiled library).
+    """
+    problem = Problem.from_scene(scene)
+    scene = problem.scene
+    bad = sorted(set(overrides) - set(OVERRIDES))
+    if bad:
+        raise unknown_value(bad[0], "override", bad[0], OVERRIDES)
+    t_end = scene.path.duration if t_end is None else argument("t_end", t_end)
+    rate = scene.path.sample_rate if overrides.get("output_rate") is None else argument("output_rate",
+                                                                                          overrides["output_rate"])
+    h_req = scene.integrator.step if overrides.get("step") is None else argument("step", overrides["step"])
+    if t_end * rate > MAX_SAMPLES or t_end / h_req > MAX_STEPS:
+        raise SceneError(f"t_end: {t_end:g} s is not allowed at output rate {rate:g} Hz and step {h_req:g} s "
+                         f"(at most {MAX_SAMPLES:g} output frames and {MAX_STEPS:g} steps)")
+    given = overrides.get("preload")
+    if given is not None and not (hasattr(given, "t") and hasattr(given, "tau")):
+        raise SceneError(f"preload: {describe(given)} is not allowed (a PreloadSolution from rrr4.solve_preload, or "
+                         "an object with t (N,) [s] and tau (N, n))")
+    controller = overrides.get("controller") or "python"
+    if controller not in CONTROLLERS:
+        raise unknown_value("controller", "value", controller, CONTROLLERS)
+    mode = overrides.get("references") or "exact"
+    if mode not in REFERENCES:
+        raise unknown_value("references", "value", mode, REFERENCES)
+    kw = {k: overrides[k] for k in ("v_min", "baumgarte", "inputs") if k in overrides}
+    eqs = problem.equations(**kw)
+    jit = overrides.get("jit")
+    method = _integrator(scene, integrator, default_jit() if jit is None else bool(jit))
+    model = problem.model
+    model_scene = overrides.get("model") or scene
+    if isinstance(model_scene, Problem):
+        model_scene = model_scene.scene
+    if not isinstance(model_scene, Scene) or (Problem.from_scene(model_scene).model.actuator_names !=
+                                              model.actuator_names):
+        raise SceneError(f"model: {describe(model_scene)} is not allowed (a Scene of the same mechanism, with the "
+                         "same actuators: the controller's model of the simulated one)")
+    # the controller's model of the mechanism, on the one commanded path
+    ctrl = Problem.from_scene(replace(model_scene, path=scene.path))
+    loop = loop_of(ctrl, eqs, controller, mode, given)
+    held = loop.kind == "held"
+
+    n_frames, every = _frames(ctrl, t_end, rate, held)
+    dt = t_end / n_frames
+    spf = max(int(round(dt / h_req)), 1)
+    h = dt / spf
+    if n_frames > MAX_SAMPLES or n_frames * spf > MAX_STEPS:
+        raise SceneError(f"actuation.control_rate: {ctrl.scene.actuation.control_rate:g} Hz is not allowed over "
+                         f"{t_end:g} s (at most {MAX_SAMPLES:g} control periods and {MAX_STEPS:g} steps)")
+    t_grid = functools.partial(frame_times, t_end, n_frames)  # frame ends, by index
+    t_out = t_grid(np.arange(0, n_frames + 1, every))
+    refs, refs_at = _references(problem, ctrl, eqs, loop, given, t_end, n_frames, t_grid)
+    u = _frame_inputs(problem, loop, refs_at, n_frames, t_grid)
+
+    def tabulated_at(t):  # the tabulated controller's (theta, theta_d, tau_ff) at the times t
+        return tuple(refs_at(t)[key] for key in ("th", "thd", "ff")) if refs_at is not None else None
+
+    def efforts(t, q, qd):  # what the controller commands at the states (q, qd) at the times t
+        return _controller_efforts(ctrl, loop, model, t, q, qd, tabulated_at(t))
+
+    tree = in_tree(problem, eqs)
+    x0 = initial_state(problem, eqs, efforts, tree, loop.settings)
+    system = system_of(problem, eqs, loop, refs, tree)
+    wall = time.perf_counter()
+    run = method.run(system, x0, u, h, spf, progress=bool(overrides.get("progress", False)), every=every)
+    wall = time.perf_counter() - wall - u.seconds  # the stepping, without making its inputs
+    X = np.vstack([x0[:system.kept], run.states])  # [t, y, the discrete state's events]
+    if tree:  # back to reference-point coordinates: [t, q, qd, the rest]
+        m = eqs.tree_acceleration.size1_in(0)  # tree coordinates
+        qs = mapped(eqs.tree_state, p=X[:, 1:1 + m].T, pd=X[:, 1 + m:1 + 2 * m].T)
+        X = np.column_stack([X[:, 0], qs["q"].T, qs["qd"].T, X[:, 1 + 2 * m:]])
+    if not np.all(np.isfinite(X)):
+        k = int(np.argmax(~np.all(np.isfinite(X), axis=1)))
+        raise SimulationError(f"integrator.step: {h:g} s lets the state blow up (non-finite by t = "
+                              f"{t_out[k]:.6g} s) with {method.name}; use a smaller step")
+    stats = {"method": method.name, "step": h, "steps": spf * n_frames, "frames": len(t_out) - 1, "wall_time": wall,
+             "input_time": u.seconds, "jit": method.jit,
+             "graph": {f.name(): graph_size(f) for f in (eqs.acceleration, system.ode)},
+             "controller": (controller if loop.control is not None else "none"),
+             "coordinates": "tree" if tree else "reference-point",
+             "control_rate": ctrl.scene.actuation.control_rate if held else None, "references": loop.kind,
+             "preload": "given" if given is not None else (ctrl.scene.actuation.preload.method if ctrl.has_preload
+                                                            and eqs.mode == "torque" else "none"),
+             "compensation": ctrl.scene.actuation.compensation if eqs.mode == "torque" else "none"}
+    stats.update(run.stats)
+    return _result(problem, eqs, X, t_out, run.stats.get("failure"), method.name, refs, refs_at, efforts, stats)
+
+
+def _references(problem: Problem, ctrl: Problem, eqs, loop: Loop, given, t_end: float, n_frames: int, t_grid):
+    """(refs, refs_at) of a run: the prescribed mode's closed-form references Function (or
+    None), and t -> the tabulated references at the times t (or None): on the path's sample
+    grid (or the frames, if coarser), interpolated to the frames."""
+    if loop.kind == "sampled" or (loop.kind == "held" and not loop.pointwise):
+        n_s = max(int(round(t_end * problem.path.sample_rate)), 2) + 1
+        t_s = t_grid(np.arange(n_frames + 1)) if n_frames + 1 <= n_s else np.linspace(0.0, t_end, n_s)
+        if eqs.mode == "torque":
+            tab = tabulated(ctrl, t_s, given)
+            th, th_d, th_dd, ff = tab.theta_ref, tab.theta_d_ref, tab.theta_dd_ref, tab.tau_ff
+        elif problem.closed_form:
+            th, th_d, th_dd = (np.array(v).T for v in reference_function(problem).map(len(t_s))(t_s[None, :])[1:])
+            ff = np.zeros_like(th)
+        else:
+            g = graph_references(problem, t_s)
+            th, th_d, th_dd, ff = g.theta_ref, g.theta_d_ref, g.theta_dd_ref, np.zeros_like(g.theta_ref)
+        return None, _interpolated(t_s, th, th_d, th_dd, ff)
+    if eqs.mode == "prescribed" and problem.closed_form:
+        return reference_function(problem), None
+    return None, None
+
+
+def _frame_inputs(problem: Problem, loop: Loop, refs_at, n_frames: int, t_grid) -> FrameInputs:
+    """The frame inputs of a run, made a block of frames at a time while the run steps them:
+    [t_a, t_b] and the references of each frame (see :class:`~rrr4.simulation.system.Loop`)."""
+    held = loop.kind == "held"
+
+    def rows(a: int, b: int) -> np.ndarray:  # the inputs of frames a..b-1
+        t = t_grid(np.arange(a, b + 1))
+        cols = [t[:-1], t[1:]]
+        if refs_at is not None:
+            at = refs_at(t)
+            cols += ([at["th"][:-1], at["thd"][:-1], at["ff"][:-1]] if held else
+                     [v for key in ("th", "thd", "thdd", "ff", "ffd") for v in (at[key][:-1], at[key][1:])])
+        elif held:  # pointwise controller: the path and its derivatives at each control instant
+            cols.append(path_rows(problem.path, t[:-1]))
+        return np.column_stack(cols)
+
+    return FrameInputs(n_frames, rows(0, 1).shape[1], rows)
+
+
+def _result(problem: Problem, eqs, X: np.ndarray, t_out: np.ndarray, failure, method: str, refs, refs_at, efforts,
+            stats: dict) -> Simulation:
+    """The Simulation of the states X (N, [t, q, qd, W_in, D_damping, D_friction, z]) at the
+    output times: every output of the equations evaluated at them."""
+    model, nq, nc, n = problem.model, eqs.nq, len(eqs.clearance_joints), eqs.n_actuators
+    q, qd = X[:, 1:1 + nq], X[:, 1 + nq:1 + 2 * nq]
+    W, Dd, Df = X[:, 1 + 2 * nq], X[:, 2 + 2 * nq], X[:, 3 + 2 * nq]
+    z = X[:, 4 + 2 * nq:]
+    if failure is not None:  # the state stayed at the last accepted step: name the joint there
+        pen = np.array(eqs.acceleration(q=q[-1], qd=qd[-1], delta_dot0=z[-1, :nc], in_contact=z[-1, nc:2 * nc],
+                                        t=t_out[-1])["penetration"]).ravel() if nc else np.zeros(0)
+        raise SimulationError(_failure_message(failure, method, eqs.clearance_joints, pen))
+    N = len(t_out)
+    pose_ref = path_rows(problem.path, t_out)[:, :3] if model.task is not None else np.zeros((N, 3))
+    effort = np.zeros((N, n))
+    th = th_d = th_dd = np.zeros((N, n))
+    if eqs.mode == "torque":
+        effort = efforts(t_out, q, qd)
+    elif eqs.mode == "prescribed" and model.task is not None:
+        if refs is not None:
+            th, th_d, th_dd = (np.array(v).T for v in refs.map(N)(t_out[None, :])[1:])
+        else:
+            at = refs_at(t_out)
+            th, th_d, th_dd = at["th"], at["thd"], at["thdd"]
+    out = mapped(eqs.acceleration, q=q.T, qd=qd.T, effort=effort.T, theta_ref=th.T, theta_d_ref=th_d.T,
+                 theta_dd_ref=th_dd.T, delta_dot0=z[:, :nc].T, in_contact=z[:, nc:2 * nc].T, t=t_out[None, :])
+    k = len(eqs.passive_ideal_joints)
+
+    def per_joint(a, rows):
+        return np.array(a).reshape(rows, N, -1).transpose(1, 2, 0) if rows == 2 else np.array(a).T
+
+    pose = (mapped(model.task_pose_function, **{model.task_pose_function.name_in(0): q.T})[
+        model.task_pose_function.name_out(0)].T if model.task else np.zeros((N, 3)))
+    losses = {j: 0 for j in model.passive_joints}
+    losses.update({j: int(round(v)) for j, v in zip(eqs.clearance_joints, z[-1, 2 * nc:3 * nc], strict=True)})
+    energy = energy_terms(eqs.energy, q, qd, W, Dd, Df)
+    return Simulation(
+        scene=problem.scene, clearance_joints=eqs.clearance_joints, ideal_passive_joints=eqs.passive_ideal_joints,
+        terms=eqs.terms, t=t_out, q=q, qd=qd, qdd=np.array(out["qdd"]).T, pose=pose, pose_ref=pose_ref,
+        platform_error=np.linalg.norm(pose[:, :2] - pose_ref[:, :2], axis=1),
+        tau=np.array(out["tau"]).T,
+        contact_force=per_joint(out["contact_force"], 2) if nc else np.zeros((N, 0, 2)),
+        normal_force=per_joint(out["normal_force"], 1) if nc else np.zeros((N, 0)),
+        eccentricity=per_joint(out["eccentricity"], 2) if nc else np.zeros((N, 0, 2)),
+        penetration=per_joint(out["penetration"], 1) if nc else np.zeros((N, 0)),
+        reaction=per_joint(out["reaction"], 2) if k else np.zeros((N, 0, 2)),
+        driver_effort=np.array(out["driver_effort"]).T.reshape(N, -1),
+        contact_loss_events=losses, energy=energy, energy_audit_residual=energy_audit_residual(energy),
+        stats=stats)
+
+
+def _failure_message(failure: dict, method: str, joints, penetration) -> str:
+    """One line for an error-controlled run that could not go on: the time, the last step and
+    the clearance joint pressed deepest there (where such failures start: stiff contact)."""
+    where = ""
+    if len(joints):
+        j = int(np.argmax(penetration))
+        where = (f" at joint {joints[j]} (penetration {penetration[j]:.3g} m)" if penetration[j] > 0 else
+                 " with no journal in contact")
+    return (f"integrator.tolerance: {method} cannot go on at t = {failure['t']:.9g} s{where}: even its smallest "
+            f"step, {failure['step']:.3g} s, did not converge or stay finite (try a smaller integrator.step or a "
+            "larger integrator.max_newton)")
+
+
+def _controller_efforts(ctrl: Problem, loop: Loop, model, t: np.ndarray, q: np.ndarray, qd: np.ndarray,
+                        refs: tuple | None) -> np.ndarray:
+    """(N, n) efforts the controller commands at the states (q, qd) (N, nq) at times t (N,):
+    what it held over the control period starting there, or what it applied there. refs:
+    a tabulated controller's (theta_ref, theta_d_ref, tau_ff) (N, n each) at t, as the loop
+    used them (None for a closed-form controller)."""
+    N = len(t)
+    qs, qds = ca.SX.sym("q", q.shape[1]), ca.SX.sym("qd", q.shape[1])
+    meas = ca.Function("measured", [qs, qds], list(measured(model, qs, qds)))
+    th, th_d = (np.array(v) for v in meas.map(N)(q.T, qd.T))
+    if loop.pointwise:
+        rows = path_rows(ctrl.path, t)
+        ins = [rows[:, 3 * k:3 * k + 3].T for k in range(3)]
+    else:
+        ins = [v.T for v in refs]
+    settings = np.broadcast_to(np.asarray(loop.settings, float)[:, None], (len(loop.settings), N))
+    out = mapped(loop.control, **dict(zip(loop.control.name_in(), [*ins, th, th_d, settings], strict=True)))
+    return out[loop.control.name_out(0)].T

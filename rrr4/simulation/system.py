@@ -1,0 +1,212 @@
+"""The plant and the controller coupled into one ODE :class:`~rrr4.integrators.System`.
+
+How the efforts enter the right-hand side (:class:`Loop`): the controller step evaluated
+inside it at the path's time ('exact'); references interpolated between frame ends, the
+feedback law inside it ('sampled'); or a sampled controller with zero-order hold that runs
+once per control period ('held'). The System is built once per structure (the equations'
+structure key, the controller, the path, the references and the coordinates) and cached on
+the Problem of that structure, so every problem of the same structure steps the same
+compiled code.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import casadi as ca
+
+from ..codegen import generated_controller
+from ..control import (
+    controller_settings,
+    feedback_settings,
+    parametric_controller,
+    parametric_feedback,
+    pointwise_controller,
+    reference_function,
+)
+from ..dynamics.builder import Equations
+from ..errors import SceneError
+from ..integrators import System
+from ..mechanism import Model
+from ..problem import Problem
+from ..scene import PathSpec
+from ..trajectory import trajectory_function
+
+__all__ = ["Loop", "loop_of", "system_of", "problem_system", "measured", "in_tree", "REFERENCES"]
+
+
+def hermite(s, h, a, b, da, db):
+    """Cubic Hermite interpolant at s in [0, 1] of an interval of length h [s]."""
+    s2, s3 = s * s, s * s * s
+    return (2 * s3 - 3 * s2 + 1) * a + (s3 - 2 * s2 + s) * h * da + (3 * s2 - 2 * s3) * b + (s3 - s2) * h * db
+
+
+REFERENCES = ("exact", "sampled")  # where the right-hand side gets its references (see simulate)
+
+
+@dataclass(frozen=True)
+class Loop:
+    """How the efforts enter the right-hand side.
+
+    kind: 'exact' (the controller step, or the prescribed-mode IK, is evaluated inside the
+    right-hand side at the path's time; frame input u = [t_a, t_b]); 'sampled' (the
+    references are interpolated between the frame ends, cubic Hermite, and the feedback law
+    runs inside the right-hand side; u = [t_a, t_b] + 10 n end values); 'held' (a sampled
+    controller with zero-order hold: it runs once per frame = control period, u_frame =
+    [t_a, t_b, references at t_a], and the right-hand side takes the held efforts).
+    control: the controller step (pointwise: pose and its derivatives -> efforts), the
+    feedback law (tabulated references), or None (free and prescribed modes); its last input
+    is `settings`, the scene's numbers of it (gains, limits, preload), which the simulation
+    carries in its discrete state so that compiled code does not depend on them.
+    """
+    kind: str
+    control: ca.Function | None
+    pointwise: bool
+    path: PathSpec | None = None  # the path a pointwise controller follows inside the right-hand side
+    sources: tuple = ()
+    settings: tuple = ()
+
+
+def measured(model: Model, q, qd, eqs: Equations | None = None, parameters=None):
+    """Actuator coordinates theta (n,) and rates theta_d = S qd of a state (symbolic); with
+    the parametric equations `eqs`, from their actuator coordinates at `parameters` (a
+    prismatic actuator's coordinate depends on its joint's points, which may be inputs)."""
+    theta, S = (model.actuator_coordinates_function(q) if eqs is None else
+                eqs.actuator_coordinates(q, parameters))
+    return theta, S @ qd
+
+
+def system_of(problem: Problem, eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bool = False) -> System:
+    """The ODE y = [q, qd, W_in, D_damping, D_friction] (with `tree`, the tree coordinates
+    p, pd instead of q, qd: see :mod:`rrr4.mechanism.tree`) with discrete z = [delta_dot0,
+    in_contact, losses] (nc each) followed by the equations' parameters (contact numbers,
+    masses and geometry, see ``Problem.equation_parameters``) and the controller's settings
+    (both constant: the discrete update keeps them), and the frame inputs of `loop` (see
+    :class:`Loop`). The numbers are state, not constants, so every problem that differs only
+    in them steps with the same compiled code.
+    refs: the prescribed mode's closed-form references (or None). Built once per (parametric
+    equations, loop, references, coordinates) and cached on the Problem of the plant's
+    structure (the entry holds them, so its key stays unique)."""
+    key = ("system", id(eqs.parametric), loop.kind, id(loop.control), loop.path if loop.kind == "exact" else None,
+           id(refs), tree)
+    entry = problem.structure("plant").memo(key, lambda: (eqs.parametric, loop, refs,
+                                                            _build_system(eqs, loop, refs, tree)))
+    return entry[3]
+
+
+def _build_system(eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bool) -> System:
+    model = eqs.model
+    par = eqs.parametric
+    n, nc = eqs.n_actuators, len(eqs.clearance_joints)
+    nq = par.tree_acceleration.size1_in(0) if tree else eqs.nq  # the coordinates stepped
+    ns = len(loop.settings)
+    t, y, z = ca.SX.sym("t"), ca.SX.sym("y", 2 * nq + 3), ca.SX.sym("z", 3 * nc + len(eqs.parameters) + ns)
+    width = {"exact": 0, "sampled": 10 * n, "held": n}[loop.kind]
+    u = ca.SX.sym("u", 2 + width)
+    dd0, inc, losses = z[:nc], z[nc:2 * nc], z[2 * nc:3 * nc]
+    parameters, settings = z[3 * nc:3 * nc + len(eqs.parameters)], z[3 * nc + len(eqs.parameters):]
+
+    def configuration(y, parameters):
+        """(q, qd) of the state y: its first entries, or from the tree coordinates."""
+        return par.tree_state(y[:nq], y[nq:2 * nq], parameters) if tree else (y[:nq], y[nq:2 * nq])
+
+    q, qd = configuration(y, parameters)
+    zeros = ca.SX.zeros(n)
+    th, th_d, th_dd, effort = zeros, zeros, zeros, zeros
+    if loop.kind == "held":
+        effort = u[2:2 + n]
+    elif loop.kind == "sampled":
+        h = ca.fmax(u[1] - u[0], 1e-300)
+        s = ca.fmin(ca.fmax((t - u[0]) / h, 0.0), 1.0)
+        th_a, th_b, thd_a, thd_b, thdd_a, thdd_b, ff_a, ff_b, ffd_a, ffd_b = (
+            u[2 + n * k:2 + n * (k + 1)] for k in range(10))
+        th = hermite(s, h, th_a, th_b, thd_a, thd_b)
+        th_d = hermite(s, h, thd_a, thd_b, thdd_a, thdd_b)
+        th_dd = (1 - s) * thdd_a + s * thdd_b
+        if eqs.mode == "torque":
+            effort = loop.control(th, th_d, hermite(s, h, ff_a, ff_b, ffd_a, ffd_b),
+                                  *measured(model, q, qd, par, parameters), settings)
+    elif eqs.mode == "torque":  # exact: the controller step at the path's time
+        effort = loop.control(*trajectory_function(loop.path)(t), *measured(model, q, qd, par, parameters),
+                              settings)[0]
+    elif refs is not None:
+        _, th, th_d, th_dd = refs(t)
+    refs_in = dict(effort=effort, theta_ref=th, theta_d_ref=th_d, theta_dd_ref=th_dd, delta_dot0=dd0, in_contact=inc,
+                   t=t, parameters=parameters)
+    if tree:
+        out = par.tree_acceleration(p=y[:nq], pd=y[nq:2 * nq], **refs_in)
+        ydot = ca.vertcat(y[nq:2 * nq], out["pdd"], out["power_in"], out["power_damping"], out["power_friction"])
+    else:
+        out = par.acceleration(q=q, qd=qd, **refs_in)
+        ydot = ca.vertcat(qd, out["qdd"], out["power_in"], out["power_damping"], out["power_friction"])
+    ode = ca.Function("ode", [t, y, z, u], [ydot], ["t", "y", "z", "u"], ["y_dot"])
+    dd0n, incn, loss = par.contact_update(q, qd, dd0, inc, parameters)
+    disc = ca.Function("discrete", [t, y, z], [ca.vertcat(dd0n, incn, losses + loss, parameters, settings)],
+                       ["t", "y", "z"], ["z_next"])
+    control = None
+    if loop.kind == "held":
+        k = loop.control.size1_in(0)  # pose derivatives (3 each) or actuator references (n each): 3 blocks
+        ym, zm, uf = ca.MX.sym("y", y.shape[0]), ca.MX.sym("z", z.shape[0]), ca.MX.sym("u_frame", 2 + 3 * k)
+        pm = zm[3 * nc:3 * nc + len(eqs.parameters)]
+        meas = measured(model, *configuration(ym, pm), par, pm)
+        args = [uf[2 + i * k:2 + (i + 1) * k] for i in range(3)]
+        eff = loop.control(*args, *meas, zm[z.shape[0] - ns:])
+        eff = eff[0] if isinstance(eff, (list, tuple)) else eff
+        control = ca.Function("control", [ym, zm, uf], [ca.vertcat(uf[:2], eff)], ["y", "z", "u_frame"], ["u"])
+    return System(ode, disc, control, loop.sources, n_events=3 * nc)
+
+
+def loop_of(problem: Problem, eqs: Equations, controller: str, references: str, given) -> Loop:
+    """How this run's efforts are made (see :class:`Loop`) by the controller of `problem` (the
+    controller's model); raises SceneError for a combination that does not exist (a
+    generated controller without a closed form or rate)."""
+    held = eqs.mode == "torque" and problem.scene.actuation.control_rate is not None
+    if eqs.mode != "torque":
+        kind = "sampled" if references == "sampled" or (not problem.closed_form and problem.model.task) else "exact"
+        return Loop(kind, None, False, problem.path)
+    why = pointwise_controller(problem) or ("a feed-forward is given (preload=)" if given is not None else "") or (
+        "references='sampled' tabulates the references" if references == "sampled" else "")
+    if controller == "generated":
+        if why:
+            raise SceneError(f"controller: 'generated' is not allowed here ({why}; the generated C is the "
+                             "closed-form controller step of an n-RRR scene)")
+        if not held:
+            raise SceneError("controller: 'generated' is not allowed without actuation.control_rate (the generated "
+                             "controller runs as a sampled controller with zero-order hold: set a rate in Hz)")
+        step, source = generated_controller(problem)
+        return Loop("held", _without_settings(step), True, None, (source,))
+    if why:
+        return Loop("held" if held else "sampled", parametric_feedback(problem), False, None,
+                    settings=tuple(feedback_settings(problem)))
+    return Loop("held" if held else "exact", parametric_controller(problem), True,
+                problem.path if not held else None, settings=tuple(controller_settings(problem)))
+
+
+@functools.lru_cache(maxsize=16)
+def _without_settings(step: ca.Function) -> ca.Function:
+    """`step` with an empty last input ``settings`` (the generated C holds the scene's numbers),
+    one per step, so that the systems built on it are found again."""
+    ins = [ca.MX.sym(step.name_in(i), step.sparsity_in(i)) for i in range(step.n_in())]
+    return ca.Function(step.name(), [*ins, ca.MX.sym("settings", 0)], step(*ins), [*step.name_in(), "settings"],
+                       step.name_out())
+
+
+def problem_system(problem: Problem, references: str = "exact", controller: str = "python") -> System:
+    """The ODE System :func:`rrr4.simulate` steps for `problem` (torque mode: its controller
+    continuous or held, see :class:`Loop`), e.g. to time its right-hand side."""
+    eqs = problem.equations()
+    loop = loop_of(problem, eqs, controller, references, None)
+    refs = reference_function(problem) if eqs.mode == "prescribed" and problem.closed_form else None
+    return system_of(problem, eqs, loop, refs if loop.kind == "exact" else None, in_tree(problem, eqs))
+
+
+def in_tree(problem: Problem, eqs: Equations) -> bool:
+    """Whether the integrator steps tree coordinates (``integrator.coordinates``: 'auto' takes
+    them wherever the ideal joints form a tree); raises SceneError for 'tree' without one."""
+    c = problem.scene.integrator.coordinates
+    if c == "tree" and eqs.tree_acceleration is None:
+        raise SceneError("integrator.coordinates: 'tree' is not allowed here (no ideal joint joins a body to the "
+                         "ground or to a placed body; use auto or reference-point)")
+    return c != "reference-point" and eqs.tree_acceleration is not None
+
