@@ -5,7 +5,7 @@
 
 from ..scene.vocabulary import INTEGRATORS
 from .adaptive import AdaptiveIntegrator
-from .base import FixedStepIntegrator, FrameInputs, Run, System
+from .base import FixedStepIntegrator, FrameInputs, Integrator, Run, System
 from .bathe import Bathe
 from .casadi_plugins import Cvodes, Erk, Idas, Rosenbrock
 from .generalized_alpha import GeneralizedAlpha
@@ -17,5 +17,5 @@ _CLASSES = {m.name: m for m in (Bathe, NewmarkTrapezoidal, GeneralizedAlpha, RK4
                                 RK45, Radau)}
 METHODS = {name: _CLASSES[name] for name in INTEGRATORS}  # the registry, by the scene's vocabulary
 
-__all__ = ["FixedStepIntegrator", "FrameInputs", "System", "Run", "RK4", "Bathe", "NewmarkTrapezoidal",
+__all__ = ["Integrator", "FixedStepIntegrator", "FrameInputs", "System", "Run", "RK4", "Bathe", "NewmarkTrapezoidal",
            "GeneralizedAlpha", "AdaptiveIntegrator", "Cvodes", "Idas", "Erk", "Rosenbrock", "RK45", "Radau", "METHODS"]

@@ -9,21 +9,19 @@ each step (between updates the force uses the onset rule, see
 
 from __future__ import annotations
 
-from abc import ABC, abstractmethod
+from abc import abstractmethod
 
 import numpy as np
 
 from ..errors import Rrr4Error
-from .base import Run, System, frame_inputs
+from .base import Integrator, Run, System, frame_inputs
 
 
-class AdaptiveIntegrator(ABC):
+class AdaptiveIntegrator(Integrator):
     """Base of the error-controlled methods: rtol, atol (relative and absolute local error).
 
     Capabilities: adaptive = True (error control, no step); compiles = False (the stepping
     is the solver's own); ladder: the rtol values `rrr4 bench accuracy` tries by default."""
-    name = ""
-    order = 0
     adaptive = True
     compiles = False
     ladder: tuple[float, ...] = (1e-3, 1e-5, 1e-7, 1e-9)

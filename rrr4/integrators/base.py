@@ -146,13 +146,36 @@ class System:
         return u_frame if self.control is None else self.control(y, z, u_frame)
 
 
-class FixedStepIntegrator(ABC):
+class Integrator(ABC):
+    """The one interface of every method: a `name`, its `order`, capabilities (adaptive:
+    error control instead of a step; compiles: jit=True steps in generated C; ladder: the
+    steps [s] or tolerances `rrr4 bench accuracy` tries by default), :meth:`from_settings`
+    (the method configured by a scene's IntegratorSettings) and :meth:`run`."""
+    name = ""
+    order = 0
+    adaptive = False
+    compiles = True
+    ladder: tuple[float, ...] = ()
+    jit = False
+
+    @classmethod
+    @abstractmethod
+    def from_settings(cls, settings, jit: bool = False) -> Integrator:
+        """The method configured by a scene's IntegratorSettings."""
+
+    @abstractmethod
+    def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int | None = None,
+            progress: bool = False, every: int = 1) -> Run:
+        """States at the end of every `every`-th frame, (n_frames / every, system.kept), and
+        the run's statistics; frame k spans [u[k, 0], u[k, 1]], h [s] is the step (or a
+        first-step hint of an adaptive method)."""
+
+
+class FixedStepIntegrator(Integrator):
     """Base of fixed-step methods. Subclasses set `name`, `order` and implement `advance`.
 
     Capabilities: adaptive = False (a step, no error control); compiles = True (jit=True
     steps in generated C); ladder: the steps [s] `rrr4 bench accuracy` tries by default."""
-    name = ""
-    order = 0
     adaptive = False
     compiles = True
     ladder: tuple[float, ...] = (1e-3, 5e-4, 2.5e-4, 2e-4, 1e-4, 5e-5, 2e-5)

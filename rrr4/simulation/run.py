@@ -36,9 +36,9 @@ from ..dynamics.energy import energy_audit_residual, energy_terms
 from ..errors import SceneError, SimulationError
 from ..files import c_compiler
 from ..functions import graph_size, mapped
-from ..integrators import METHODS, FixedStepIntegrator, FrameInputs
+from ..integrators import METHODS, FrameInputs, Integrator
 from ..problem import Problem
-from ..scene import MAX_SAMPLES, Scene
+from ..scene import MAX_SAMPLES, IntegratorSettings, Scene
 from .initial import initial_state
 from .result import Simulation
 from .system import REFERENCES, Loop, in_tree, loop_of, measured, system_of
@@ -69,15 +69,15 @@ def default_jit() -> bool:
     return True
 
 
-def _integrator(scene: Scene, integrator, jit: bool) -> FixedStepIntegrator:
+def _integrator(settings: IntegratorSettings, integrator, jit: bool) -> Integrator:
     """The integrator instance of a run: `integrator` itself, or the named method (default
-    the scene's) with the scene's settings."""
-    if hasattr(integrator, "run"):  # an integrator instance (fixed-step or adaptive)
+    the scene's) configured by the scene's integrator `settings`."""
+    if isinstance(integrator, Integrator):  # an instance (fixed-step or adaptive)
         return integrator
-    name = scene.integrator.method if integrator is None else integrator
+    name = settings.method if integrator is None else integrator
     if name not in METHODS:
         raise unknown_value("integrator.method" if integrator is None else "integrator", "integrator", name, METHODS)
-    return METHODS[name].from_settings(scene.integrator, jit=jit)
+    return METHODS[name].from_settings(settings, jit=jit)
 
 
 def frame_times(t_end: float, n: int, k) -> np.ndarray:
@@ -173,7 +173,7 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
     kw = {k: overrides[k] for k in ("v_min", "baumgarte", "inputs") if k in overrides}
     eqs = problem.equations(**kw)
     jit = overrides.get("jit")
-    method = _integrator(scene, integrator, default_jit() if jit is None else bool(jit))
+    method = _integrator(scene.integrator, integrator, default_jit() if jit is None else bool(jit))
     model = problem.model
     model_scene = overrides.get("model") or scene
     if isinstance(model_scene, Problem):
