@@ -17,6 +17,9 @@ The package, one idea per module:
   Python does; the exact preload's branch (:func:`preload_branch`);
 - :mod:`.text`: the C text around them (wrapper header and source with the parameter docs,
   the example ``main.c``, the ``Makefile``);
+- :mod:`.build`: the one on-disk cache of compiled shared libraries (lock per library, CPU
+  in the key, fast flags with a portable fallback), used here by :func:`generated_controller`
+  and by the compiled stepping (:mod:`rrr4.integrators.compiled`);
 - here: the front door :func:`codegen`, and building and loading its output
   (:func:`compile_library`, :func:`build_example`, :func:`load_library`).
 """
@@ -33,6 +36,7 @@ from ..errors import SceneError
 from ..files import BuildError, atomic_directory, run_c_compiler
 from ..problem import Problem
 from ..scene import Scene
+from . import build
 from .kernels import KERNELS, RAW, WRAPPER, Kernel, kernels, preload_branch
 from .text import EXAMPLE_ANGLE_OFFSET, texts
 
@@ -102,35 +106,19 @@ def build_example(src_dir, exe_path, flags=("-O2", "-Wall", "-Werror")) -> Path:
     return exe
 
 
-_GENERATED: dict[str, tuple[ca.Function, Path]] = {}
-
-
 def generated_controller(problem: Problem) -> tuple[ca.Function, Path]:
     """The scene's controller step as :func:`codegen` writes it, compiled with the C compiler
     and loaded with ``casadi.external`` ('rrr4_raw_controller_step', same inputs and outputs
     as :func:`rrr4.control.controller_function`), and the path of its C source. Cached on disk
-    (``rrr4.integrators.compiled.cache_dir()``) by the hash of the generated C."""
-    import hashlib
-
-    from ..integrators.compiled import cache_dir
-    root = cache_dir()
-    with tempfile.TemporaryDirectory(dir=root) as tmp:
+    (:func:`rrr4.codegen.build.library`, stem 'controller') by the hash of the generated C;
+    the sources stay beside the library, since the compiled stepping compiles rrr4_raw.c in."""
+    with tempfile.TemporaryDirectory() as tmp:
         src = Path(tmp) / "src"
         codegen(problem, src)
-        key = hashlib.sha256((src / f"{RAW}.c").read_bytes() + (src / f"{WRAPPER}.c").read_bytes()).hexdigest()[:24]
-        if key in _GENERATED:
-            return _GENERATED[key]
-        final = root / f"controller_{key}"
-        lib = final / f"lib{WRAPPER}.so"
-        if not lib.exists():
-            compile_library(src, src / lib.name)
-            try:
-                os.replace(src, final)  # atomic: never a half-built cache entry
-            except OSError:  # another process put the same entry in place first: use theirs
-                if not lib.exists():
-                    raise
-    _GENERATED[key] = (ca.external(f"{RAW}_controller_step", str(lib)), final / f"{RAW}.c")
-    return _GENERATED[key]
+        sources = {name: (src / name).read_text() for name in (f"{RAW}.c", f"{RAW}.h", f"{WRAPPER}.h",
+                                                                     f"{WRAPPER}.c")}
+    lib = build.library("controller", sources, keep_sources=True)
+    return build.load(f"{RAW}_controller_step", lib), lib.with_suffix("") / f"{RAW}.c"
 
 
 def load_library(lib_path, names=KERNELS) -> dict[str, ca.Function]:
