@@ -1,6 +1,6 @@
 """What the compiler flags of the compiled stepping are worth.
 
-The stepping libraries are compiled with :data:`rrr4.integrators.compiled.COMPILE_FLAGS`
+The stepping libraries are compiled with :data:`rrr4.codegen.build.COMPILE_FLAGS`
 (-O3 -march=native, no floating-point contraction, math functions without errno, CasADi's
 helpers inlined) and, where a compiler refuses them, with ``PORTABLE_FLAGS`` (-O2). This
 script builds the default call on a scene (and compiled RK4 at 2.5e-5 s) with both, checks
@@ -25,10 +25,10 @@ import numpy as np  # noqa: E402
 
 import rrr4  # noqa: E402
 from rrr4.bench import machine  # noqa: E402
-from rrr4.integrators import compiled  # noqa: E402
+from rrr4.codegen import build  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-FLAGS = {"fast": compiled.COMPILE_FLAGS, "portable": compiled.PORTABLE_FLAGS}
+FLAGS = {"fast": build.COMPILE_FLAGS, "portable": build.PORTABLE_FLAGS}
 
 
 def main(argv=None) -> int:
@@ -43,7 +43,7 @@ def main(argv=None) -> int:
     systems = [entry[3] for entry in rrr4.build(scene).structure("plant").memoized("system")]
     frames, states = {}, {}
     for name, flags in FLAGS.items():  # build and compile each, and keep what was built
-        compiled.COMPILE_FLAGS = flags
+        build.COMPILE_FLAGS = flags
         for s in systems:
             s.frames.clear()
         for k, kw in runs.items():

@@ -32,7 +32,7 @@ import numpy as np
 
 import rrr4
 import rrr4.integrators.base as base
-from rrr4.integrators.compiled import COMPILE_FLAGS
+from rrr4.codegen.build import COMPILE_FLAGS
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -192,8 +192,8 @@ def test_scenes_that_differ_only_in_contact_numbers_share_their_compiled_code(pa
     (its settings), both carried in the discrete state, so a second clearance and preload
     level steps with the first one's compiled code: no new compilation, and a different
     motion (the journals sit deeper in a larger bearing)."""
+    from rrr4.codegen.build import compilations
     from rrr4.control import controller_settings, parametric_controller
-    from rrr4.integrators.compiled import compilations
     monkeypatch.setenv("RRR4_CACHE", str(tmp_path))
     # a Newton tolerance of its own: no other test compiles (and loads) this stepping
     paper_scene = dataclasses.replace(paper_scene, integrator=dataclasses.replace(paper_scene.integrator,
@@ -231,7 +231,7 @@ def test_with_geometry_inputs_scenes_that_differ_in_masses_and_geometry_share_th
     the geometry folded in as constants (the default), to rounding."""
     import yaml
 
-    from rrr4.integrators.compiled import compilations
+    from rrr4.codegen.build import compilations
     from rrr4.scene import parse_scene
     monkeypatch.setenv("RRR4_CACHE", str(tmp_path))
     data = yaml.safe_load((ROOT / "problems" / "paper_circle.yaml").read_text())

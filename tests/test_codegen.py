@@ -266,3 +266,22 @@ def test_external_library_reports_the_generated_signatures(built, paper_scene):
     assert f.size_out(0) == (4, 1)
     g = lib["inverse_dynamics"]
     assert g.size_out(2) == (2, 8) and g.size_out(3) == (2, 8)
+
+
+def test_the_library_cache_keeps_requested_sources_beside_the_library_and_compiles_once(tmp_path, monkeypatch):
+    """rrr4.codegen.build.library: one library per C text in $RRR4_CACHE, its headers only
+    included, its sources (on request) in <stem>_<key>/ for a later library to compile in;
+    asking again compiles nothing, and a second library compiles the kept source in."""
+    from rrr4.codegen import build as cache
+    monkeypatch.setenv("RRR4_CACHE", str(tmp_path))
+    sources = {"twice.h": "double twice(double x);\n",
+               "twice.c": '#include "twice.h"\ndouble twice(double x) { return 2.0 * x; }\n'}
+    n0 = cache.compilations()
+    lib = cache.library("twice", sources, keep_sources=True)
+    assert cache.library("twice", sources, keep_sources=True) == lib and cache.compilations() == n0 + 1
+    assert lib.parent == tmp_path and lib.name.startswith("twice_") and lib.suffix == ".so"
+    kept = lib.with_suffix("")
+    assert {p.name: p.read_text() for p in kept.iterdir()} == sources
+    user = {"quad.c": "double twice(double x);\ndouble quad(double x) { return twice(twice(x)); }\n"}
+    assert cache.library("quad", user, extra=[kept / "twice.c"]).exists() and cache.compilations() == n0 + 2
+    assert len(list(tmp_path.glob("*.so"))) == 2

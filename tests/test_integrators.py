@@ -240,7 +240,8 @@ def test_slider_crank_default_path_agrees_with_a_fine_reference_within_a_microme
 def _compile_in_child(cache: str, queue) -> None:
     import os as _os
     _os.environ["RRR4_CACHE"] = cache
-    from rrr4.integrators.compiled import compilations, compiled
+    from rrr4.codegen.build import compilations
+    from rrr4.integrators.compiled import compiled
     x = ca.SX.sym("x", 20)
     y = x
     for k in range(300):  # enough C that gcc takes a few seconds: the two processes overlap
@@ -285,8 +286,8 @@ def test_a_run_gives_the_same_states_in_any_number_of_calls_and_builds_them_once
 def test_a_compiler_that_refuses_the_fast_flags_builds_a_portable_library(tmp_path, monkeypatch):
     """Where the C compiler refuses -march=native (a cross or older compiler), the stepping is
     compiled with the portable flags instead and computes the same states."""
+    from rrr4.codegen.build import PORTABLE_FLAGS
     from rrr4.files import c_compiler
-    from rrr4.integrators.compiled import PORTABLE_FLAGS
     real = c_compiler()
     if real is None:
         pytest.skip("no C compiler")

@@ -1,0 +1,128 @@
+"""Self-contained C for controllers: generate, compile with gcc, load back into CasADi.
+
+``codegen(scene, out_dir)`` writes, for one scene:
+
+- ``rrr4_raw.c`` / ``rrr4_raw.h``: CasADi's generated code, one ``rrr4_raw_<kernel>``
+  per kernel in CasADi's calling convention (``arg, res, iw, w, mem``);
+- ``rrr4.h`` / ``rrr4.c``: plain wrappers ``rrr4_<kernel>(inputs..., outputs...)`` on
+  double arrays, documented with shapes and units, with their work arrays on the stack
+  (no allocation, re-entrant);
+- ``main.c``: an example controller loop along the scene's path; ``Makefile``.
+
+Nothing needs CasADi at build or run time: ``gcc -O2 -Wall *.c -lm`` builds the example.
+The package, one idea per module:
+
+- :mod:`.kernels`: the Functions generated (:data:`KERNELS`), built once per problem by
+  calling the problem's own Functions symbolically, so the C computes exactly what the
+  Python does; the exact preload's branch (:func:`preload_branch`);
+- :mod:`.text`: the C text around them (wrapper header and source with the parameter docs,
+  the example ``main.c``, the ``Makefile``);
+- :mod:`.build`: the one on-disk cache of compiled shared libraries (lock per library, CPU
+  in the key, fast flags with a portable fallback), used here by :func:`generated_controller`
+  and by the compiled stepping (:mod:`rrr4.integrators.compiled`);
+- here: the front door :func:`codegen`, and building and loading its output
+  (:func:`compile_library`, :func:`build_example`, :func:`load_library`).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import casadi as ca
+
+from ..errors import SceneError
+from ..files import BuildError, atomic_directory, run_c_compiler
+from ..problem import Problem
+from ..scene import Scene
+from . import build
+from .kernels import KERNELS, RAW, WRAPPER, Kernel, kernels, preload_branch
+from .text import EXAMPLE_ANGLE_OFFSET, texts
+
+__all__ = ["codegen", "kernels", "generated_controller", "preload_branch", "compile_library", "build_example",
+           "load_library", "Kernel", "KERNELS", "EXAMPLE_ANGLE_OFFSET", "BuildError"]
+
+
+# ----------------------------------------------------------------------------- files
+
+def _out_dir(out_dir) -> Path:
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise SceneError(f"--out: {str(out)!r} is a file (expected a directory to write C sources into)")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise SceneError(f"--out: cannot create {str(out)!r} ({e.strerror})") from None
+    return out
+
+
+def codegen(scene: Scene | Problem, out_dir, branch="auto") -> list[Path]:
+    """Write the scene's controller C into out_dir (created if needed); return the files.
+
+    Files: rrr4_raw.c, rrr4_raw.h (CasADi), rrr4.h, rrr4.c (wrappers), main.c, Makefile.
+    The directory is written atomically (:func:`rrr4.files.atomic_directory`): out_dir must
+    be new, empty or an earlier codegen output (holds rrr4.h), which is replaced whole, so an
+    interrupted run leaves the earlier files intact. branch: the exact_preload and preload
+    kernels' branch (:func:`preload_branch`); a fixed one keeps the torques continuous along a
+    path. The controller step is the one :func:`rrr4.simulate` runs, with the scene's preload
+    sign (:func:`rrr4.preload.preload_sign`).
+    """
+    problem = Problem.from_scene(scene)
+    branch = preload_branch(problem, branch)
+    ks = kernels(problem, branch)
+    out = _out_dir(out_dir)
+    cg = ca.CodeGenerator(f"{RAW}.c", {"with_header": True})
+    for k in ks:
+        cg.add(k.function)
+
+    def fill(tmp: Path) -> None:
+        cg.generate(str(tmp) + os.sep)
+        for name, text in texts(problem, ks, branch).items():
+            (tmp / name).write_text(text)
+
+    atomic_directory(out, fill, marker=f"{WRAPPER}.h")
+    return [out / name for name in (f"{RAW}.c", f"{RAW}.h", f"{WRAPPER}.h", f"{WRAPPER}.c", "main.c", "Makefile")]
+
+
+# ----------------------------------------------------------------------------- build and load
+
+def compile_library(src_dir, lib_path, flags=("-O2", "-Wall", "-Werror")) -> Path:
+    """Compile rrr4_raw.c and rrr4.c of src_dir into the shared library lib_path; return it.
+
+    Raises BuildError on any compiler error or warning.
+    """
+    src, lib = Path(src_dir).resolve(), Path(lib_path).resolve()
+    run_c_compiler([*flags, "-fPIC", "-shared", f"{RAW}.c", f"{WRAPPER}.c", "-lm", "-o", str(lib)], src,
+                   warnings_are_errors=True)
+    return lib
+
+
+def build_example(src_dir, exe_path, flags=("-O2", "-Wall", "-Werror")) -> Path:
+    """Compile every .c of src_dir (the example) into exe_path; return it."""
+    src, exe = Path(src_dir).resolve(), Path(exe_path).resolve()
+    run_c_compiler([*flags, *sorted(p.name for p in src.glob("*.c")), "-lm", "-o", str(exe)], src,
+                   warnings_are_errors=True)
+    return exe
+
+
+def generated_controller(problem: Problem) -> tuple[ca.Function, Path]:
+    """The scene's controller step as :func:`codegen` writes it, compiled with the C compiler
+    and loaded with ``casadi.external`` ('rrr4_raw_controller_step', same inputs and outputs
+    as :func:`rrr4.control.controller_function`), and the path of its C source. Cached on disk
+    (:func:`rrr4.codegen.build.library`, stem 'controller') by the hash of the generated C;
+    the sources stay beside the library, since the compiled stepping compiles rrr4_raw.c in."""
+    with tempfile.TemporaryDirectory() as tmp:
+        src = Path(tmp) / "src"
+        codegen(problem, src)
+        sources = {name: (src / name).read_text() for name in (f"{RAW}.c", f"{RAW}.h", f"{WRAPPER}.h",
+                                                                     f"{WRAPPER}.c")}
+    lib = build.library("controller", sources, keep_sources=True)
+    return build.load(f"{RAW}_controller_step", lib), lib.with_suffix("") / f"{RAW}.c"
+
+
+def load_library(lib_path, names=KERNELS) -> dict[str, ca.Function]:
+    """The compiled kernels as CasADi Functions (``casadi.external``), keyed by kernel name."""
+    lib = str(Path(lib_path).resolve())
+    return {k: ca.external(f"{RAW}_{k}", lib) for k in names}
+

@@ -1,0 +1,152 @@
+"""Compiled C, cached on disk: the one place rrr4 turns C text into a loaded shared library.
+
+:func:`library` compiles C sources with the system C compiler into a shared library in the
+cache directory (:func:`cache_dir`: ``$RRR4_CACHE`` if set, else ``~/.cache/rrr4``) and
+:func:`load` loads a symbol of it with ``casadi.external``. Both the compiled stepping
+(:func:`rrr4.integrators.compiled.compiled`) and the generated controller in the loop
+(:func:`rrr4.codegen.generated_controller`) are built here.
+
+- The library ``<stem>_<key>.so`` is named after the SHA-256 of the C sources, the compiler
+  flags and the CPU, so a second run of the same scene and method finds it and does not
+  recompile.
+- A lock file per library (``fcntl``) makes processes that need the same one at once (sweep
+  workers) compile it once: the second waits for the first one's library.
+- The library is compiled in a temporary directory and moved into place atomically: never a
+  half-written cache entry. Sources kept on request (a C file that a later library compiles
+  in, or that a user reads) are moved into ``<stem>_<key>/`` before the library appears.
+
+The code is compiled for the CPU it runs on (:data:`COMPILE_FLAGS`: ``-O3 -march=native``),
+with floating-point contraction off and ``errno`` ignored by the math functions, so that it
+computes bit for bit what ``-O2`` code computes, only faster; ``-fno-semantic-interposition``
+lets the compiler inline CasADi's small helpers (``casadi_sq``, ``casadi_fmax``,
+``casadi_norm_inf``, ...), which a shared library otherwise calls through its procedure
+linkage table. Together 1.5x on the reference scene's stepping (``benchmarks/bench_flags.py``).
+Because the library is specific to the CPU, the CPU (:func:`cpu`) is part of its key: a cache
+shared by different machines keeps one library per CPU. A compiler that refuses these flags
+compiles with :data:`PORTABLE_FLAGS` instead. :func:`machine` names the same CPU for people
+(the machine line of benchmark reports).
+"""
+
+from __future__ import annotations
+
+import fcntl
+import functools
+import hashlib
+import os
+import platform
+import shutil
+import tempfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import casadi as ca
+
+from ..files import BuildError, run_c_compiler
+
+__all__ = ["library", "load", "cache_dir", "compilations", "cpu", "machine", "COMPILE_FLAGS", "PORTABLE_FLAGS",
+           "BuildError"]
+
+PORTABLE_FLAGS = ("-O2", "-fPIC", "-shared")
+COMPILE_FLAGS = ("-O3", "-march=native", "-ffp-contract=off", "-fno-math-errno", "-fno-semantic-interposition",
+                 "-fPIC", "-shared")
+_loaded: dict[tuple[str, str], ca.Function] = {}
+_compilations = [0]  # libraries this process built (not found in the cache)
+
+
+def compilations() -> int:
+    """How many libraries this process has compiled (cache hits excluded)."""
+    return _compilations[0]
+
+
+def cache_dir() -> Path:
+    """Directory of the compiled libraries (created if needed)."""
+    d = Path(os.environ.get("RRR4_CACHE") or Path.home() / ".cache" / "rrr4")
+    d.mkdir(parents=True, exist_ok=True)
+    return d
+
+
+@functools.cache
+def _cpuinfo() -> str:
+    """/proc/cpuinfo, read once ('' where there is none)."""
+    try:
+        return Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return ""
+
+
+@functools.cache
+def cpu() -> str:
+    """What identifies this machine's CPU for -march=native (part of every library's key): the
+    model and feature flags of its first processor (Linux), else what the platform module knows."""
+    first = _cpuinfo().split("\n\n")[0]
+    keep = [line for line in first.splitlines() if line.split(":")[0].strip() in ("vendor_id", "model name",
+                                                                                "flags", "Features", "CPU part")]
+    if keep:
+        return "\n".join(keep)
+    return f"{platform.machine()} {platform.processor()}"
+
+
+def machine() -> str:
+    """'AMD EPYC 7B13 (x86_64 Linux), 2 cores': the CPU where times are measured."""
+    name = platform.processor() or platform.machine()
+    for line in _cpuinfo().splitlines():
+        if line.startswith("model name"):
+            name = line.split(":", 1)[1].strip()
+            break
+    return f"{name} ({platform.machine()} {platform.system()}), {os.cpu_count()} cores"
+
+
+def library(stem: str, sources: Mapping[str, str], extra: Sequence = (), keep_sources: bool = False) -> Path:
+    """The shared library ``<stem>_<key>.so`` in :func:`cache_dir` built from `sources`; its path.
+
+    sources: file name -> C text, written side by side; the ``.c`` files are compiled, the
+    others (headers) only included. extra: further C files (paths) compiled into the same
+    library, e.g. the generated code of an external Function that the sources call. The key
+    hashes the texts of both, the flags and the CPU. keep_sources: keep `sources` in the
+    directory ``<stem>_<key>/`` next to the library (its path without the suffix).
+
+    Compiled with :data:`COMPILE_FLAGS`, or :data:`PORTABLE_FLAGS` where the compiler refuses
+    them. Raises BuildError (an Rrr4Error) if no C compiler ($CC, cc or gcc) is available or
+    compilation fails.
+    """
+    flags = tuple(COMPILE_FLAGS)  # read at call time: benchmarks/bench_flags.py swaps it
+    extra = [Path(p).resolve() for p in extra]
+    key = hashlib.sha256("\n".join([*sources.values(), " ".join(flags), cpu(), *(p.read_text() for p in extra)]
+                                   ).encode()).hexdigest()[:24]
+    lib = cache_dir() / f"{stem}_{key}.so"
+    if lib.exists():
+        return lib
+    # one compiler per library: a process (e.g. another sweep worker) that needs the same
+    # library waits for it instead of compiling it again
+    with open(lib.with_suffix(".lock"), "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if lib.exists():
+            return lib
+        with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
+            src = Path(tmp) / "src"
+            src.mkdir()
+            for name, text in sources.items():
+                (src / name).write_text(text)
+            tmp_lib = Path(tmp) / lib.name
+            files = [*(str(src / n) for n in sources if n.endswith(".c")), *map(str, extra), "-o", str(tmp_lib),
+                     "-lm"]
+            try:
+                run_c_compiler([*flags, *files], src)
+            except BuildError:  # e.g. a compiler without -march=native: the same code, portable
+                run_c_compiler([*PORTABLE_FLAGS, *files], src)
+            if keep_sources:  # in place before the library, which marks a complete entry
+                kept = lib.with_suffix("")
+                if kept.exists():  # left by an interrupted run (we hold the lock)
+                    shutil.rmtree(kept)
+                os.replace(src, kept)
+            os.replace(tmp_lib, lib)  # atomic: never a half-written cache entry
+        _compilations[0] += 1
+    return lib
+
+
+def load(name: str, lib) -> ca.Function:
+    """The Function `name` of the shared library `lib` (``casadi.external``), loaded once per process."""
+    key = (name, str(lib))
+    if key not in _loaded:
+        _loaded[key] = ca.external(name, str(lib))
+    return _loaded[key]
