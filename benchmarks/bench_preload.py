@@ -70,7 +70,7 @@ def main(argv=None) -> int:
 
     def nlp():
         solve_trajectory_nlp(s.t, tau_p, tau_n, r_p, r_n, f_min=pre.min_force, weights=pre.weights,
-                             limits=scene.actuation.torque_limit, smoothness_weight=pre.smoothness_weight,
+                             limits=scene.torque_limit, smoothness_weight=pre.smoothness_weight,
                              max_turn_rate=pre.max_turn_rate, alpha0=alpha0)
     rows.append(("nlp (ipopt, whole horizon)", best_time(nlp, max(1, args.repeat // 2)), f"{N} grid points"))
 

@@ -84,6 +84,11 @@ class Problem:
         return self.scene.actuation.mode
 
     @property
+    def torque_limit(self) -> tuple[float, ...]:
+        """The actuators' effort limits [N m or N] (the graph's, :attr:`rrr4.scene.Scene.torque_limit`)."""
+        return self.scene.torque_limit
+
+    @property
     def clearance_joints(self) -> tuple[str, ...]:
         return self.model.clearance_joints
 
@@ -150,7 +155,7 @@ class Problem:
         a, n = s.actuation, self.model.n_actuators
         preload = replace(a.preload, min_force=float(a.preload.min_force > 0), weights=(1.0,) * n,
                           qp_solver="qrqp", smoothness_weight=0.0, max_turn_rate=0.0)  # not in a pointwise law
-        actuation = replace(a, kp=0.0, kd=0.0, torque_limit=(1.0,) * n, control_rate=None, preload=preload)
+        actuation = replace(a, kp=0.0, kd=0.0, control_rate=None, preload=preload)
         return replace(s, name="", description="", source="", path=None, integrator=None, initial=None,
                        graph=replace(s.graph, joints=joints, actuators=actuators), effects=effects,
                        actuation=actuation)
@@ -161,7 +166,7 @@ class Problem:
         contact numbers: changing the path, the integrator, the initial state, the controller's
         settings or the names does not rebuild them."""
         s = self.controller_key
-        return replace(s, actuation=replace(s.actuation, preload=None, kp=0.0, kd=0.0, torque_limit=(),
+        return replace(s, actuation=replace(s.actuation, preload=None, kp=0.0, kd=0.0,
                                             control_rate=None, compensation="none"))
 
     @functools.cached_property

@@ -202,9 +202,10 @@ def test_scenes_that_differ_only_in_contact_numbers_share_their_compiled_code(pa
     other = dataclasses.replace(other, effects=dataclasses.replace(other.effects, contact=dataclasses.replace(
         other.effects.contact, restitution=0.5), friction=dataclasses.replace(other.effects.friction,
                                                                              coefficient=0.2)))
+    other = other.with_torque_limit([2 * v for v in other.torque_limit])
     act = other.actuation
     other = dataclasses.replace(other, actuation=dataclasses.replace(
-        act, kp=1.5 * act.kp, kd=0.5 * act.kd, torque_limit=tuple(2 * v for v in act.torque_limit),
+        act, kp=1.5 * act.kp, kd=0.5 * act.kd,
         preload=dataclasses.replace(act.preload, min_force=2 * act.preload.min_force)))
     assert build(other).equations().parametric is build(paper_scene).equations().parametric
     assert parametric_controller(build(other)) is parametric_controller(build(paper_scene))

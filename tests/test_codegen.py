@@ -193,7 +193,7 @@ def test_controller_step_is_feedforward_plus_clipped_pd(paper_data, method):
     inv = problem.inverse_dynamics()
     exact = (exact_preload_function(problem, branch=1) if method == "exact" else
              qp_preload_function(problem, "qrqp", 1.0))
-    a, lim = scene.actuation, np.array(scene.actuation.torque_limit)
+    a, lim = scene.actuation, np.array(scene.torque_limit)
     saturated = 0
     for _ in range(40):
         pose, pose_d, pose_dd = (v[:, 0] for v in _motions(rng, 1))

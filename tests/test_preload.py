@@ -19,7 +19,7 @@ def _with(scene, **preload):
     limit = preload.pop("torque_limit", None)
     act = replace(scene.actuation, preload=replace(scene.actuation.preload, **preload))
     if limit is not None:
-        act = replace(act, torque_limit=(limit,) * 4)
+        scene = scene.with_torque_limit(limit)
     return replace(scene, actuation=act)
 
 
@@ -57,7 +57,7 @@ def test_exact_is_the_global_optimum_of_a_dense_alpha_scan(paper_scene, limit):
         r_p = (sol.reactions[k] - sol.alpha[k] * _null_reactions(sol, k)).T
         r_n = _null_reactions(sol, k).T
         alpha, tau, feas, _ = (np.array(v).ravel() for v in f(tau_p, tau_n, r_p, r_n))
-        scan = _scan_optimum(tau_p, tau_n, r_p, r_n, f_min, scene.actuation.torque_limit, w)
+        scan = _scan_optimum(tau_p, tau_n, r_p, r_n, f_min, scene.torque_limit, w)
         if scan is None:
             assert feas[0] == 0.0
             continue
@@ -295,7 +295,7 @@ def test_exact_on_a_branch_is_the_optimum_of_a_dense_scan_of_that_branch(paper_s
         r_n = _null_reactions(sol, k).T
         tau_p, tau_n, r_p = sol.tau_particular[k], sol.null_space[k], (sol.reactions[k]).T - sol.alpha[k] * r_n
         alpha, tau, feas, _ = (np.array(v).ravel() for v in f(tau_p, tau_n, r_p, r_n))
-        scan = _scan_optimum(tau_p, tau_n, r_p, r_n, f_min, scene.actuation.torque_limit, w, signed=branch)
+        scan = _scan_optimum(tau_p, tau_n, r_p, r_n, f_min, scene.torque_limit, w, signed=branch)
         if scan is None:
             assert feas[0] == 0.0
             continue

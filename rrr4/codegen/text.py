@@ -148,7 +148,7 @@ extern const double rrr4_torque_limit[RRR4_N_ACTUATORS];
 def wrapper_source(problem: Problem, ks: tuple[Kernel, ...]) -> str:
     """rrr4.c: the torque limits [N m] and the wrapper of every kernel."""
     scene = problem.scene
-    lim = ", ".join(repr(float(v)) for v in scene.actuation.torque_limit)
+    lim = ", ".join(repr(float(v)) for v in scene.torque_limit)
     funcs = "\n\n".join(f"{_wrapper_doc_and_signature(k)[1]} {{\n{_wrapper_body(k)}\n}}" for k in ks)
     return f"""/* rrr4.c: wrappers of the CasADi-generated kernels ({RAW}.c) for scene '{scene.name}'. */
 #include "{RAW}.h"

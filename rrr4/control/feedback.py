@@ -27,7 +27,7 @@ def feedback_function(problem: Problem) -> ca.Function:
 def feedback_settings(problem: Problem) -> list[float]:
     """The feedback law's input ``settings``: kp, kd, torque limits (n)."""
     a = problem.scene.actuation
-    return [a.kp, a.kd, *a.torque_limit]
+    return [a.kp, a.kd, *problem.torque_limit]
 
 
 def parametric_feedback(problem: Problem) -> ca.Function:

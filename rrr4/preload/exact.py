@@ -161,5 +161,5 @@ def exact_preload_function(problem: Problem, f_min: float | None = None, branch:
     fm = p.min_force if f_min is None else float(f_min)
     if branch not in (0, 1, -1):
         raise SceneError(f"branch: {branch!r} is not allowed (0 for both, +1 or -1)")
-    return _fixed(float(fm), tuple(p.weights), tuple(problem.scene.actuation.torque_limit), int(branch),
+    return _fixed(float(fm), tuple(p.weights), problem.torque_limit, int(branch),
                   len(model.preload_joints))

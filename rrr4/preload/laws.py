@@ -60,5 +60,5 @@ def preload_law(problem: Problem, sign: int | None = None) -> ca.Function | None
     if law is None:
         return None
     p = problem.scene.actuation.preload
-    return fix_last_input(law, law_settings(problem, p.weights, problem.scene.actuation.torque_limit, p.min_force,
+    return fix_last_input(law, law_settings(problem, p.weights, problem.torque_limit, p.min_force,
                                             preload_sign(problem) if sign is None else int(sign)))

@@ -127,7 +127,7 @@ def qp_preload_function(problem: Problem, solver: str = "qrqp", signs=1.0, f_min
         raise SceneError(f"signs: {signs!r} is not allowed (+1 or -1, or a list of {nj} of them)")
     p = problem.scene.actuation.preload
     fm = p.min_force if f_min is None else float(f_min)
-    return _build(solver, float(fm), tuple(p.weights), tuple(problem.scene.actuation.torque_limit), tuple(s), m)
+    return _build(solver, float(fm), tuple(p.weights), problem.torque_limit, tuple(s), m)
 
 
 _BIG = 1e30  # stands for an infinite bound in the closed-form QP
@@ -195,4 +195,4 @@ def scalar_qp_preload_function(problem: Problem, signs=1.0) -> ca.Function:
     if len(s) != nj or any(v not in (1.0, -1.0) for v in s):
         raise SceneError(f"signs: {signs!r} is not allowed (+1 or -1, or a list of {nj} of them)")
     p = problem.scene.actuation.preload
-    return _fixed_scalar(float(p.min_force), tuple(p.weights), tuple(problem.scene.actuation.torque_limit), tuple(s))
+    return _fixed_scalar(float(p.min_force), tuple(p.weights), problem.torque_limit, tuple(s))

@@ -362,9 +362,10 @@ def _effects(sec: Section) -> Effects:
                    FrictionEffect(flaw, mu, mus, v0, v1, vs), g)
 
 
-def _actuation(sec: Section, n: int, graph: Graph | None = None) -> Actuation:
-    """n actuators; for a graph scene their limits come from mechanism.actuators, and the
-    mode defaults to 'free' when there is no task to track."""
+def _actuation(sec: Section, n: int, graph: Graph | None = None) -> tuple[Actuation, tuple[float, ...]]:
+    """(the actuation, the n actuators' limits): an n-RRR's from actuation.torque_limit, a
+    graph scene's from mechanism.actuators; the mode defaults to 'free' when there is no task
+    to track."""
     if graph is None:
         mode = sec.choice("mode", ACTUATION_MODES, "torque")
         limits = sec.vector("torque_limit", n, 1e3, scalar_ok=True)
@@ -401,8 +402,8 @@ def _actuation(sec: Section, n: int, graph: Graph | None = None) -> Actuation:
     rate = sec.number("control_rate", positive=True) if sec.raw("control_rate") is not None else None
     compensation = sec.choice("compensation", choices("compensation"), "none")
     sec.done()
-    return Actuation(mode, limits, PreloadSettings(method, fmin, weights, qp, smooth, turn), kp, kd, rate,
-                     compensation)
+    return Actuation(mode, PreloadSettings(method, fmin, weights, qp, smooth, turn), kp, kd, rate,
+                     compensation), limits
 
 
 def _path(sec: Section, task: bool = True) -> PathSpec:
@@ -481,14 +482,14 @@ def parse_scene(data, name: str = "scene", source: str = "") -> Scene:
     if kind == "n-rrr":
         mech = _mechanism(msec)
         joints = _joints(top.section("joints"), mech.n_chains)
-        actuation = _actuation(top.section("actuation"), mech.n_chains)
-        graph = expand_nrrr(mech, joints, actuation.torque_limit)
+        actuation, limits = _actuation(top.section("actuation"), mech.n_chains)
+        graph = expand_nrrr(mech, joints, limits)
     else:
         mech, graph = None, _graph(msec)
         if top.has("joints"):
             raise SceneError("joints: not allowed with mechanism.kind 'graph' (give each joint's clearance in "
                              "mechanism.joints)")
-        actuation = _actuation(top.section("actuation"), len(graph.actuators), graph)
+        actuation, _ = _actuation(top.section("actuation"), len(graph.actuators), graph)
     scene = Scene(
         name=_name(top, "name", name),
         description=top.string("description", ""),

@@ -197,8 +197,9 @@ class PreloadSettings:
 
 @dataclass(frozen=True)
 class Actuation:
+    """The actuation mode and the controller's settings (the actuators' effort limits are
+    the graph's, :attr:`Scene.torque_limit`)."""
     mode: str
-    torque_limit: tuple[float, ...]  # [N m] per actuator, symmetric +-
     preload: PreloadSettings
     kp: float  # [N m/rad]
     kd: float  # [N m s/rad]
@@ -283,6 +284,19 @@ class Scene:
 
     def joint(self, name: str) -> JointSpec:
         return self.graph.joint(name)
+
+    @property
+    def torque_limit(self) -> tuple[float, ...]:
+        """The actuators' effort limits [N m or N], symmetric +-, in graph order (an n-RRR's
+        ``actuation.torque_limit``, a graph's ``actuators[].limit``): one source, the graph."""
+        return tuple(a.limit for a in self.graph.actuators)
+
+    def with_torque_limit(self, limits) -> Scene:
+        """This scene with the actuators' effort limits replaced (one value for all, or one each)."""
+        n = len(self.graph.actuators)
+        limits = (float(limits),) * n if isinstance(limits, (int, float)) else tuple(float(v) for v in limits)
+        acts = tuple(replace(a, limit=v) for a, v in zip(self.graph.actuators, limits, strict=True))
+        return replace(self, graph=replace(self.graph, actuators=acts))
 
     def with_joints(self, joints) -> Scene:
         """This scene with joint specs replaced by `joints` (matched by name), e.g. to
