@@ -24,8 +24,8 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 import rrr4  # noqa: E402
-from rrr4.bench import machine  # noqa: E402
 from rrr4.integrators import compiled  # noqa: E402
+from rrr4.studies.bench import machine  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 FLAGS = {"fast": compiled.COMPILE_FLAGS, "portable": compiled.PORTABLE_FLAGS}

@@ -11,7 +11,7 @@ import rrr4
 from rrr4 import Model, Rrr4Error
 from rrr4.results import write_results
 from rrr4.results.animation import MOTION, build, load_motion, render
-from rrr4.study import run_study
+from rrr4.studies.study import run_study
 from tests.conftest import PAPER, ROOT
 
 

@@ -145,7 +145,7 @@ def test_unpreloaded_controller_is_the_minimum_norm_one(paper_scene):
 def test_robustness_cases_change_one_parameter_and_the_model_stays_nominal(paper_scene):
     """Each case changes what it names; simulate(model=nominal) runs the nominal controller on
     the changed mechanism (a 50 um longer link moves the platform), and a bad model is refused."""
-    from rrr4.robustness import CASES, perturbed
+    from rrr4.studies.robustness import CASES, perturbed
     nominal_k = build(paper_scene).joint_stiffness("B1")
     checks = {
         "clearance +20 %": lambda s: s.joint("C2").radial_clearance == pytest.approx(1.2e-4),

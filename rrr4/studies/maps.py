@@ -16,13 +16,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import SceneError
-from .files import write_atomic
-from .mechanism.workspace import condition_number, path_kinematics
-from .preload import preload_law
-from .problem import Problem
-from .scene import GROUND, Scene
-from .trajectory import PathSamples, sample_path
+from ..errors import SceneError
+from ..files import write_atomic
+from ..mechanism.workspace import condition_number, path_kinematics
+from ..preload import preload_law
+from ..problem import Problem
+from ..scene import GROUND, Scene
+from ..trajectory import PathSamples, sample_path
 
 __all__ = ["workspace_map", "plot_map", "write_map", "GRID", "DIRECTIONS"]
 

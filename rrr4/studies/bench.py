@@ -30,11 +30,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import SimulationError
-from .files import write_atomic
-from .integrators import METHODS, RK4, Cvodes
-from .scene import Scene
-from .simulation import simulate
+from ..errors import SimulationError
+from ..files import write_atomic
+from ..integrators import METHODS, RK4, Cvodes
+from ..scene import Scene
+from ..simulation import simulate
 
 __all__ = ["work_precision", "write_work_precision", "DEFAULT_PLAN"]
 
@@ -49,7 +49,7 @@ DEFAULT_PLAN = {name: ("rtol" if m.adaptive else "step", list(m.ladder)) for nam
 def _preload(scene: Scene):
     if scene.actuation.mode != "torque":
         return None
-    from .preload import solve_preload
+    from ..preload import solve_preload
     return solve_preload(scene)
 
 

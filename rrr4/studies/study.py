@@ -42,16 +42,16 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .checks import argument
-from .control import pointwise_controller
-from .errors import SceneError
-from .files import c_compiler
-from .preload import PreloadSolution, solve_preload
-from .preload.solve import PreloadWarning
-from .problem import Problem
-from .scene import MAX_SAMPLES, Scene
-from .simulation import Simulation, simulate
-from .trajectory import sample_path
+from ..checks import argument
+from ..control import pointwise_controller
+from ..errors import SceneError
+from ..files import c_compiler
+from ..preload import PreloadSolution, solve_preload
+from ..preload.solve import PreloadWarning
+from ..problem import Problem
+from ..scene import MAX_SAMPLES, Scene
+from ..simulation import Simulation, simulate
+from ..trajectory import sample_path
 
 __all__ = ["Study", "StudyArm", "run_study", "arm_scene", "study_controller", "ARMS",
            "PRELOAD_ARMS", "DRIVEN_ARMS"]

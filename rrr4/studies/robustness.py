@@ -17,10 +17,10 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .errors import SceneError
-from .files import write_atomic
-from .problem import Problem
-from .scene import Scene, parse_scene
+from ..errors import SceneError
+from ..files import write_atomic
+from ..problem import Problem
+from ..scene import Scene, parse_scene
 
 __all__ = ["CASES", "robustness", "plot_robustness", "write_robustness"]
 
@@ -79,7 +79,7 @@ def robustness(scene: Scene, t_end: float | None = None, progress: bool = False,
     from the nominal scene, on each perturbed mechanism of :data:`CASES`."""
     import time
 
-    from .simulation import simulate
+    from ..simulation import simulate
     from .study import arm_scene
     say = log or (lambda _m: None)
     closed_form = Problem.from_scene(scene).closed_form
@@ -110,7 +110,7 @@ def plot_robustness(rows: list[dict], path: Path, title: str = "") -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .results.plots import STYLE
+    from ..results.plots import STYLE
     cases = list(dict.fromkeys(r["case"] for r in rows))
     fig, ax = plt.subplots(figsize=(9.0, 4.2))
     width = 0.38

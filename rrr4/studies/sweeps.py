@@ -37,9 +37,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .checks import describe
-from .errors import Rrr4Error, SceneError
-from .scene import get_key, key_steps, parse_scene, read_yaml, set_key
+from ..checks import describe
+from ..errors import Rrr4Error, SceneError
+from ..scene import get_key, key_steps, parse_scene, read_yaml, set_key
 from .study import PRELOAD_ARMS
 
 __all__ = ["sweep", "load_spec", "SweepSpec", "METRICS", "DISTRIBUTIONS", "case_options", "GEOMETRY_KEYS", "PATH_KEYS"]
@@ -215,8 +215,8 @@ def run_case(text: str, name: str, t_end, arms, jit: bool = False, options: dict
     'failed' with the error; the C libraries this case compiled). jit: step in compiled C
     (the shared on-disk cache; RRR4_JIT=0 still says no); options: :func:`case_options`. Runs in a Dask worker; imports
     nothing Dask."""
-    from .integrators.compiled import compilations
-    from .simulation import simulate
+    from ..integrators.compiled import compilations
+    from ..simulation import simulate
     from .study import arm_scene
     rows = []
     before = compilations()
@@ -312,7 +312,7 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
             done.add(cid)  # a duplicate case runs once
     skipped = len(spec.cases) - len(todo)
     say(f"{len(spec.cases)} cases x {len(spec.arms)} arms; {skipped} already in {csv_path}, {len(todo)} to run")
-    from .simulation import default_jit
+    from ..simulation import default_jit
     rows_out, failed, built, jit, options = [], 0, 0, default_jit(), case_options(spec)
     if todo:
         from dask.distributed import Client, LocalCluster, as_completed
@@ -353,7 +353,7 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
             client.close()
             if cluster is not None:
                 cluster.close()
-    from .results.sweep_figures import sweep_figures
+    from ..results.sweep_figures import sweep_figures
     figures = sweep_figures(csv_path, spec.keys, spec.grid_keys, spec.mc_keys, out, name or spec.scene_path.stem)
     return {"csv": csv_path, "cases": len(spec.cases), "skipped": skipped, "failed": failed, "rows": rows_out,
             "figures": figures, "compiled": jit, "options": options, "compilations": built}
