@@ -11,7 +11,8 @@ import pytest
 from rrr4 import SceneError, load_scene
 from rrr4.cli import main
 from rrr4.results import atomic_directory, loss_times, write_results
-from rrr4.studies.study import PRELOAD_ARMS, run_study
+from rrr4.results.study import PRELOAD_ARMS
+from rrr4.studies.study import run_study
 
 ROOT = Path(__file__).resolve().parents[1]
 T_END = 0.03  # s: the first part of the path, with the unloaded arm's first impacts

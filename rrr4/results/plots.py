@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ..mechanism import Model  # noqa: E402
-from ..study import Study  # noqa: E402
+from .study import Study  # noqa: E402
 
 __all__ = ["orbits", "contact_forces", "platform_error", "torques", "preload_alpha", "body_accelerations",
            "driver_efforts", "all_figures"]

@@ -15,9 +15,9 @@ from ..mechanism import Model
 from ..mechanism.workspace import path_kinematics
 from ..problem import Problem
 from ..scene import Scene
-from ..study import PRELOAD_ARMS, Study
 from ..trajectory import sample_path
 from .metrics import arm_metrics, driven_metrics
+from .study import PRELOAD_ARMS, Study
 
 __all__ = ["scene_summary", "study_summary", "target_checks"]
 

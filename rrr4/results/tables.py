@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..mechanism import Model
-from ..study import PRELOAD_ARMS, Study
+from .study import PRELOAD_ARMS, Study
 
 __all__ = ["write_timeseries_csv", "report_markdown"]
 

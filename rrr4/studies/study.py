@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -46,47 +46,15 @@ from ..checks import argument
 from ..control import pointwise_controller
 from ..errors import SceneError
 from ..files import c_compiler
-from ..preload import PreloadSolution, solve_preload
+from ..preload import solve_preload
 from ..preload.solve import PreloadWarning
 from ..problem import Problem
+from ..results.study import Study, StudyArm
 from ..scene import MAX_SAMPLES, Scene
-from ..simulation import Simulation, simulate
+from ..simulation import simulate
 from ..trajectory import sample_path
 
-__all__ = ["Study", "StudyArm", "run_study", "arm_scene", "study_controller", "ARMS",
-           "PRELOAD_ARMS", "DRIVEN_ARMS"]
-
-PRELOAD_ARMS = ("with_preload", "with_preload_compensated", "without_preload")   # scenes with a task body
-DRIVEN_ARMS = ("with_clearance", "ideal")             # scenes moved by drivers
-ARMS = PRELOAD_ARMS + DRIVEN_ARMS
-
-
-@dataclass(frozen=True)
-class StudyArm:
-    """One clearance simulation of the study and its wall time [s] (building + stepping)."""
-    name: str
-    simulation: Simulation
-    wall_time: float
-
-
-@dataclass(frozen=True)
-class Study:
-    """Result of :func:`run_study`.
-
-    t_path (N,) [s] path samples; tau_min_norm (N, n) [N m] minimum-norm inverse-dynamics
-    torques tau_p of the ideal mechanism; preload: the PreloadSolution (None without a
-    preload arm); arms: name -> StudyArm, keys from :data:`ARMS`; preload_warning: the
-    infeasibility report of the preload ('' if feasible).
-    """
-    scene: Scene
-    t_path: np.ndarray
-    tau_min_norm: np.ndarray
-    preload: PreloadSolution | None
-    preload_warning: str
-    arms: dict
-    t_end: float
-    step: float
-    refinement: StudyArm | None = None
+__all__ = ["run_study", "arm_scene", "ideal_twin", "study_controller"]
 
 
 def arm_scene(scene: Scene, arm: str) -> Scene:

@@ -1,7 +1,7 @@
 """Parameter sweeps and tolerance Monte Carlo of the study, on Dask (DESIGN section 8).
 
 A spec (YAML) names a base ``scene`` (a path relative to the spec file, or absolute), an
-optional ``t_end`` [s], the ``arms`` to run (from :data:`rrr4.study.PRELOAD_ARMS`), and
+optional ``t_end`` [s], the ``arms`` to run (from :data:`rrr4.results.study.PRELOAD_ARMS`), and
 
 - ``grid``: scene key paths -> lists of values, run as their Cartesian product, e.g.
   ``joints.radial_clearance: [5.0e-5, 1.0e-4]``;
@@ -39,8 +39,8 @@ import yaml
 
 from ..checks import describe
 from ..errors import Rrr4Error, SceneError
+from ..results.study import PRELOAD_ARMS
 from ..scene import get_key, key_steps, parse_scene, read_yaml, set_key
-from .study import PRELOAD_ARMS
 
 __all__ = ["sweep", "load_spec", "SweepSpec", "METRICS", "DISTRIBUTIONS", "case_options", "GEOMETRY_KEYS", "PATH_KEYS"]
 
