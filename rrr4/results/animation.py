@@ -29,7 +29,7 @@ from matplotlib.animation import FuncAnimation, PillowWriter  # noqa: E402
 from ..errors import Rrr4Error  # noqa: E402
 from ..mechanism import Model  # noqa: E402
 from ..scene import GROUND, Scene, parse_scene  # noqa: E402
-from .plots import STYLE  # noqa: E402
+from .figures import STYLE, save_figure  # noqa: E402
 
 __all__ = ["save_motion", "load_motion", "render", "MOTION", "FRAMES", "FPS"]
 
@@ -126,13 +126,10 @@ def render(result_dir, out_file=None, frames: int = FRAMES, progress: bool = Tru
     if progress:
         from tqdm import tqdm
         bar = tqdm(total=n, desc="animate", unit="frame")
-    tmp = out.with_name(f".{out.name}.tmp.gif")
     try:
-        anim.save(tmp, writer=PillowWriter(fps=FPS), dpi=72,
-                  progress_callback=(lambda i, total: bar.update(1)) if bar is not None else None)
-        tmp.replace(out)    # never a half-written animation in place of an earlier one
+        save_figure(anim, out, writer=PillowWriter(fps=FPS), dpi=72,
+                    progress_callback=(lambda i, total: bar.update(1)) if bar is not None else None)
     finally:
-        tmp.unlink(missing_ok=True)
         if bar is not None:
             bar.close()
         plt.close(fig)

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import csv
 import io
-import itertools
 import os
 import platform
 from dataclasses import replace
@@ -147,11 +146,9 @@ def _step_taken(scene: Scene, t_end: float, h: float) -> float:
 
 
 def write_work_precision(rows: list[dict], scene: Scene, out_dir, t_end: float) -> list[Path]:
-    """Write <scene>.csv and the log-log figure <scene>.png into out_dir; returns the paths."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    """Write <scene>.csv and the log-log figure <scene>.png
+    (:func:`rrr4.results.figures.plot_work_precision`) into out_dir; returns the paths."""
+    from ..results.figures import plot_work_precision
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     csv_path, png_path = out / f"{scene.name}.csv", out / f"{scene.name}.png"
@@ -160,35 +157,5 @@ def write_work_precision(rows: list[dict], scene: Scene, out_dir, t_end: float) 
     w.writeheader()
     w.writerows(rows)
     write_atomic(csv_path, text.getvalue())
-    fig, ax = plt.subplots(figsize=(9, 7.8))
-    markers = dict(zip(METHODS, itertools.cycle("osD^vP*Xhp<>"), strict=False))
-    for method in dict.fromkeys(r["method"] for r in rows if r["status"] != "cross-check"):
-        rs = [r for r in rows if r["method"] == method and r["status"] == "ok" and r["error_m"] > 0]
-        if not rs:
-            continue
-        fixed = rs[0]["kind"] == "step"
-        settings = [r["setting"] for r in rs]
-        span = (f"h {max(settings):.1e}..{min(settings):.1e} s" if fixed
-                else f"rtol {max(settings):.0e}..{min(settings):.0e}")
-        unstable = [r["setting"] for r in rows if r["method"] == method and r["status"] == "unstable"]
-        if unstable:
-            span += f"; blows up at {', '.join(f'{v:.1e}' for v in unstable)} s"
-        style = markers.get(method, "o") + ("-" if fixed else "--")
-        ax.loglog([r["cpu_s"] for r in rs], [r["error_m"] for r in rs], style,
-                  label=f"{method} ({'fixed step, compiled C' if fixed else 'adaptive'}: {span})", ms=5)
-    ax.axhline(1e-6, color="grey", lw=0.9, ls=":", label="1 um")
-    checks = [r for r in rows if r["status"] == "cross-check"]
-    note = ", ".join(f"{r['method'].split(',')[0]} {'h' if r['kind'] == 'step' else 'rtol'} = {r['setting']:.2g}:"
-                     f" {r['error_m']:.1e} m" for r in checks)
-    ax.axhline(max(r["error_m"] for r in checks), color="black", lw=0.9, ls="-.",
-               label=f"reference {rows[0]['reference']}; its distance to {note}")
-    ax.set_xlabel(f"time of the stepping [s] (one core; {machine()})")
-    ax.set_ylabel("max platform position error [m]" if scene.graph.task else "max body position error [m]")
-    ax.set_title(f"Work-precision on {scene.name}: the first {t_end:g} s of the path simulated, with preload")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.11), ncol=2)
-    tmp_png = png_path.with_name(f".{png_path.name}.tmp.png")
-    fig.savefig(tmp_png, dpi=130, bbox_inches="tight")
-    os.replace(tmp_png, png_path)  # never a half-written figure in place of an earlier one
-    plt.close(fig)
+    plot_work_precision(rows, scene, png_path, t_end, machine())
     return [png_path, csv_path]

@@ -5,7 +5,8 @@ contact stiffness x0.3 to x3, friction coefficient 0 to 0.2, one link 50 um long
 For each case :func:`robustness` simulates the preloaded controller with and without
 compensation (both built from the nominal scene, ``simulate(..., model=nominal)``) on the
 perturbed mechanism and reports the platform RMS and peak error and the contact losses.
-:func:`plot_robustness` draws them; ``rrr4 robustness SCENE`` writes both.
+:func:`write_robustness` (``rrr4 robustness SCENE``) writes them and their figure
+(:func:`rrr4.results.figures.plot_robustness`).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from ..files import write_atomic
 from ..problem import Problem
 from ..scene import Scene, parse_scene
 
-__all__ = ["CASES", "robustness", "plot_robustness", "write_robustness"]
+__all__ = ["CASES", "ARMS", "robustness", "perturbed", "write_robustness"]
 
 # name -> (scene key path, how the nominal value changes): a factor on a number, a value, or
 # a length added [m] to the first chain's driving link
@@ -103,45 +104,10 @@ def robustness(scene: Scene, t_end: float | None = None, progress: bool = False,
     return rows
 
 
-def plot_robustness(rows: list[dict], path: Path, title: str = "") -> Path:
-    """Grouped bars of the platform RMS error [um] per case, one bar per arm (log scale),
-    with the 1 um target line."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from ..results.plots import STYLE
-    cases = list(dict.fromkeys(r["case"] for r in rows))
-    fig, ax = plt.subplots(figsize=(9.0, 4.2))
-    width = 0.38
-    x = np.arange(len(cases))
-    top = 0.0
-    for k, arm in enumerate(ARMS):
-        vals = [next(r["platform_error_rms_m"] for r in rows if r["case"] == c and r["arm"] == arm) * 1e6
-                for c in cases]
-        top = max(top, *vals)
-        bars = ax.bar(x + (k - 0.5) * width, vals, width, color=STYLE[arm]["color"], label=STYLE[arm]["label"])
-        for b, v in zip(bars, vals, strict=True):
-            ax.annotate(f"{v:.2g}", (b.get_x() + b.get_width() / 2, v), ha="center", va="bottom", fontsize=7)
-    ax.axhline(1.0, color="k", ls=":", lw=1, label="1 um")
-    ax.set_yscale("log")
-    ax.set_ylim(top=top * 6)  # room for the legend above the bars
-    ax.set_xticks(x, cases, rotation=20, ha="right")
-    ax.set_ylabel("platform position error, RMS [um]")
-    ax.set_title(title or "controller with the nominal model on a mechanism that differs from it", fontsize=10)
-    ax.legend(fontsize=8, ncol=3, loc="upper left")
-    ax.grid(axis="y", which="both", alpha=0.3)
-    fig.tight_layout()
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    tmp.replace(path)  # atomic: an interrupted run keeps the earlier figure
-    return path
-
-
 def write_robustness(scene: Scene, out: Path, t_end: float | None = None, progress: bool = False,
                      log=None) -> list[Path]:
     """Run :func:`robustness` and write ``robustness.json`` and ``robustness.png`` into out."""
+    from ..results.figures import plot_robustness
     rows = robustness(scene, t_end=t_end, progress=progress, log=log)
     out.mkdir(parents=True, exist_ok=True)
     meta = {"scene": scene.name, "t_end_s": t_end or scene.path.duration, "cases": {

@@ -280,7 +280,7 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
     """Run a sweep: `spec` is a spec file path, a mapping, or a :class:`SweepSpec`; rows go to
     ``out/results.csv`` (default ``results/sweeps/<spec or scene name>/``). scheduler: the
     address of an existing Dask scheduler (default: a local cluster of `workers` processes,
-    default the machine's cores). Writes the figures of :mod:`rrr4.results.sweep_figures` from
+    default the machine's cores). Writes the figures of :func:`rrr4.results.figures.sweep_figures` from
     all rows. Cases step in compiled C when a C compiler exists (see
     :func:`rrr4.simulation.default_jit`), with :func:`case_options`.
     Returns {'csv': path, 'cases': n, 'skipped': n, 'failed': n, 'rows': list of row dicts of
@@ -353,7 +353,7 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
             client.close()
             if cluster is not None:
                 cluster.close()
-    from ..results.sweep_figures import sweep_figures
+    from ..results.figures import sweep_figures
     figures = sweep_figures(csv_path, spec.keys, spec.grid_keys, spec.mc_keys, out, name or spec.scene_path.stem)
     return {"csv": csv_path, "cases": len(spec.cases), "skipped": skipped, "failed": failed, "rows": rows_out,
             "figures": figures, "compiled": jit, "options": options, "compilations": built}

@@ -1,7 +1,7 @@
 """Figures of a study (matplotlib, Agg). Each function writes one PNG and returns its path.
 
-Arms are drawn in fixed colours: with preload blue, without preload orange; for a driven
-scene, with clearance red and the ideal twin black.
+Arms are drawn in fixed colours (:data:`rrr4.results.figures.base.STYLE`): with preload
+blue, without preload orange; for a driven scene, with clearance red and the ideal twin black.
 """
 
 from __future__ import annotations
@@ -10,23 +10,16 @@ import math
 import textwrap
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from ..mechanism import Model  # noqa: E402
-from .study import Study  # noqa: E402
+from ...mechanism import Model
+from ..study import Study
+from .base import STYLE, save_figure
 
 __all__ = ["orbits", "contact_forces", "platform_error", "torques", "preload_alpha", "body_accelerations",
            "driver_efforts", "all_figures"]
 
-STYLE = {"with_preload": {"color": "tab:blue", "label": "with preload"},
-         "with_preload_compensated": {"color": "tab:green", "label": "with preload, compensated"},
-         "without_preload": {"color": "tab:orange", "label": "without preload"},
-         "with_clearance": {"color": "tab:red", "label": "with clearance"},
-         "ideal": {"color": "k", "label": "ideal joints"}}
 DPI = 110
 
 
@@ -35,12 +28,6 @@ def _grid(count: int, width: float = 3.2, height: float = 2.6):
     rows = math.ceil(count / cols)
     fig, axes = plt.subplots(rows, cols, figsize=(width * cols, height * rows + 0.6), squeeze=False)
     return fig, axes.ravel()
-
-
-def _save(fig, path: Path) -> Path:
-    fig.savefig(path, dpi=DPI)
-    plt.close(fig)
-    return path
 
 
 def _suptitle(fig, text: str) -> None:
@@ -55,7 +42,7 @@ def _finish(fig, axes, used: int, title: str, path: Path, legend_kw: dict | None
     axes[0].legend(**(legend_kw or {"fontsize": 7}))
     _suptitle(fig, title)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path, dpi=DPI)
 
 
 def _title(study: Study, what: str) -> str:
@@ -146,7 +133,7 @@ def platform_error(study: Study, path: Path) -> Path | None:
     ax.legend()
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path, dpi=DPI)
 
 
 def torques(study: Study, path: Path) -> Path | None:
@@ -196,7 +183,7 @@ def preload_alpha(study: Study, path: Path) -> Path | None:
     a2.legend()
     a2.grid(alpha=0.3)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path, dpi=DPI)
 
 
 def _driver_window(study: Study) -> tuple:
@@ -253,7 +240,7 @@ def driver_efforts(study: Study, path: Path) -> Path | None:
         axes[k].legend(fontsize=7)
     _suptitle(fig, _title(study, "driver effort, clearance against ideal joints"))
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path, dpi=DPI)
 
 
 def all_figures(study: Study, out: Path) -> list[Path]:
