@@ -13,15 +13,18 @@ from __future__ import annotations
 
 import copy
 import json
+import time
 from pathlib import Path
 
-import numpy as np
 import yaml
 
 from ..errors import SceneError
 from ..files import write_atomic
 from ..problem import Problem
+from ..results.metrics import scalar_metrics
 from ..scene import Scene, parse_scene
+from ..simulation import simulate
+from .study import arm_scene
 
 __all__ = ["CASES", "ARMS", "robustness", "perturbed", "write_robustness"]
 
@@ -38,6 +41,7 @@ CASES = {
     "link A1B1 +50 um": ("mechanism.chains[0].driving_link.length", "add", 50e-6),
 }
 ARMS = ("with_preload", "with_preload_compensated")
+METRICS = ("platform_error_rms_m", "platform_error_max_m", "contact_loss_events")  # of scalar_metrics, per row
 
 
 def _nominal_data(scene: Scene) -> dict:
@@ -74,19 +78,16 @@ def perturbed(scene: Scene, case: str) -> Scene:
     return parse_scene(data, name=f"{scene.name}, {case}", source="")
 
 
-def robustness(scene: Scene, t_end: float | None = None, progress: bool = False, log=None) -> list[dict]:
+def robustness(scene: Scene | Problem, t_end: float | None = None, progress: bool = False, log=None) -> list[dict]:
     """Rows {case, arm, platform_error_rms_m, platform_error_max_m, contact_loss_events,
     wall_time_s}: the scene's preloaded controller, uncompensated and compensated, built
     from the nominal scene, on each perturbed mechanism of :data:`CASES`."""
-    import time
-
-    from ..simulation import simulate
-    from .study import arm_scene
     say = log or (lambda _m: None)
-    closed_form = Problem.from_scene(scene).closed_form
-    if not closed_form or not scene.clearance_joints:
+    problem = Problem.from_scene(scene)
+    scene = problem.scene
+    if not problem.closed_form or not problem.clearance_joints:
         raise SceneError("mechanism: robustness cases are defined for n-RRR scenes with clearance joints "
-                         f"(scene {scene.name!r} has {'none' if closed_form else 'a graph'})")
+                         f"(scene {scene.name!r} has {'none' if problem.closed_form else 'a graph'})")
     _nominal_data(scene)  # refuse a scene without its YAML before simulating anything
     models = {arm: arm_scene(scene, arm) for arm in ARMS}
     rows = []
@@ -96,10 +97,8 @@ def robustness(scene: Scene, t_end: float | None = None, progress: bool = False,
             say(f"{case}: {arm.replace('_', ' ')}")
             wall = time.perf_counter()
             sim = simulate(arm_scene(plant, arm), t_end=t_end, model=model, progress=progress)
-            e = sim.platform_error
-            rows.append({"case": case, "arm": arm, "platform_error_rms_m": float(np.sqrt(np.mean(e**2))),
-                         "platform_error_max_m": float(e.max()),
-                         "contact_loss_events": int(sum(sim.contact_loss_events.values())),
+            m = scalar_metrics(sim)
+            rows.append({"case": case, "arm": arm, **{k: m[k] for k in METRICS},
                          "wall_time_s": time.perf_counter() - wall})
     return rows
 

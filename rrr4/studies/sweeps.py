@@ -39,13 +39,13 @@ import yaml
 
 from ..checks import describe
 from ..errors import Rrr4Error, SceneError
+from ..results.metrics import SCALAR_METRICS, scalar_metrics
 from ..results.study import PRELOAD_ARMS
 from ..scene import get_key, key_steps, parse_scene, read_yaml, set_key
 
 __all__ = ["sweep", "load_spec", "SweepSpec", "METRICS", "DISTRIBUTIONS", "case_options", "GEOMETRY_KEYS", "PATH_KEYS"]
 
-METRICS = ("contact_loss_events", "platform_error_rms_m", "platform_error_max_m", "min_contact_force_N",
-           "peak_contact_force_N", "torque_rms_Nm", "wall_time_s")
+METRICS = (*SCALAR_METRICS, "wall_time_s")  # the CSV columns of each arm
 DISTRIBUTIONS = ("normal", "uniform")
 SPEC_KEYS = ("scene", "t_end", "arms", "grid", "monte_carlo")
 MAX_CASES = 100_000
@@ -211,7 +211,8 @@ def case_options(spec: SweepSpec) -> dict:
 
 def run_case(text: str, name: str, t_end, arms, jit: bool = False, options: dict | None = None
              ) -> tuple[list[dict], int]:
-    """(the rows (one per arm) of one case: metrics of each arm's simulation, or status
+    """(the rows (one per arm) of one case: metrics of each arm's simulation
+    (:func:`rrr4.results.metrics.scalar_metrics` and its wall time), or status
     'failed' with the error; the C libraries this case compiled). jit: step in compiled C
     (the shared on-disk cache; RRR4_JIT=0 still says no); options: :func:`case_options`. Runs in a Dask worker; imports
     nothing Dask."""
@@ -231,14 +232,7 @@ def run_case(text: str, name: str, t_end, arms, jit: bool = False, options: dict
         except Exception as e:  # recorded, the sweep goes on
             rows.append({"arm": arm, "status": "failed", "error": f"{type(e).__name__}: {str(e).splitlines()[0]}"})
             continue
-        e = sim.platform_error
-        fn = sim.normal_force
-        rows.append({"arm": arm, "status": "ok", "error": "",
-                     "contact_loss_events": int(sum(sim.contact_loss_events.values())),
-                     "platform_error_rms_m": float(np.sqrt(np.mean(e**2))), "platform_error_max_m": float(e.max()),
-                     "min_contact_force_N": float(fn.min()) if fn.size else float("nan"),
-                     "peak_contact_force_N": float(fn.max()) if fn.size else float("nan"),
-                     "torque_rms_Nm": float(np.sqrt(np.mean(sim.tau**2))),
+        rows.append({"arm": arm, "status": "ok", "error": "", **scalar_metrics(sim),
                      "wall_time_s": time.perf_counter() - wall})
     return rows, compilations() - before
 
