@@ -28,6 +28,7 @@ from matplotlib.animation import FuncAnimation, PillowWriter  # noqa: E402
 
 from ..errors import Rrr4Error  # noqa: E402
 from ..mechanism import Model  # noqa: E402
+from ..problem import Problem  # noqa: E402
 from ..scene import GROUND, Scene, parse_scene  # noqa: E402
 from .figures import STYLE, save_figure  # noqa: E402
 
@@ -138,7 +139,7 @@ def render(result_dir, out_file=None, frames: int = FRAMES, progress: bool = Tru
 
 def build(data: dict, scene: Scene, frames: int = FRAMES):
     """(figure, update(k), frame count): the animation of saved motion `data` of `scene`."""
-    model = Model.of(scene.graph)
+    model = Problem.from_scene(scene).model
     arms = [str(a) for a in data["arms"]]
     t = data["t"]
     lo_t, hi_t = 0.0, float(t[-1])

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..mechanism import Model
+from ..problem import Problem
 from ..simulation import Simulation
 
 __all__ = ["scalar_metrics", "SCALAR_METRICS", "arm_metrics", "loss_times", "contact_onsets", "driven_metrics"]
@@ -104,7 +104,7 @@ def driven_metrics(sim: Simulation, ideal: Simulation, t_from: float, revolution
     body_acceleration_peak_m_s2: body -> max |a| of the centre of mass;
     acceleration_deviation_rms_m_s2 / _max_: body -> RMS / max |a - a_ideal|;
     driver_effort_peak: driver -> max |effort| [N m or N]; driver_effort_rms."""
-    model = Model.of(sim.scene.graph)
+    model = Problem.from_scene(sim.scene).model
     keep = sim.t >= t_from
     span = max(float(sim.t[keep][-1] - sim.t[keep][0]), 1e-300) if keep.sum() > 1 else 1e-300
     onsets = contact_onsets(sim)

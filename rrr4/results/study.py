@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..preload import PreloadSolution
+from ..problem import Problem
 from ..scene import Scene
 from ..simulation import Simulation
 
@@ -50,3 +51,8 @@ class Study:
     t_end: float
     step: float
     refinement: StudyArm | None = None
+
+    @property
+    def problem(self) -> Problem:
+        """The Problem of the study's scene (built once per scene)."""
+        return Problem.from_scene(self.scene)

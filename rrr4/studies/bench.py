@@ -32,6 +32,8 @@ import numpy as np
 from ..errors import SimulationError
 from ..files import write_atomic
 from ..integrators import METHODS, RK4, Cvodes
+from ..preload import solve_preload
+from ..problem import Problem
 from ..scene import Scene
 from ..simulation import simulate
 
@@ -45,11 +47,8 @@ _RATIO = 4                  # reference step = finest RK4 step / _RATIO
 DEFAULT_PLAN = {name: ("rtol" if m.adaptive else "step", list(m.ladder)) for name, m in METHODS.items()}
 
 
-def _preload(scene: Scene):
-    if scene.actuation.mode != "torque":
-        return None
-    from ..preload import solve_preload
-    return solve_preload(scene)
+def _preload(problem: Problem):
+    return solve_preload(problem) if problem.mode == "torque" else None
 
 
 def machine() -> str:
@@ -65,7 +64,7 @@ def machine() -> str:
     return f"{cpu} ({platform.machine()} {platform.system()}), {os.cpu_count()} cores"
 
 
-def work_precision(scene: Scene, t_end: float | None = None, plan: dict | None = None,
+def work_precision(scene: Scene | Problem, t_end: float | None = None, plan: dict | None = None,
                    progress: bool = False) -> list[dict]:
     """Rows {method, kind, setting, status, error_m, cpu_s, steps, reference} for each run of `plan`.
 
@@ -75,10 +74,13 @@ def work_precision(scene: Scene, t_end: float | None = None, plan: dict | None =
     would cap every step at its period) with the preload tabulated once, so only the
     integrators differ between runs.
     """
-    scene = replace(scene, actuation=replace(scene.actuation, control_rate=None))
+    scene = Problem.from_scene(scene).scene
+    problem = Problem.from_scene(replace(scene, actuation=replace(scene.actuation, control_rate=None)))
+    scene = problem.scene
+    task = problem.model.task is not None
     plan = DEFAULT_PLAN if plan is None else plan
     t_end = scene.path.duration if t_end is None else float(t_end)
-    preload = _preload(scene)
+    preload = _preload(problem)
     runs = [(m, kind, v) for m, (kind, vals) in plan.items() for v in vals]
     bar = None
     if progress:
@@ -88,8 +90,8 @@ def work_precision(scene: Scene, t_end: float | None = None, plan: dict | None =
 
     def run(method, **kw):
         if method.jit:
-            simulate(scene, method, t_end=warm_up, preload=preload, **kw)
-        sim = simulate(scene, method, t_end=t_end, preload=preload, **kw)
+            simulate(problem, method, t_end=warm_up, preload=preload, **kw)
+        sim = simulate(problem, method, t_end=t_end, preload=preload, **kw)
         if bar is not None:
             bar.update()
         return sim
@@ -99,7 +101,7 @@ def work_precision(scene: Scene, t_end: float | None = None, plan: dict | None =
     name = f"rk4 (C), h = {ref.stats['step']:.3g} s"
 
     def error(sim) -> float:
-        return float(np.max(np.linalg.norm(_positions(sim) - _positions(ref), axis=2)))
+        return float(np.max(np.linalg.norm(_positions(sim, task) - _positions(ref, task), axis=2)))
 
     def row(method, kind, setting, status, sim=None):
         return {"method": method, "kind": kind, "setting": setting, "status": status,
@@ -129,10 +131,10 @@ def work_precision(scene: Scene, t_end: float | None = None, plan: dict | None =
     return rows
 
 
-def _positions(sim) -> np.ndarray:
+def _positions(sim, task: bool) -> np.ndarray:
     """(N, k, 2) positions [m] the error is measured on: the task body's centre of mass, or
-    without a task body (a driven scene) every body's."""
-    if sim.scene.graph.task is not None:
+    without a task body (task False: a driven scene) every body's."""
+    if task:
         return sim.pose[:, None, :2]
     q = sim.q.reshape(len(sim.t), -1, 3)
     return q[:, :, :2]

@@ -13,7 +13,6 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from ...mechanism import Model
 from ..study import Study
 from .base import STYLE, save_figure
 
@@ -119,7 +118,7 @@ def contact_forces(study: Study, path: Path) -> Path | None:
 
 def platform_error(study: Study, path: Path) -> Path | None:
     """Platform position error |p - p_ref| [um] against time (scenes with a task body)."""
-    if study.scene.graph.task is None:
+    if study.problem.model.task is None:
         return None
     fig, ax = plt.subplots(figsize=(8, 3.6))
     for arm_name, arm in study.arms.items():
@@ -138,9 +137,10 @@ def platform_error(study: Study, path: Path) -> Path | None:
 
 def torques(study: Study, path: Path) -> Path | None:
     """Actuator torques [N m] against time, both arms, with their feed-forward references."""
-    names = Model.of(study.scene.graph).actuator_names
+    model = study.problem.model
+    names = model.actuator_names
     n = len(names)
-    if n == 0 or study.scene.graph.task is None:
+    if n == 0 or model.task is None:
         return None
     fig, axes = _grid(n, 4.0, 2.6)
     for i in range(n):
@@ -202,7 +202,7 @@ def body_accelerations(study: Study, path: Path) -> Path | None:
     that stay zero in the ideal run are left out)."""
     if "ideal" not in study.arms:
         return None
-    model = Model.of(study.scene.graph)
+    model = study.problem.model
     ideal = study.arms["ideal"].simulation
     x_of, x_label, x_lim = _driver_window(study)
     panels = [(b, c) for b in model.body_names for c in (0, 1)
