@@ -8,7 +8,8 @@
 - :mod:`.maps`: ``rrr4 map``, workspace maps;
 - :mod:`.bench`: ``rrr4 bench accuracy``, work-precision of the integrators.
 
-Each computes; what it writes and draws is in :mod:`rrr4.results`.
+Each computes and writes its tables; the result types, metrics and every figure they use are
+in :mod:`rrr4.results` (the layer below).
 """
 
 from .bench import work_precision, write_work_precision

@@ -28,6 +28,9 @@ ideal twin (every joint ideal), driven alike:
 - ``refinement``: ``with_clearance`` again at half the step, to show which results have
   converged in the step (kept in ``Study.refinement``, not drawn as an arm).
 
+The result (:class:`rrr4.results.study.Study`, its arms and the arm names) belongs to the
+results layer, which writes, draws and tabulates it.
+
 The simulations write every integrator step (output rate = 1/step), so the contact state
 of every step is in the result and loss events can be located in time; with a sampled
 controller they write every control period (the frames the controller holds its efforts
