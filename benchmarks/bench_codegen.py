@@ -140,7 +140,7 @@ def _ns_per_call(f, arg_list, seconds: float = 0.3) -> float:
 
 
 def _machine() -> str:
-    from rrr4.bench import machine
+    from rrr4.codegen.build import machine
     gcc = subprocess.run(["gcc", "--version"], capture_output=True, text=True).stdout.splitlines()[0]
     load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
     return f"{machine()}; {gcc}; load average {load}"

@@ -24,7 +24,6 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 import rrr4  # noqa: E402
-from rrr4.bench import machine  # noqa: E402
 from rrr4.codegen import build  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -60,7 +59,7 @@ def main(argv=None) -> int:
             for k, kw in runs.items():
                 walls[name, k].append(rrr4.simulate(scene, **kw).stats["wall_time"])
     med = {key: float(np.median(w)) for key, w in walls.items()}
-    print(f"{machine()}; {Path(args.scene).name}, {T:g} s, medians of {args.repeat}")
+    print(f"{build.machine()}; {Path(args.scene).name}, {T:g} s, medians of {args.repeat}")
     print("| path | fast flags RTF | portable flags RTF | fast / portable |")
     print("|---|---|---|---|")
     for k in runs:

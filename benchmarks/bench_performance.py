@@ -44,7 +44,8 @@ import casadi as ca  # noqa: E402
 import numpy as np  # noqa: E402
 
 import rrr4  # noqa: E402
-from rrr4.bench import machine, work_precision  # noqa: E402
+from rrr4.codegen.build import machine  # noqa: E402
+from rrr4.studies.bench import work_precision  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "problems" / "paper_circle.yaml"

@@ -30,7 +30,7 @@ def main(argv=None) -> int:
     ap.add_argument("--t-end", type=float, default=0.2)
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args(argv)
-    from rrr4.sweeps import sweep
+    from rrr4.studies.sweeps import sweep
     spec = {"scene": str(ROOT / "problems" / "paper_circle.yaml"), "t_end": args.t_end,
             "arms": ["with_preload", "without_preload"],
             "grid": {"joints.radial_clearance": [float(c) for c in np.linspace(6e-5, 1.4e-4, args.cases)]}}
@@ -47,7 +47,7 @@ def main(argv=None) -> int:
                 built[mode, workers].append(r["compilations"])
                 assert r["failed"] == 0 and r["skipped"] == 0
     load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
-    from rrr4.bench import machine
+    from rrr4.codegen.build import machine
     print(f"machine: {machine()}, load average {load}")
     print(f"{args.cases} cases x 2 arms x {args.t_end:g} s; medians of {args.repeat} (cluster start-up included)")
     rate = {k: args.cases / (np.median(t) / 60) for k, t in times.items()}

@@ -12,7 +12,7 @@ from .preload import PreloadSolution, solve_preload
 from .problem import Problem, build
 from .scene import Scene
 from .simulation import Simulation, simulate
-from .sweeps import sweep
+from .studies import sweep
 
 __all__ = ["load_scene", "check_scene", "build", "Problem", "Model", "Scene", "SceneError", "SimulationError",
            "KinematicsError", "Rrr4Error", "Mechanism", "codegen", "simulate", "Simulation", "solve_preload",

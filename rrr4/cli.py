@@ -35,7 +35,7 @@ def _run(args) -> int:
     from .checks import argument
     from .mechanism import load_scene
     from .results import check_target, write_results
-    from .study import run_study
+    from .studies.study import run_study
     if args.t_end is not None:
         argument("--t-end", args.t_end)
     scene = load_scene(args.scene)
@@ -64,9 +64,9 @@ def _check_writable(out) -> None:
 
 
 def _bench(args) -> int:
-    from .bench import work_precision, write_work_precision
     from .errors import SceneError
     from .mechanism import load_scene
+    from .studies.bench import work_precision, write_work_precision
     if args.t_end is not None and not (args.t_end > 0):
         raise SceneError(f"--t-end: {args.t_end!r} is not allowed (must be > 0 s)")
     scene = load_scene(args.scene)
@@ -85,7 +85,7 @@ def _robustness(args) -> int:
 
     from .checks import argument
     from .mechanism import load_scene
-    from .robustness import write_robustness
+    from .studies.robustness import write_robustness
     if args.t_end is not None:
         argument("--t-end", args.t_end)
     scene = load_scene(args.scene)
@@ -99,8 +99,8 @@ def _robustness(args) -> int:
 def _map(args) -> int:
     from pathlib import Path
 
-    from .maps import write_map
     from .mechanism import load_scene
+    from .studies.maps import write_map
     scene = load_scene(args.scene)
     out = Path(args.out) if args.out else Path("results") / f"{scene.name}_map"
     _check_writable(out)
@@ -112,7 +112,7 @@ def _map(args) -> int:
 def _sweep(args) -> int:
     from tqdm import tqdm
 
-    from .sweeps import sweep
+    from .studies.sweeps import sweep
     r = sweep(args.spec, out=args.out, scheduler=args.scheduler, workers=args.workers, progress=True,
               log=lambda m: tqdm.write(f"rrr4 sweep: {m}"))
     print(f"{r['cases']} cases: {r['skipped']} skipped (already done), {r['cases'] - r['skipped']} run, "

@@ -1,6 +1,7 @@
 """Files rrr4 writes and the C compiler it runs: one place for each.
 
-- :func:`write_atomic`: one file, written to a temporary name and moved into place;
+- :func:`atomic_file`: one file, written by any writer (a figure's, NumPy's) to a
+  temporary name beside it and moved into place; :func:`write_atomic`: the same for text;
 - :func:`atomic_directory`: a whole directory, filled in a temporary sibling that replaces
   the target only when complete (an interrupted or failed run leaves an earlier result as
   it was);
@@ -18,7 +19,8 @@ from pathlib import Path
 
 from .errors import Rrr4Error, SceneError
 
-__all__ = ["write_atomic", "atomic_directory", "check_target", "run_c_compiler", "c_compiler", "BuildError"]
+__all__ = ["atomic_file", "write_atomic", "atomic_directory", "check_target", "run_c_compiler", "c_compiler",
+           "BuildError"]
 
 
 class BuildError(Rrr4Error, RuntimeError):
@@ -31,20 +33,28 @@ def _umask() -> int:
     return mask
 
 
-def write_atomic(path, text: str) -> Path:
-    """Write `text` to `path` through a temporary file in the same directory (mode as for a
-    new file under the umask)."""
+def atomic_file(path, fill) -> Path:
+    """Call fill(tmp) to write a file at a temporary name beside `path`, then move it into
+    place (mode as for a new file under the umask). The temporary name ends in `path`'s
+    suffix, for writers that choose the format by it. If fill raises (or is interrupted),
+    the temporary file is removed and `path` is untouched: never a half-written file in
+    place of an earlier one."""
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=f".tmp{path.suffix}")
+    os.close(fd)
     try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
+        fill(tmp)
         os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+def write_atomic(path, text: str) -> Path:
+    """Write `text` to `path` through a temporary file in the same directory (:func:`atomic_file`)."""
+    return atomic_file(path, lambda tmp: Path(tmp).write_text(text))
 
 
 def check_target(out: Path, marker: str) -> None:

@@ -11,7 +11,7 @@ import rrr4
 from rrr4 import Model, Rrr4Error
 from rrr4.results import write_results
 from rrr4.results.animation import MOTION, build, load_motion, render
-from rrr4.study import run_study
+from rrr4.studies.study import run_study
 from tests.conftest import PAPER, ROOT
 
 
@@ -38,7 +38,7 @@ def test_drawn_joint_positions_equal_the_simulated_ones(paper_result):
     joint equations of the model at the simulated q), for both arms."""
     out, study = paper_result
     data, scene = load_motion(out)
-    fig, update, n = build(data, scene, frames=11)
+    fig, update, n = build(data, rrr4.build(scene), frames=11)
     model = Model.of(scene.graph)
     k = 7
     update(k)

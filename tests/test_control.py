@@ -145,7 +145,7 @@ def test_unpreloaded_controller_is_the_minimum_norm_one(paper_scene):
 def test_robustness_cases_change_one_parameter_and_the_model_stays_nominal(paper_scene):
     """Each case changes what it names; simulate(model=nominal) runs the nominal controller on
     the changed mechanism (a 50 um longer link moves the platform), and a bad model is refused."""
-    from rrr4.robustness import CASES, perturbed
+    from rrr4.studies.robustness import CASES, perturbed
     nominal_k = build(paper_scene).joint_stiffness("B1")
     checks = {
         "clearance +20 %": lambda s: s.joint("C2").radial_clearance == pytest.approx(1.2e-4),
@@ -155,16 +155,16 @@ def test_robustness_cases_change_one_parameter_and_the_model_stays_nominal(paper
         and s.mechanism.chains[1].driving.length == 0.25,
     }
     for case, ok in checks.items():
-        assert ok(perturbed(paper_scene, case)), case
+        assert ok(perturbed(build(paper_scene), case)), case
     assert set(checks) < set(CASES)
-    plant = perturbed(paper_scene, "link A1B1 +50 um")
+    plant = perturbed(build(paper_scene), "link A1B1 +50 um")
     a = simulate(paper_scene, t_end=0.02)
     b = simulate(plant, t_end=0.02, model=paper_scene)
     assert 5e-7 < np.max(np.abs(b.pose[-1, :2] - a.pose[-1, :2])) < 1e-4
     with pytest.raises(SceneError, match="model: .* is not allowed"):
         simulate(paper_scene, t_end=0.01, model="nominal")
     with pytest.raises(SceneError, match="case: 'x' is not allowed"):
-        perturbed(paper_scene, "x")
+        perturbed(build(paper_scene), "x")
 
 
 @pytest.mark.parametrize("key, value, match", [

@@ -248,7 +248,7 @@ def test_study_of_a_driven_scene_compares_clearance_with_the_ideal_twin(tmp_path
     """`rrr4 run` on the slider-crank: arms with_clearance and ideal, a half-step rerun, the
     driven metrics and figures, written atomically."""
     from rrr4.results import write_results
-    from rrr4.study import run_study
+    from rrr4.studies.study import run_study
     study = run_study(rrr4.load_scene(SLIDER), t_end=0.004, step=2e-6)
     assert set(study.arms) == {"with_clearance", "ideal"} and study.refinement.simulation.stats["step"] == 1e-6
     summary, files = write_results(study, tmp_path / "out", animate=False)

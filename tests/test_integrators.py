@@ -154,7 +154,7 @@ def test_work_precision_measures_all_methods_against_one_checked_reference_and_m
     and the CSV are written."""
     import csv
 
-    from rrr4.bench import work_precision, write_work_precision
+    from rrr4.studies.bench import work_precision, write_work_precision
     plan = {"rk4": ("step", [1e-3, 5e-5]), "cvodes": ("rtol", [1e-6])}
     rows = work_precision(paper_scene, t_end=0.005, plan=plan)
     status = {(r["method"], r["setting"]): r["status"] for r in rows}

@@ -11,7 +11,8 @@ import pytest
 from rrr4 import SceneError, load_scene
 from rrr4.cli import main
 from rrr4.results import atomic_directory, loss_times, write_results
-from rrr4.study import PRELOAD_ARMS, run_study
+from rrr4.results.study import PRELOAD_ARMS
+from rrr4.studies.study import run_study
 
 ROOT = Path(__file__).resolve().parents[1]
 T_END = 0.03  # s: the first part of the path, with the unloaded arm's first impacts
@@ -121,6 +122,30 @@ def test_failed_write_leaves_the_earlier_result_intact(tmp_path):
         atomic_directory(out, fill)
     assert (out / "summary.json").read_text() == "earlier"
     assert [p.name for p in tmp_path.iterdir()] == ["r"]
+
+
+def test_a_failed_figure_write_leaves_the_earlier_figure_and_no_temporary(tmp_path):
+    """save_figure, the one way every figure reaches its file: written whole or not at all."""
+    import matplotlib.pyplot as plt
+
+    from rrr4.results.figures import save_figure
+    path = tmp_path / "f.png"
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [0, 1])
+    assert save_figure(fig, path, dpi=50) == path and path.read_bytes().startswith(b"\x89PNG")
+    earlier = path.read_bytes()
+
+    def half_then_fail(fname, **kw):
+        with open(fname, "wb") as f:
+            f.write(b"\x89PNG half")
+        raise OSError("disk full")
+
+    fig, _ = plt.subplots()
+    fig.savefig = half_then_fail
+    with pytest.raises(OSError, match="disk full"):
+        save_figure(fig, path, dpi=50)
+    assert path.read_bytes() == earlier and [p.name for p in tmp_path.iterdir()] == ["f.png"]
+    assert not plt.fignum_exists(fig.number)   # closed all the same
 
 
 def test_non_result_directory_is_refused_as_output(tmp_path):

@@ -13,7 +13,7 @@ import pytest
 import yaml
 
 from rrr4 import SceneError, build
-from rrr4.sweeps import METRICS, load_spec, parse_spec, sweep
+from rrr4.studies.sweeps import METRICS, load_spec, parse_spec, sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = str(ROOT / "problems" / "paper_circle.yaml")
@@ -163,7 +163,7 @@ def test_workspace_map_agrees_with_the_controller_at_the_home_pose(paper_scene, 
 
     from rrr4 import Mechanism
     from rrr4.control import controller_function
-    from rrr4.maps import workspace_map, write_map
+    from rrr4.studies.maps import workspace_map, write_map
     m = workspace_map(paper_scene, grid=21)
     i = j = 10  # x = y = 0
     assert m["x"][j] == pytest.approx(0.0, abs=1e-15) and m["y"][i] == pytest.approx(0.0, abs=1e-15)
@@ -192,7 +192,7 @@ def test_workspace_map_of_the_graph_form_equals_the_closed_form(paper_scene, tmp
     import numpy as np
 
     from rrr4 import load_scene
-    from rrr4.maps import workspace_map, write_map
+    from rrr4.studies.maps import workspace_map, write_map
     closed = workspace_map(paper_scene, grid=15)
     graph = workspace_map(load_scene(ROOT / "problems" / "paper_circle_graph.yaml"), grid=15)
     for k in ("reachable", "feasible_rest", "feasible_peak"):
@@ -212,7 +212,7 @@ def test_a_sweep_over_the_mechanism_takes_its_geometry_as_inputs():
     controller's references tabulated per case (see
     test_with_geometry_inputs_scenes_that_differ_in_masses_and_geometry_share_their_compiled_code),
     so every sweep compiles once per structure."""
-    from rrr4.sweeps import case_options, load_spec
+    from rrr4.studies.sweeps import case_options, load_spec
     assert case_options(load_spec(ROOT / "problems" / "sweeps" / "clearance_vs_preload.yaml")) == {}
     assert case_options(load_spec(ROOT / "problems" / "sweeps" / "tolerances.yaml")) == {
         "inputs": "geometry", "references": "sampled"}

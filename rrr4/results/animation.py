@@ -28,8 +28,9 @@ from matplotlib.animation import FuncAnimation, PillowWriter  # noqa: E402
 
 from ..errors import Rrr4Error  # noqa: E402
 from ..mechanism import Model  # noqa: E402
+from ..problem import Problem  # noqa: E402
 from ..scene import GROUND, Scene, parse_scene  # noqa: E402
-from .plots import STYLE  # noqa: E402
+from .figures import STYLE, save_figure  # noqa: E402
 
 __all__ = ["save_motion", "load_motion", "render", "MOTION", "FRAMES", "FPS"]
 
@@ -120,28 +121,25 @@ def render(result_dir, out_file=None, frames: int = FRAMES, progress: bool = Tru
     out = Path(out_file) if out_file else Path(result_dir) / "motion.gif"
     if out.suffix.lower() != ".gif":
         raise Rrr4Error(f"--out: '{out}' is not allowed (a .gif file; the GIF writer is the one installed)")
-    fig, update, n = build(data, scene, frames)
+    fig, update, n = build(data, Problem.from_scene(scene), frames)
     anim = FuncAnimation(fig, update, frames=n, blit=False)
     bar = None
     if progress:
         from tqdm import tqdm
         bar = tqdm(total=n, desc="animate", unit="frame")
-    tmp = out.with_name(f".{out.name}.tmp.gif")
     try:
-        anim.save(tmp, writer=PillowWriter(fps=FPS), dpi=72,
-                  progress_callback=(lambda i, total: bar.update(1)) if bar is not None else None)
-        tmp.replace(out)    # never a half-written animation in place of an earlier one
+        save_figure(anim, out, writer=PillowWriter(fps=FPS), dpi=72,
+                    progress_callback=(lambda i, total: bar.update(1)) if bar is not None else None)
     finally:
-        tmp.unlink(missing_ok=True)
         if bar is not None:
             bar.close()
         plt.close(fig)
     return out
 
 
-def build(data: dict, scene: Scene, frames: int = FRAMES):
-    """(figure, update(k), frame count): the animation of saved motion `data` of `scene`."""
-    model = Model.of(scene.graph)
+def build(data: dict, problem: Problem, frames: int = FRAMES):
+    """(figure, update(k), frame count): the animation of saved motion `data` of `problem`."""
+    scene, model = problem.scene, problem.model
     arms = [str(a) for a in data["arms"]]
     t = data["t"]
     lo_t, hi_t = 0.0, float(t[-1])

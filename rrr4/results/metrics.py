@@ -1,4 +1,6 @@
-"""Metrics of one arm of the study (one :class:`rrr4.Simulation`).
+"""Metrics of a simulation (one :class:`rrr4.Simulation`): one implementation for the study
+(:func:`arm_metrics`, :func:`driven_metrics`), the sweep's CSV columns and the robustness
+table (:func:`scalar_metrics`).
 
 Contact state per output sample: a clearance joint is in contact while its penetration
 delta > 0 (Flores). With one output sample per integrator step (as the study runs) this is
@@ -10,10 +12,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..mechanism import Model
+from ..problem import Problem
 from ..simulation import Simulation
 
-__all__ = ["arm_metrics", "loss_times", "contact_onsets", "driven_metrics"]
+__all__ = ["scalar_metrics", "SCALAR_METRICS", "arm_metrics", "loss_times", "contact_onsets", "driven_metrics"]
+
+SCALAR_METRICS = ("contact_loss_events", "platform_error_rms_m", "platform_error_max_m", "min_contact_force_N",
+                  "peak_contact_force_N", "torque_rms_Nm")
 
 
 def loss_times(sim: Simulation) -> dict:
@@ -24,6 +29,21 @@ def loss_times(sim: Simulation) -> dict:
         lost = contact[:-1, k] & ~contact[1:, k]
         out[name] = sim.t[1:][lost]
     return out
+
+
+def scalar_metrics(sim: Simulation) -> dict:
+    """One number per metric of :data:`SCALAR_METRICS` (units in the names):
+    contact_loss_events (all joints, whole run, from the simulation's per-step counter);
+    platform_error_rms_m / _max_m (position distance to the commanded path);
+    min_contact_force_N / peak_contact_force_N (over every clearance joint and sample; NaN
+    without one); torque_rms_Nm (over time and actuators; 0 without actuators)."""
+    e, fn = sim.platform_error, sim.normal_force
+    return {"contact_loss_events": int(sum(sim.contact_loss_events.values())),
+            "platform_error_rms_m": float(np.sqrt(np.mean(e**2))),
+            "platform_error_max_m": float(np.max(e)),
+            "min_contact_force_N": float(fn.min()) if fn.size else float("nan"),
+            "peak_contact_force_N": float(fn.max()) if fn.size else float("nan"),
+            "torque_rms_Nm": float(np.sqrt(np.mean(sim.tau**2))) if sim.tau.size else 0.0}
 
 
 def arm_metrics(sim: Simulation, wall_time: float) -> dict:
@@ -47,6 +67,7 @@ def arm_metrics(sim: Simulation, wall_time: float) -> dict:
                 for j in names}
 
     reaction = np.linalg.norm(sim.reaction, axis=2) if sim.reaction.size else np.zeros((len(sim.t), 0))
+    flat = scalar_metrics(sim)
     return {
         "contact_loss_events": {j: int(sim.contact_loss_events.get(j, 0)) for j in names},
         "last_contact_loss_s": max((float(v[-1]) for v in times.values() if v.size), default=None),
@@ -56,9 +77,9 @@ def arm_metrics(sim: Simulation, wall_time: float) -> dict:
                                           lambda k: float(np.max(reaction[:, k]))),
         "min_contact_force_N": per_joint(lambda k: float(np.min(sim.normal_force[:, k])),
                                          lambda k: float(np.min(reaction[:, k]))),
-        "platform_error_rms_m": float(np.sqrt(np.mean(sim.platform_error**2))),
-        "platform_error_max_m": float(np.max(sim.platform_error)),
-        "torque_rms_Nm": float(np.sqrt(np.mean(sim.tau**2))) if sim.tau.size else 0.0,
+        "platform_error_rms_m": flat["platform_error_rms_m"],
+        "platform_error_max_m": flat["platform_error_max_m"],
+        "torque_rms_Nm": flat["torque_rms_Nm"],
         "torque_peak_Nm": float(np.max(np.abs(sim.tau), initial=0.0)),
         "energy_audit_residual": float(sim.energy_audit_residual),
         "wall_time_s": float(wall_time),
@@ -83,7 +104,7 @@ def driven_metrics(sim: Simulation, ideal: Simulation, t_from: float, revolution
     body_acceleration_peak_m_s2: body -> max |a| of the centre of mass;
     acceleration_deviation_rms_m_s2 / _max_: body -> RMS / max |a - a_ideal|;
     driver_effort_peak: driver -> max |effort| [N m or N]; driver_effort_rms."""
-    model = Model.of(sim.scene.graph)
+    model = Problem.from_scene(sim.scene).model
     keep = sim.t >= t_from
     span = max(float(sim.t[keep][-1] - sim.t[keep][0]), 1e-300) if keep.sum() > 1 else 1e-300
     onsets = contact_onsets(sim)

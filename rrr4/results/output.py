@@ -9,9 +9,9 @@ import json
 from pathlib import Path
 
 from .. import files
-from ..study import Study
 from .animation import MOTION, render, save_motion
-from .plots import all_figures
+from .figures import all_figures
+from .study import Study
 from .summary import study_summary
 from .tables import report_markdown, write_timeseries_csv
 

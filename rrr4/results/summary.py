@@ -11,13 +11,12 @@ from pathlib import Path
 import numpy as np
 
 from ..functions import graph_size
-from ..mechanism import Model
 from ..mechanism.workspace import path_kinematics
 from ..problem import Problem
 from ..scene import Scene
-from ..study import PRELOAD_ARMS, Study
 from ..trajectory import sample_path
 from .metrics import arm_metrics, driven_metrics
+from .study import PRELOAD_ARMS, Study
 
 __all__ = ["scene_summary", "study_summary", "target_checks"]
 
@@ -25,7 +24,7 @@ __all__ = ["scene_summary", "study_summary", "target_checks"]
 def _preload(study: Study) -> dict:
     pre = study.scene.actuation.preload
     if study.preload is None:
-        redundant = Model.of(study.scene.graph).redundancy >= 1
+        redundant = study.problem.redundancy >= 1
         why = ("min_force = 0 N: the minimum-norm torques are optimal" if redundant
                else "no actuation redundancy: the inverse dynamics has a single solution")
         return {"method": None, "reason": why}
@@ -60,10 +59,11 @@ def target_checks(summary: dict) -> dict:
 
 def study_summary(study: Study) -> dict:
     """JSON-ready summary of a study (see the README's "What the main job prints")."""
-    sc = study.scene
+    problem = study.problem
+    sc, model = problem.scene, problem.model
     out = {"scene": sc.name, "description": sc.description, "scene_file": Path(sc.source).name if sc.source else None,
-           "chains": sc.mechanism.n_chains if sc.mechanism is not None else None,
-           "bodies": list(Model.of(sc.graph).body_names), "actuators": list(Model.of(sc.graph).actuator_names),
+           "chains": sc.mechanism.n_chains if problem.closed_form else None,
+           "bodies": list(model.body_names), "actuators": list(model.actuator_names),
            "clearance_joints": list(sc.clearance_joints),
            "contact_law": sc.effects.contact.law if sc.clearance_joints else None,
            "friction_law": sc.effects.friction.law if sc.clearance_joints else None,
@@ -142,10 +142,10 @@ def scene_summary(scene: Scene | Problem) -> str:
     """What `rrr4 check` prints: the bodies, joints, effects, equations and path of a scene."""
     problem = Problem.from_scene(scene)
     scene, model = problem.scene, problem.model
-    m = scene.mechanism
     lines = [f"scene {scene.name}: {scene.description}".rstrip(": "), ""]
     lines.append(f"bodies ({len(model.body_names)}, {model.nq} coordinates):")
-    if m is not None:
+    if problem.closed_form:
+        m = scene.mechanism
         for c in m.chains:
             lines.append(f"  chain {c.name}: base ({c.base[0]:+.3f}, {c.base[1]:+.3f}) m, "
                          f"driving {c.driving.length:.3f} m / {c.driving.mass:.3f} kg, "
@@ -199,7 +199,7 @@ def scene_summary(scene: Scene | Problem) -> str:
         comp = ", clearance compensation" if a.compensation == "clearance" else ""
         rate = f"sampled at {a.control_rate:g} Hz" if a.control_rate else "continuous"
         lines.append(f"  actuation: controller = feed-forward + {pre}{comp} + PD (kp = {a.kp:g} N m/rad, kd = "
-                     f"{a.kd:g} N m s/rad), |tau| <= {max(a.torque_limit):g} N m, {rate}")
+                     f"{a.kd:g} N m s/rad), |tau| <= {max(scene.torque_limit):g} N m, {rate}")
     elif a.mode == "free":
         lines.append("  actuation: free (zero actuator torque)")
     else:
@@ -209,7 +209,7 @@ def scene_summary(scene: Scene | Problem) -> str:
     lines.append("")
     s = sample_path(scene.path)
     pk = path_kinematics(problem.mechanism, s)
-    if scene.graph.task is None:
+    if model.task is None:
         lines.append(f"path: none; the drivers set the motion for {scene.path.duration:g} s")
         integ = scene.integrator
         lines.append(f"integrator: {integ.method}, step {integ.step:g} s")

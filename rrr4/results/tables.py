@@ -7,8 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..mechanism import Model
-from ..study import PRELOAD_ARMS, Study
+from .study import PRELOAD_ARMS, Study
 
 __all__ = ["write_timeseries_csv", "report_markdown"]
 
@@ -23,7 +22,8 @@ def write_timeseries_csv(study: Study, path: Path, rate: float | None = None) ->
     A driven scene (no task; arms ``with_clearance_`` / ``ideal_``) has instead, per body B,
     B_x_m, B_y_m, B_theta_rad, B_ax_m_s2, B_ay_m_s2 and per driver D, D_effort (N m or N).
     """
-    model = Model.of(study.scene.graph)
+    problem = study.problem
+    model = problem.model
     base = next(iter(study.arms.values())).simulation
     driven = model.task is None
     rate = study.scene.path.sample_rate if rate is None else rate
@@ -49,7 +49,7 @@ def write_timeseries_csv(study: Study, path: Path, rate: float | None = None) ->
                 cols[f"{name}_{key}"] = sim.pose[rows, k]
             cols[f"{name}_error_m"] = sim.platform_error[rows]
         for i, a in enumerate(model.actuator_names):
-            unit = "Nm" if study.scene.graph.joint(model.actuated_joints[i]).type == "revolute" else "N"
+            unit = "Nm" if problem.joint(model.actuated_joints[i]).type == "revolute" else "N"
             cols[f"{name}_tau_{a}_{unit}"] = sim.tau[rows, i]
         for k, j in enumerate(sim.clearance_joints):
             cols[f"{name}_Fn_{j}_N"] = sim.normal_force[rows, k]

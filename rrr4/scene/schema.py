@@ -298,6 +298,10 @@ class Scene:
         acts = tuple(replace(a, limit=v) for a, v in zip(self.graph.actuators, limits, strict=True))
         return replace(self, graph=replace(self.graph, actuators=acts))
 
+    def with_ideal_joints(self) -> Scene:
+        """This scene with every joint ideal (the ideal twin of a clearance mechanism)."""
+        return self.with_joints(tuple(replace(j, clearance=False) for j in self.graph.joints))
+
     def with_joints(self, joints) -> Scene:
         """This scene with joint specs replaced by `joints` (matched by name), e.g. to
         change which joints have clearance."""

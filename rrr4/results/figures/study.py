@@ -1,7 +1,7 @@
 """Figures of a study (matplotlib, Agg). Each function writes one PNG and returns its path.
 
-Arms are drawn in fixed colours: with preload blue, without preload orange; for a driven
-scene, with clearance red and the ideal twin black.
+Arms are drawn in fixed colours (:data:`rrr4.results.figures.base.STYLE`): with preload
+blue, without preload orange; for a driven scene, with clearance red and the ideal twin black.
 """
 
 from __future__ import annotations
@@ -10,23 +10,15 @@ import math
 import textwrap
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from ..mechanism import Model  # noqa: E402
-from ..study import Study  # noqa: E402
+from ..study import Study
+from .base import STYLE, save_figure
 
 __all__ = ["orbits", "contact_forces", "platform_error", "torques", "preload_alpha", "body_accelerations",
            "driver_efforts", "all_figures"]
 
-STYLE = {"with_preload": {"color": "tab:blue", "label": "with preload"},
-         "with_preload_compensated": {"color": "tab:green", "label": "with preload, compensated"},
-         "without_preload": {"color": "tab:orange", "label": "without preload"},
-         "with_clearance": {"color": "tab:red", "label": "with clearance"},
-         "ideal": {"color": "k", "label": "ideal joints"}}
 DPI = 110
 
 
@@ -35,12 +27,6 @@ def _grid(count: int, width: float = 3.2, height: float = 2.6):
     rows = math.ceil(count / cols)
     fig, axes = plt.subplots(rows, cols, figsize=(width * cols, height * rows + 0.6), squeeze=False)
     return fig, axes.ravel()
-
-
-def _save(fig, path: Path) -> Path:
-    fig.savefig(path, dpi=DPI)
-    plt.close(fig)
-    return path
 
 
 def _suptitle(fig, text: str) -> None:
@@ -55,7 +41,7 @@ def _finish(fig, axes, used: int, title: str, path: Path, legend_kw: dict | None
     axes[0].legend(**(legend_kw or {"fontsize": 7}))
     _suptitle(fig, title)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path, dpi=DPI)
 
 
 def _title(study: Study, what: str) -> str:
@@ -132,7 +118,7 @@ def contact_forces(study: Study, path: Path) -> Path | None:
 
 def platform_error(study: Study, path: Path) -> Path | None:
     """Platform position error |p - p_ref| [um] against time (scenes with a task body)."""
-    if study.scene.graph.task is None:
+    if study.problem.model.task is None:
         return None
     fig, ax = plt.subplots(figsize=(8, 3.6))
     for arm_name, arm in study.arms.items():
@@ -146,14 +132,15 @@ def platform_error(study: Study, path: Path) -> Path | None:
     ax.legend()
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path, dpi=DPI)
 
 
 def torques(study: Study, path: Path) -> Path | None:
     """Actuator torques [N m] against time, both arms, with their feed-forward references."""
-    names = Model.of(study.scene.graph).actuator_names
+    model = study.problem.model
+    names = model.actuator_names
     n = len(names)
-    if n == 0 or study.scene.graph.task is None:
+    if n == 0 or model.task is None:
         return None
     fig, axes = _grid(n, 4.0, 2.6)
     for i in range(n):
@@ -196,7 +183,7 @@ def preload_alpha(study: Study, path: Path) -> Path | None:
     a2.legend()
     a2.grid(alpha=0.3)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path, dpi=DPI)
 
 
 def _driver_window(study: Study) -> tuple:
@@ -215,7 +202,7 @@ def body_accelerations(study: Study, path: Path) -> Path | None:
     that stay zero in the ideal run are left out)."""
     if "ideal" not in study.arms:
         return None
-    model = Model.of(study.scene.graph)
+    model = study.problem.model
     ideal = study.arms["ideal"].simulation
     x_of, x_label, x_lim = _driver_window(study)
     panels = [(b, c) for b in model.body_names for c in (0, 1)
@@ -253,7 +240,7 @@ def driver_efforts(study: Study, path: Path) -> Path | None:
         axes[k].legend(fontsize=7)
     _suptitle(fig, _title(study, "driver effort, clearance against ideal joints"))
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path, dpi=DPI)
 
 
 def all_figures(study: Study, out: Path) -> list[Path]:

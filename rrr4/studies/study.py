@@ -28,6 +28,9 @@ ideal twin (every joint ideal), driven alike:
 - ``refinement``: ``with_clearance`` again at half the step, to show which results have
   converged in the step (kept in ``Study.refinement``, not drawn as an arm).
 
+The result (:class:`rrr4.results.study.Study`, its arms and the arm names) belongs to the
+results layer, which writes, draws and tabulates it.
+
 The simulations write every integrator step (output rate = 1/step), so the contact state
 of every step is in the result and loss events can be located in time; with a sampled
 controller they write every control period (the frames the controller holds its efforts
@@ -38,59 +41,28 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
-from .checks import argument
-from .control import pointwise_controller
-from .errors import SceneError
-from .files import c_compiler
-from .preload import PreloadSolution, solve_preload
-from .preload.solve import PreloadWarning
-from .problem import Problem
-from .scene import MAX_SAMPLES, Scene
-from .simulation import Simulation, simulate
-from .trajectory import sample_path
+from ..checks import argument
+from ..control import pointwise_controller
+from ..errors import SceneError
+from ..files import c_compiler
+from ..preload import solve_preload
+from ..preload.solve import PreloadWarning
+from ..problem import Problem
+from ..results.study import Study, StudyArm
+from ..scene import MAX_SAMPLES, Scene
+from ..simulation import simulate
+from ..trajectory import sample_path
 
-__all__ = ["Study", "StudyArm", "run_study", "arm_scene", "study_controller", "ARMS",
-           "PRELOAD_ARMS", "DRIVEN_ARMS"]
-
-PRELOAD_ARMS = ("with_preload", "with_preload_compensated", "without_preload")   # scenes with a task body
-DRIVEN_ARMS = ("with_clearance", "ideal")             # scenes moved by drivers
-ARMS = PRELOAD_ARMS + DRIVEN_ARMS
+__all__ = ["run_study", "arm_scene", "study_controller"]
 
 
-@dataclass(frozen=True)
-class StudyArm:
-    """One clearance simulation of the study and its wall time [s] (building + stepping)."""
-    name: str
-    simulation: Simulation
-    wall_time: float
-
-
-@dataclass(frozen=True)
-class Study:
-    """Result of :func:`run_study`.
-
-    t_path (N,) [s] path samples; tau_min_norm (N, n) [N m] minimum-norm inverse-dynamics
-    torques tau_p of the ideal mechanism; preload: the PreloadSolution (None without a
-    preload arm); arms: name -> StudyArm, keys from :data:`ARMS`; preload_warning: the
-    infeasibility report of the preload ('' if feasible).
-    """
-    scene: Scene
-    t_path: np.ndarray
-    tau_min_norm: np.ndarray
-    preload: PreloadSolution | None
-    preload_warning: str
-    arms: dict
-    t_end: float
-    step: float
-    refinement: StudyArm | None = None
-
-
-def arm_scene(scene: Scene, arm: str) -> Scene:
-    """The scene an arm of the study simulates (see the module docstring)."""
+def arm_scene(problem: Problem, arm: str) -> Scene:
+    """The scene an arm of the study of `problem` simulates (see the module docstring)."""
+    scene = problem.scene
     a = scene.actuation
     if arm == "with_preload":
         return replace(scene, actuation=replace(a, compensation="none"))
@@ -99,14 +71,13 @@ def arm_scene(scene: Scene, arm: str) -> Scene:
     if arm == "without_preload":
         return replace(scene, actuation=replace(a, compensation="none", preload=replace(a.preload, method="none")))
     if arm == "ideal":
-        return ideal_twin(scene)
+        return scene.with_ideal_joints()
     return scene
 
 
-def study_controller(scene: Scene | Problem) -> str:
-    """'generated' where the scene's sampled controller has a closed form and a C compiler
+def study_controller(problem: Problem) -> str:
+    """'generated' where the problem's sampled controller has a closed form and a C compiler
     exists, else 'python'."""
-    problem = Problem.from_scene(scene)
     scene = problem.scene
     ok = scene.actuation.control_rate is not None and not pointwise_controller(problem) and c_compiler() is not None
     return "generated" if ok and scene.actuation.mode == "torque" else "python"
@@ -118,11 +89,6 @@ def _min_norm_torques(problem: Problem, t_path: np.ndarray) -> np.ndarray:
     if problem.model.task is None:
         return np.zeros((len(t_path), problem.model.n_actuators))
     return problem.effort_family(s.pose, s.pose_d, s.pose_dd).tau_p
-
-
-def ideal_twin(scene: Scene) -> Scene:
-    """`scene` with every joint ideal."""
-    return scene.with_joints(tuple(replace(j, clearance=False) for j in scene.graph.joints))
 
 
 def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float | None = None,
@@ -167,15 +133,15 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
     arms, refinement = {}, None
     if problem.model.task is None:
         arms["with_clearance"] = arm("with_clearance", scene)
-        arms["ideal"] = arm("ideal", ideal_twin(scene))
+        arms["ideal"] = arm("ideal", scene.with_ideal_joints())
         if scene.clearance_joints:
             refinement = arm("with_clearance (half step)", scene, step=h / 2)
     else:
         names = (("with_preload", "with_preload_compensated") if preload is not None and scene.clearance_joints
                  else ("with_preload",) if preload is not None else ())
         for name in names:
-            sc = arm_scene(scene, name)
-            arms[name] = arm(name, sc, controller=study_controller(sc))
-        arms["without_preload"] = arm("without_preload", arm_scene(scene, "without_preload"))
+            sc = arm_scene(problem, name)
+            arms[name] = arm(name, sc, controller=study_controller(Problem.from_scene(sc)))
+        arms["without_preload"] = arm("without_preload", arm_scene(problem, "without_preload"))
     return Study(scene=scene, t_path=t_path, tau_min_norm=tau_min_norm, preload=preload,
                  preload_warning=preload_warning, arms=arms, t_end=t_end, step=h, refinement=refinement)

@@ -22,19 +22,19 @@ from __future__ import annotations
 
 import csv
 import io
-import itertools
-import os
-import platform
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from .errors import SimulationError
-from .files import write_atomic
-from .integrators import METHODS, RK4, Cvodes
-from .scene import Scene
-from .simulation import simulate
+from ..codegen.build import machine
+from ..errors import SimulationError
+from ..files import write_atomic
+from ..integrators import METHODS, RK4, Cvodes
+from ..preload import solve_preload
+from ..problem import Problem
+from ..scene import Scene
+from ..simulation import simulate
 
 __all__ = ["work_precision", "write_work_precision", "DEFAULT_PLAN"]
 
@@ -46,27 +46,11 @@ _RATIO = 4                  # reference step = finest RK4 step / _RATIO
 DEFAULT_PLAN = {name: ("rtol" if m.adaptive else "step", list(m.ladder)) for name, m in METHODS.items()}
 
 
-def _preload(scene: Scene):
-    if scene.actuation.mode != "torque":
-        return None
-    from .preload import solve_preload
-    return solve_preload(scene)
+def _preload(problem: Problem):
+    return solve_preload(problem) if problem.mode == "torque" else None
 
 
-def machine() -> str:
-    """'AMD EPYC 7B13 (x86_64 Linux), 2 cores': the CPU where the times were measured."""
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return f"{cpu} ({platform.machine()} {platform.system()}), {os.cpu_count()} cores"
-
-
-def work_precision(scene: Scene, t_end: float | None = None, plan: dict | None = None,
+def work_precision(scene: Scene | Problem, t_end: float | None = None, plan: dict | None = None,
                    progress: bool = False) -> list[dict]:
     """Rows {method, kind, setting, status, error_m, cpu_s, steps, reference} for each run of `plan`.
 
@@ -76,10 +60,13 @@ def work_precision(scene: Scene, t_end: float | None = None, plan: dict | None =
     would cap every step at its period) with the preload tabulated once, so only the
     integrators differ between runs.
     """
-    scene = replace(scene, actuation=replace(scene.actuation, control_rate=None))
+    scene = Problem.from_scene(scene).scene
+    problem = Problem.from_scene(replace(scene, actuation=replace(scene.actuation, control_rate=None)))
+    scene = problem.scene
+    task = problem.model.task is not None
     plan = DEFAULT_PLAN if plan is None else plan
     t_end = scene.path.duration if t_end is None else float(t_end)
-    preload = _preload(scene)
+    preload = _preload(problem)
     runs = [(m, kind, v) for m, (kind, vals) in plan.items() for v in vals]
     bar = None
     if progress:
@@ -89,8 +76,8 @@ def work_precision(scene: Scene, t_end: float | None = None, plan: dict | None =
 
     def run(method, **kw):
         if method.jit:
-            simulate(scene, method, t_end=warm_up, preload=preload, **kw)
-        sim = simulate(scene, method, t_end=t_end, preload=preload, **kw)
+            simulate(problem, method, t_end=warm_up, preload=preload, **kw)
+        sim = simulate(problem, method, t_end=t_end, preload=preload, **kw)
         if bar is not None:
             bar.update()
         return sim
@@ -100,7 +87,7 @@ def work_precision(scene: Scene, t_end: float | None = None, plan: dict | None =
     name = f"rk4 (C), h = {ref.stats['step']:.3g} s"
 
     def error(sim) -> float:
-        return float(np.max(np.linalg.norm(_positions(sim) - _positions(ref), axis=2)))
+        return float(np.max(np.linalg.norm(_positions(sim, task) - _positions(ref, task), axis=2)))
 
     def row(method, kind, setting, status, sim=None):
         return {"method": method, "kind": kind, "setting": setting, "status": status,
@@ -122,7 +109,8 @@ def work_precision(scene: Scene, t_end: float | None = None, plan: dict | None =
         except SimulationError:  # non-finite state: beyond the stability limit, or the solver gave up
             if bar is not None:
                 bar.update()
-            rows.append(row(method, kind, _step_taken(scene, t_end, v) if kind == "step" else v, "unstable"))
+            taken = _step_taken(scene.path.sample_rate, t_end, v) if kind == "step" else v
+            rows.append(row(method, kind, taken, "unstable"))
             continue
         rows.append(row(method, kind, sim.stats["step"] if kind == "step" else v, "ok", sim))
     if bar is not None:
@@ -130,65 +118,35 @@ def work_precision(scene: Scene, t_end: float | None = None, plan: dict | None =
     return rows
 
 
-def _positions(sim) -> np.ndarray:
+def _positions(sim, task: bool) -> np.ndarray:
     """(N, k, 2) positions [m] the error is measured on: the task body's centre of mass, or
-    without a task body (a driven scene) every body's."""
-    if sim.scene.graph.task is not None:
+    without a task body (task False: a driven scene) every body's."""
+    if task:
         return sim.pose[:, None, :2]
     q = sim.q.reshape(len(sim.t), -1, 3)
     return q[:, :, :2]
 
 
-def _step_taken(scene: Scene, t_end: float, h: float) -> float:
-    """The step simulate takes for a requested step h [s] (whole steps per output interval)."""
-    n_frames = max(int(round(t_end * scene.path.sample_rate)), 1)
+def _step_taken(sample_rate: float, t_end: float, h: float) -> float:
+    """The step simulate takes for a requested step h [s] (whole steps per output interval of
+    the path's sample rate [Hz])."""
+    n_frames = max(int(round(t_end * sample_rate)), 1)
     dt_out = t_end / n_frames
     return dt_out / max(int(round(dt_out / h)), 1)
 
 
-def write_work_precision(rows: list[dict], scene: Scene, out_dir, t_end: float) -> list[Path]:
-    """Write <scene>.csv and the log-log figure <scene>.png into out_dir; returns the paths."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+def write_work_precision(rows: list[dict], scene: Scene | Problem, out_dir, t_end: float) -> list[Path]:
+    """Write <scene>.csv and the log-log figure <scene>.png
+    (:func:`rrr4.results.figures.plot_work_precision`) into out_dir; returns the paths."""
+    from ..results.figures import plot_work_precision
+    problem = Problem.from_scene(scene)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    csv_path, png_path = out / f"{scene.name}.csv", out / f"{scene.name}.png"
+    csv_path, png_path = out / f"{problem.name}.csv", out / f"{problem.name}.png"
     text = io.StringIO(newline="")
     w = csv.DictWriter(text, fieldnames=list(rows[0]))
     w.writeheader()
     w.writerows(rows)
     write_atomic(csv_path, text.getvalue())
-    fig, ax = plt.subplots(figsize=(9, 7.8))
-    markers = dict(zip(METHODS, itertools.cycle("osD^vP*Xhp<>"), strict=False))
-    for method in dict.fromkeys(r["method"] for r in rows if r["status"] != "cross-check"):
-        rs = [r for r in rows if r["method"] == method and r["status"] == "ok" and r["error_m"] > 0]
-        if not rs:
-            continue
-        fixed = rs[0]["kind"] == "step"
-        settings = [r["setting"] for r in rs]
-        span = (f"h {max(settings):.1e}..{min(settings):.1e} s" if fixed
-                else f"rtol {max(settings):.0e}..{min(settings):.0e}")
-        unstable = [r["setting"] for r in rows if r["method"] == method and r["status"] == "unstable"]
-        if unstable:
-            span += f"; blows up at {', '.join(f'{v:.1e}' for v in unstable)} s"
-        style = markers.get(method, "o") + ("-" if fixed else "--")
-        ax.loglog([r["cpu_s"] for r in rs], [r["error_m"] for r in rs], style,
-                  label=f"{method} ({'fixed step, compiled C' if fixed else 'adaptive'}: {span})", ms=5)
-    ax.axhline(1e-6, color="grey", lw=0.9, ls=":", label="1 um")
-    checks = [r for r in rows if r["status"] == "cross-check"]
-    note = ", ".join(f"{r['method'].split(',')[0]} {'h' if r['kind'] == 'step' else 'rtol'} = {r['setting']:.2g}:"
-                     f" {r['error_m']:.1e} m" for r in checks)
-    ax.axhline(max(r["error_m"] for r in checks), color="black", lw=0.9, ls="-.",
-               label=f"reference {rows[0]['reference']}; its distance to {note}")
-    ax.set_xlabel(f"time of the stepping [s] (one core; {machine()})")
-    ax.set_ylabel("max platform position error [m]" if scene.graph.task else "max body position error [m]")
-    ax.set_title(f"Work-precision on {scene.name}: the first {t_end:g} s of the path simulated, with preload")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.11), ncol=2)
-    tmp_png = png_path.with_name(f".{png_path.name}.tmp.png")
-    fig.savefig(tmp_png, dpi=130, bbox_inches="tight")
-    os.replace(tmp_png, png_path)  # never a half-written figure in place of an earlier one
-    plt.close(fig)
+    plot_work_precision(rows, problem, png_path, t_end, machine())
     return [png_path, csv_path]

@@ -7,12 +7,10 @@ import csv
 from pathlib import Path
 
 import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from .plots import STYLE  # noqa: E402
+from .base import STYLE, save_figure
 
 __all__ = ["sweep_figures", "FIGURE_METRICS"]
 
@@ -20,14 +18,6 @@ __all__ = ["sweep_figures", "FIGURE_METRICS"]
 FIGURE_METRICS = {"platform_error_rms_m": ("platform error RMS [um]", 1e6),
                   "contact_loss_events": ("contact-loss events, all joints", 1.0),
                   "min_contact_force_N": ("smallest contact force [N]", 1.0)}
-
-
-def _save(fig, path: Path) -> Path:
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    tmp.replace(path)  # atomic: an interrupted run keeps the earlier figure
-    return path
 
 
 def _read(csv_path: Path) -> list[dict]:
@@ -64,7 +54,7 @@ def sweep_figures(csv_path, keys, grid_keys, mc_keys, out_dir, title: str = "") 
         axes[0][0].legend(fontsize=7)
         fig.suptitle(f"{title}: {label} against each varied key (every case)", fontsize=10)
         fig.tight_layout()
-        files.append(_save(fig, out_dir / f"{metric}.png"))
+        files.append(save_figure(fig, out_dir / f"{metric}.png", dpi=110))
     if len(grid_keys) >= 2:
         kx, ky = grid_keys[0], grid_keys[1]
         xs = sorted({float(r[kx]) for r in rows})
@@ -91,7 +81,7 @@ def sweep_figures(csv_path, keys, grid_keys, mc_keys, out_dir, title: str = "") 
             fig.colorbar(im, ax=ax, label="error RMS [um], median of the other keys")
         fig.suptitle(f"{title}: platform error over {kx} and {ky}", fontsize=10)
         fig.tight_layout()
-        files.append(_save(fig, out_dir / "heatmap.png"))
+        files.append(save_figure(fig, out_dir / "heatmap.png", dpi=110))
     if mc_keys:
         fig, axes = plt.subplots(1, 2, figsize=(9.0, 3.4))
         for ax, metric, scale in ((axes[0], "platform_error_rms_m", 1e6), (axes[1], "contact_loss_events", 1.0)):
@@ -109,5 +99,5 @@ def sweep_figures(csv_path, keys, grid_keys, mc_keys, out_dir, title: str = "") 
         n = len({r["case"] for r in rows})
         fig.suptitle(f"{title}: Monte Carlo, {n} samples of {len(mc_keys)} toleranced keys", fontsize=10)
         fig.tight_layout()
-        files.append(_save(fig, out_dir / "histograms.png"))
+        files.append(save_figure(fig, out_dir / "histograms.png", dpi=110))
     return files

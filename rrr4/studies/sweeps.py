@@ -1,7 +1,7 @@
 """Parameter sweeps and tolerance Monte Carlo of the study, on Dask (DESIGN section 8).
 
 A spec (YAML) names a base ``scene`` (a path relative to the spec file, or absolute), an
-optional ``t_end`` [s], the ``arms`` to run (from :data:`rrr4.study.PRELOAD_ARMS`), and
+optional ``t_end`` [s], the ``arms`` to run (from :data:`rrr4.results.study.PRELOAD_ARMS`), and
 
 - ``grid``: scene key paths -> lists of values, run as their Cartesian product, e.g.
   ``joints.radial_clearance: [5.0e-5, 1.0e-4]``;
@@ -37,15 +37,15 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .checks import describe
-from .errors import Rrr4Error, SceneError
-from .scene import get_key, key_steps, parse_scene, read_yaml, set_key
-from .study import PRELOAD_ARMS
+from ..checks import describe
+from ..errors import Rrr4Error, SceneError
+from ..results.metrics import SCALAR_METRICS, scalar_metrics
+from ..results.study import PRELOAD_ARMS
+from ..scene import get_key, key_steps, parse_scene, read_yaml, set_key
 
 __all__ = ["sweep", "load_spec", "SweepSpec", "METRICS", "DISTRIBUTIONS", "case_options", "GEOMETRY_KEYS", "PATH_KEYS"]
 
-METRICS = ("contact_loss_events", "platform_error_rms_m", "platform_error_max_m", "min_contact_force_N",
-           "peak_contact_force_N", "torque_rms_Nm", "wall_time_s")
+METRICS = (*SCALAR_METRICS, "wall_time_s")  # the CSV columns of each arm
 DISTRIBUTIONS = ("normal", "uniform")
 SPEC_KEYS = ("scene", "t_end", "arms", "grid", "monte_carlo")
 MAX_CASES = 100_000
@@ -211,34 +211,29 @@ def case_options(spec: SweepSpec) -> dict:
 
 def run_case(text: str, name: str, t_end, arms, jit: bool = False, options: dict | None = None
              ) -> tuple[list[dict], int]:
-    """(the rows (one per arm) of one case: metrics of each arm's simulation, or status
+    """(the rows (one per arm) of one case: metrics of each arm's simulation
+    (:func:`rrr4.results.metrics.scalar_metrics` and its wall time), or status
     'failed' with the error; the C libraries this case compiled). jit: step in compiled C
     (the shared on-disk cache; RRR4_JIT=0 still says no); options: :func:`case_options`. Runs in a Dask worker; imports
     nothing Dask."""
-    from .integrators.compiled import compilations
-    from .simulation import simulate
+    from ..integrators.compiled import compilations
+    from ..problem import Problem
+    from ..simulation import simulate
     from .study import arm_scene
     rows = []
     before = compilations()
     try:
-        scene = parse_scene(yaml.safe_load(text), name=name, source="")
+        problem = Problem.from_scene(parse_scene(yaml.safe_load(text), name=name, source=""))
     except Rrr4Error as e:
         return [{"arm": a, "status": "failed", "error": str(e).splitlines()[0]} for a in arms], 0
     for arm in arms:
         wall = time.perf_counter()
         try:
-            sim = simulate(arm_scene(scene, arm), t_end=t_end, jit=None if jit else False, **(options or {}))
+            sim = simulate(arm_scene(problem, arm), t_end=t_end, jit=None if jit else False, **(options or {}))
         except Exception as e:  # recorded, the sweep goes on
             rows.append({"arm": arm, "status": "failed", "error": f"{type(e).__name__}: {str(e).splitlines()[0]}"})
             continue
-        e = sim.platform_error
-        fn = sim.normal_force
-        rows.append({"arm": arm, "status": "ok", "error": "",
-                     "contact_loss_events": int(sum(sim.contact_loss_events.values())),
-                     "platform_error_rms_m": float(np.sqrt(np.mean(e**2))), "platform_error_max_m": float(e.max()),
-                     "min_contact_force_N": float(fn.min()) if fn.size else float("nan"),
-                     "peak_contact_force_N": float(fn.max()) if fn.size else float("nan"),
-                     "torque_rms_Nm": float(np.sqrt(np.mean(sim.tau**2))),
+        rows.append({"arm": arm, "status": "ok", "error": "", **scalar_metrics(sim),
                      "wall_time_s": time.perf_counter() - wall})
     return rows, compilations() - before
 
@@ -280,7 +275,7 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
     """Run a sweep: `spec` is a spec file path, a mapping, or a :class:`SweepSpec`; rows go to
     ``out/results.csv`` (default ``results/sweeps/<spec or scene name>/``). scheduler: the
     address of an existing Dask scheduler (default: a local cluster of `workers` processes,
-    default the machine's cores). Writes the figures of :mod:`rrr4.results.sweep_figures` from
+    default the machine's cores). Writes the figures of :func:`rrr4.results.figures.sweep_figures` from
     all rows. Cases step in compiled C when a C compiler exists (see
     :func:`rrr4.simulation.default_jit`), with :func:`case_options`.
     Returns {'csv': path, 'cases': n, 'skipped': n, 'failed': n, 'rows': list of row dicts of
@@ -312,7 +307,7 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
             done.add(cid)  # a duplicate case runs once
     skipped = len(spec.cases) - len(todo)
     say(f"{len(spec.cases)} cases x {len(spec.arms)} arms; {skipped} already in {csv_path}, {len(todo)} to run")
-    from .simulation import default_jit
+    from ..simulation import default_jit
     rows_out, failed, built, jit, options = [], 0, 0, default_jit(), case_options(spec)
     if todo:
         from dask.distributed import Client, LocalCluster, as_completed
@@ -353,7 +348,7 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
             client.close()
             if cluster is not None:
                 cluster.close()
-    from .results.sweep_figures import sweep_figures
+    from ..results.figures import sweep_figures
     figures = sweep_figures(csv_path, spec.keys, spec.grid_keys, spec.mc_keys, out, name or spec.scene_path.stem)
     return {"csv": csv_path, "cases": len(spec.cases), "skipped": skipped, "failed": failed, "rows": rows_out,
             "figures": figures, "compiled": jit, "options": options, "compilations": built}

@@ -16,15 +16,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import SceneError
-from .files import write_atomic
-from .mechanism.workspace import condition_number, path_kinematics
-from .preload import preload_law
-from .problem import Problem
-from .scene import GROUND, Scene
-from .trajectory import PathSamples, sample_path
+from ..errors import SceneError
+from ..files import atomic_file, write_atomic
+from ..mechanism.workspace import condition_number, path_kinematics
+from ..preload import preload_law
+from ..problem import Problem
+from ..scene import GROUND, Scene
+from ..trajectory import PathSamples, sample_path
 
-__all__ = ["workspace_map", "plot_map", "write_map", "GRID", "DIRECTIONS"]
+__all__ = ["workspace_map", "write_map", "GRID", "DIRECTIONS"]
 
 GRID = 101        # points per axis
 DIRECTIONS = 8    # directions of the peak path acceleration tried at each point
@@ -50,7 +50,7 @@ def _preload(problem: Problem, pose, pose_dd, q=None) -> tuple[np.ndarray, np.nd
     N = len(pose)
     fam = problem.effort_family(pose, np.zeros_like(pose), pose_dd, q=q)
     law = preload_law(problem)
-    limits = np.asarray(problem.scene.actuation.torque_limit)
+    limits = np.asarray(problem.torque_limit)
     if law is None:  # no preload: the minimum-norm torques, feasible if within the limits
         tau = fam.tau_p
         feasible = np.all(np.abs(tau) <= limits, axis=1)
@@ -143,55 +143,15 @@ def workspace_map(scene: Scene | Problem, grid: int = GRID) -> dict:
     return out
 
 
-def plot_map(m: dict, scene: Scene, path: Path) -> Path:
-    """Four heat maps (condition number, smallest transmission (n-RRR only), preload torque at
-    rest and under the peak acceleration, blank where it cannot hold f_min) with the scene's path
-    on top."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    s = sample_path(scene.path)
-    ext = (m["x"][0] * 1e3, m["x"][-1] * 1e3, m["y"][0] * 1e3, m["y"][-1] * 1e3)
-    panels = [("condition", "cond(J) [-] (log10)", np.log10(m["condition"]), "viridis_r"),
-              ("min_transmission", "smallest transmission |sin| [-]", m["min_transmission"], "viridis"),
-              ("torque_rest_Nm", "preload torque at rest, max |tau| [N m]",
-               np.where(m["feasible_rest"], m["torque_rest_Nm"], np.nan), "magma_r"),
-              ("torque_peak_Nm", f"... under the path's peak acceleration ({m['a_peak']:.2g} m/s^2) [N m]",
-               np.where(m["feasible_peak"], m["torque_peak_Nm"], np.nan), "magma_r")]
-    if np.all(np.isnan(m["min_transmission"])):  # a graph: no transmission angle defined
-        panels.pop(1)
-    fig, axes = plt.subplots(2, 2, figsize=(10.5, 9.0)) if len(panels) == 4 else plt.subplots(1, 3, figsize=(15, 5))
-    for ax, (_, label, z, cmap) in zip(axes.ravel(), panels, strict=True):
-        im = ax.imshow(z, origin="lower", extent=ext, cmap=cmap, aspect="equal")
-        fig.colorbar(im, ax=ax, shrink=0.85, label=label)
-        ax.contour(m["x"] * 1e3, m["y"] * 1e3, m["reachable"].astype(float), levels=[0.5], colors="k",
-                   linewidths=0.8)
-        ax.plot(s.pose[:, 0] * 1e3, s.pose[:, 1] * 1e3, "c-", lw=2, label="the scene's path")
-        ax.set_xlabel("platform x [mm]")
-        ax.set_ylabel("platform y [mm]")
-        ax.set_title(label.split(" [")[0], fontsize=9)
-    axes.ravel()[0].legend(fontsize=8, loc="lower right")
-    what = "preload" if m["preload"] else "minimum-norm torques (no preload)"
-    fig.suptitle(f"{scene.name}: workspace at theta = {m['orientation']:g} rad; blank: unreachable, or the {what} "
-                 "cannot hold f_min within the limits", fontsize=10)
-    fig.tight_layout()
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp, dpi=100)
-    plt.close(fig)
-    tmp.replace(path)
-    return path
-
-
-def write_map(scene: Scene, out: Path, grid: int = GRID) -> list[Path]:
-    """Compute the maps and write ``map.png``, ``map.npz`` (the arrays) and ``map.json`` (a
-    summary) into out."""
-    m = workspace_map(scene, grid)
+def write_map(scene: Scene | Problem, out: Path, grid: int = GRID) -> list[Path]:
+    """Compute the maps and write ``map.png`` (:func:`rrr4.results.figures.plot_map`),
+    ``map.npz`` (the arrays) and ``map.json`` (a summary) into out, each atomically."""
+    from ..results.figures import plot_map
+    problem = Problem.from_scene(scene)
+    m = workspace_map(problem, grid)
     out.mkdir(parents=True, exist_ok=True)
-    npz = out / "map.npz"
-    tmp = out / ".map.tmp.npz"
-    np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in m.items()})
-    tmp.replace(npz)
-    summary = {"scene": scene.name, "grid": grid, "orientation_rad": m["orientation"],
+    npz = atomic_file(out / "map.npz", lambda tmp: np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in m.items()}))
+    summary = {"scene": problem.name, "grid": grid, "orientation_rad": m["orientation"],
                "extent_m": [m["x"][0], m["x"][-1], m["y"][0], m["y"][-1]], "path_peak_acceleration_m_s2": m["a_peak"],
                "reachable_fraction": float(m["reachable"].mean()),
                "preload_holds_at_rest_fraction": float(m["feasible_rest"].mean()),
@@ -200,4 +160,4 @@ def write_map(scene: Scene, out: Path, grid: int = GRID) -> list[Path]:
                "torque_rest_min_Nm": float(np.nanmin(np.where(m["feasible_rest"], m["torque_rest_Nm"], np.nan)))}
     js = out / "map.json"
     write_atomic(js, json.dumps(summary, indent=1) + "\n")
-    return [plot_map(m, scene, out / "map.png"), npz, js]
+    return [plot_map(m, problem, out / "map.png"), npz, js]

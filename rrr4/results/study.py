@@ -1,0 +1,58 @@
+"""What a study produces (:func:`rrr4.studies.study.run_study`): the :class:`Study` and its
+arms, and the names of the arms, for everything that reads, draws or tabulates it.
+
+Arms of a scene with a task body: ``with_preload``, ``with_preload_compensated``,
+``without_preload`` (:data:`PRELOAD_ARMS`); of a scene moved by drivers: ``with_clearance``
+and its ``ideal`` twin (:data:`DRIVEN_ARMS`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..preload import PreloadSolution
+from ..problem import Problem
+from ..scene import Scene
+from ..simulation import Simulation
+
+__all__ = ["Study", "StudyArm", "ARMS", "PRELOAD_ARMS", "DRIVEN_ARMS"]
+
+PRELOAD_ARMS = ("with_preload", "with_preload_compensated", "without_preload")   # scenes with a task body
+DRIVEN_ARMS = ("with_clearance", "ideal")             # scenes moved by drivers
+ARMS = PRELOAD_ARMS + DRIVEN_ARMS
+
+
+@dataclass(frozen=True)
+class StudyArm:
+    """One clearance simulation of the study and its wall time [s] (building + stepping)."""
+    name: str
+    simulation: Simulation
+    wall_time: float
+
+
+@dataclass(frozen=True)
+class Study:
+    """Result of :func:`rrr4.studies.study.run_study`.
+
+    t_path (N,) [s] path samples; tau_min_norm (N, n) [N m] minimum-norm inverse-dynamics
+    torques tau_p of the ideal mechanism; preload: the PreloadSolution (None without a
+    preload arm); arms: name -> StudyArm, keys from :data:`ARMS`; preload_warning: the
+    infeasibility report of the preload ('' if feasible); refinement: a driven scene's
+    clearance arm rerun at half the step (None otherwise).
+    """
+    scene: Scene
+    t_path: np.ndarray
+    tau_min_norm: np.ndarray
+    preload: PreloadSolution | None
+    preload_warning: str
+    arms: dict
+    t_end: float
+    step: float
+    refinement: StudyArm | None = None
+
+    @property
+    def problem(self) -> Problem:
+        """The Problem of the study's scene (built once per scene)."""
+        return Problem.from_scene(self.scene)

@@ -1,0 +1,116 @@
+"""How robust is the clearance compensation? The controller keeps the scene's nominal model
+while the simulated mechanism differs from it (DESIGN section 7; issue: clearance +-20 %,
+contact stiffness x0.3 to x3, friction coefficient 0 to 0.2, one link 50 um long).
+
+For each case :func:`robustness` simulates the preloaded controller with and without
+compensation (both built from the nominal scene, ``simulate(..., model=nominal)``) on the
+perturbed mechanism and reports the platform RMS and peak error and the contact losses.
+:func:`write_robustness` (``rrr4 robustness SCENE``) writes them and their figure
+(:func:`rrr4.results.figures.plot_robustness`).
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import time
+from pathlib import Path
+
+import yaml
+
+from ..errors import SceneError
+from ..files import write_atomic
+from ..problem import Problem
+from ..results.metrics import scalar_metrics
+from ..scene import Scene, parse_scene, set_key
+from ..simulation import simulate
+from .study import arm_scene
+
+__all__ = ["CASES", "ARMS", "robustness", "perturbed", "write_robustness"]
+
+# name -> (scene key path, how the nominal value changes): a factor on a number, a value, or
+# a length added [m] to the first chain's driving link
+CASES = {
+    "nominal": None,
+    "clearance -20 %": ("joints.radial_clearance", "factor", 0.8),
+    "clearance +20 %": ("joints.radial_clearance", "factor", 1.2),
+    "stiffness x0.3": ("effects.contact.stiffness", "factor", 0.3),
+    "stiffness x3": ("effects.contact.stiffness", "factor", 3.0),
+    "friction 0": ("effects.friction.coefficient", "value", 0.0),
+    "friction 0.2": ("effects.friction.coefficient", "value", 0.2),
+    "link A1B1 +50 um": ("mechanism.chains[0].driving_link.length", "add", 50e-6),
+}
+ARMS = ("with_preload", "with_preload_compensated")
+METRICS = ("platform_error_rms_m", "platform_error_max_m", "contact_loss_events")  # of scalar_metrics, per row
+
+
+def _nominal_data(problem: Problem) -> dict:
+    """The YAML data of the problem's scene file (what a case varies)."""
+    source = problem.scene.source
+    if not source or not Path(source).is_file():
+        raise SceneError(f"scene: {problem.name!r} has no YAML file to vary (load it with rrr4.load_scene)")
+    return yaml.safe_load(Path(source).read_text())
+
+
+def perturbed(problem: Problem, case: str) -> Scene:
+    """The mechanism of robustness case `case` (a key of :data:`CASES`): the problem's scene
+    YAML with one parameter changed at its dotted key (n-RRR scenes)."""
+    scene = problem.scene
+    if case not in CASES:
+        raise SceneError(f"case: {case!r} is not allowed (choose one of: {', '.join(CASES)})")
+    if CASES[case] is None:
+        return scene
+    if not problem.closed_form:
+        raise SceneError("mechanism.kind: robustness cases are defined for n-RRR scenes")
+    key, how, v = CASES[case]
+    data = copy.deepcopy(_nominal_data(problem))
+    first, link = scene.clearance_joints[0], scene.mechanism.chains[0].driving
+    nominal = {"joints.radial_clearance": scene.joint(first).radial_clearance,
+               "effects.contact.stiffness": problem.joint_stiffness(first),
+               "mechanism.chains[0].driving_link.length": link.length}.get(key)
+    set_key(data, key, nominal * v if how == "factor" else nominal + v if how == "add" else v)
+    if key.startswith("mechanism.chains[0].driving_link"):  # the link's mass and inertia stay nominal
+        set_key(data, "mechanism.chains[0].driving_link.mass", link.mass)
+        set_key(data, "mechanism.chains[0].driving_link.inertia", link.inertia)
+    return parse_scene(data, name=f"{scene.name}, {case}", source="")
+
+
+def robustness(scene: Scene | Problem, t_end: float | None = None, progress: bool = False, log=None) -> list[dict]:
+    """Rows {case, arm, platform_error_rms_m, platform_error_max_m, contact_loss_events,
+    wall_time_s}: the scene's preloaded controller, uncompensated and compensated, built
+    from the nominal scene, on each perturbed mechanism of :data:`CASES`."""
+    say = log or (lambda _m: None)
+    problem = Problem.from_scene(scene)
+    scene = problem.scene
+    if not problem.closed_form or not problem.clearance_joints:
+        raise SceneError("mechanism: robustness cases are defined for n-RRR scenes with clearance joints "
+                         f"(scene {scene.name!r} has {'none' if problem.closed_form else 'a graph'})")
+    _nominal_data(problem)  # refuse a scene without its YAML before simulating anything
+    models = {arm: arm_scene(problem, arm) for arm in ARMS}
+    rows = []
+    for case in CASES:
+        plant = Problem.from_scene(perturbed(problem, case))
+        for arm, model in models.items():
+            say(f"{case}: {arm.replace('_', ' ')}")
+            wall = time.perf_counter()
+            sim = simulate(arm_scene(plant, arm), t_end=t_end, model=model, progress=progress)
+            m = scalar_metrics(sim)
+            rows.append({"case": case, "arm": arm, **{k: m[k] for k in METRICS},
+                         "wall_time_s": time.perf_counter() - wall})
+    return rows
+
+
+def write_robustness(scene: Scene, out: Path, t_end: float | None = None, progress: bool = False,
+                     log=None) -> list[Path]:
+    """Run :func:`robustness` and write ``robustness.json`` and ``robustness.png`` into out."""
+    from ..results.figures import plot_robustness
+    rows = robustness(scene, t_end=t_end, progress=progress, log=log)
+    out.mkdir(parents=True, exist_ok=True)
+    meta = {"scene": scene.name, "t_end_s": t_end or scene.path.duration, "cases": {
+        k: (None if v is None else {"key": v[0], "change": v[1], "value": v[2]}) for k, v in CASES.items()},
+            "rows": rows}
+    js = out / "robustness.json"
+    write_atomic(js, json.dumps(meta, indent=1) + "\n")
+    png = plot_robustness(rows, out / "robustness.png", f"{scene.name}: controller with the nominal model, "
+                                                          f"{meta['t_end_s']:g} s")
+    return [js, png]
