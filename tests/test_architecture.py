@@ -52,3 +52,49 @@ def test_no_package_file_is_over_700_lines():
     long = {str(p.relative_to(PACKAGE.parent)): n for p in PACKAGE.rglob("*.py")
             if (n := len(p.read_text().splitlines())) > 700}
     assert not long, long
+
+
+def test_the_import_graph_has_no_circle():
+    """No module reaches itself through imports (function-level imports included): Tarjan's
+    strongly connected components of grimp's graph of the package are all single modules."""
+    import grimp
+    graph = grimp.build_graph("rrr4")
+    edges = {m: sorted(graph.find_modules_directly_imported_by(m)) for m in graph.modules}
+    index, low, stack, on, circles = {}, {}, [], set(), []
+
+    def visit(v):  # iterative Tarjan: (module, next edge) frames
+        frames = [(v, 0)]
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        while frames:
+            u, k = frames.pop()
+            if k < len(edges[u]):
+                frames.append((u, k + 1))
+                w = edges[u][k]
+                if w not in index:
+                    index[w] = low[w] = len(index)
+                    stack.append(w)
+                    on.add(w)
+                    frames.append((w, 0))
+                elif w in on:
+                    low[u] = min(low[u], index[w])
+                continue
+            if frames:
+                parent = frames[-1][0]
+                low[parent] = min(low[parent], low[u])
+            if low[u] == index[u]:
+                comp = []
+                while True:
+                    w = stack.pop()
+                    on.discard(w)
+                    comp.append(w)
+                    if w == u:
+                        break
+                if len(comp) > 1:
+                    circles.append(sorted(comp))
+
+    for m in sorted(edges):
+        if m not in index:
+            visit(m)
+    assert not circles, circles
