@@ -28,11 +28,12 @@ from dataclasses import replace
 
 import numpy as np
 
-from .checks import argument, unknown_value
+from .checks import argument, describe, unknown_value
 from .contact import V_MIN, joint_stiffness
 from .dynamics.builder import BAUMGARTE_OMEGA, EFFECT_PARAMETERS, INPUTS, Equations, build_equations
 from .dynamics.family import EffortFamily, graph_family
 from .dynamics.inverse import inverse_dynamics_function
+from .errors import SceneError
 from .mechanism import Mechanism, Model, geometry_parameters
 from .scene import JointSpec, Scene
 
@@ -50,8 +51,14 @@ class Problem:
 
     @staticmethod
     def from_scene(scene: Scene | Problem) -> Problem:
-        """The Problem of `scene` (built once per scene; a Problem is returned as is)."""
-        return scene if isinstance(scene, Problem) else _problem(scene)
+        """The Problem of `scene` (built once per scene; a Problem is returned as is). Raises
+        SceneError for anything else."""
+        if isinstance(scene, Problem):
+            return scene
+        if not isinstance(scene, Scene):
+            raise SceneError(f"scene: {describe(scene)} is not allowed (a Scene from rrr4.load_scene, or a Problem "
+                             "from rrr4.build)")
+        return _problem(scene)
 
     def __repr__(self) -> str:
         return f"Problem({self.scene.name!r})"

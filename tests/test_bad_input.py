@@ -288,3 +288,13 @@ def test_result_directories_get_the_umask_mode(tmp_path):
     finally:
         os.umask(old)
     assert (out.stat().st_mode & 0o777) == 0o755
+
+
+@pytest.mark.parametrize("value", ["paper_circle.yaml", 42, None, [], {"name": "x"}])
+def test_front_doors_refuse_what_is_not_a_scene_or_a_problem_in_one_line(value, tmp_path):
+    """Every front door builds its Problem through Problem.from_scene, which names the argument."""
+    for door in (rrr4.build, rrr4.simulate, rrr4.solve_preload, lambda s: rrr4.codegen(s, tmp_path / "c")):
+        with pytest.raises(SceneError) as err:
+            door(value)
+        assert str(err.value).startswith("scene: ") and "\n" not in str(err.value)
+    assert not (tmp_path / "c").exists()
