@@ -39,7 +39,7 @@ def main(argv=None) -> int:
     scene = rrr4.load_scene(args.scene)
     T = scene.path.duration
     runs = {"default": {}, "compiled RK4 at 2.5e-5 s": {"integrator": "rk4", "step": 2.5e-5}}
-    systems = [entry[3] for entry in rrr4.build(scene).structure("plant").memoized("system")]
+    systems = rrr4.build(scene).structure("plant").memoized("system")
     frames, states = {}, {}
     for name, flags in FLAGS.items():  # build and compile each, and keep what was built
         build.COMPILE_FLAGS = flags
@@ -47,7 +47,7 @@ def main(argv=None) -> int:
             s.frames.clear()
         for k, kw in runs.items():
             states[name, k] = rrr4.simulate(scene, **kw).q
-        systems = [entry[3] for entry in rrr4.build(scene).structure("plant").memoized("system")]
+        systems = rrr4.build(scene).structure("plant").memoized("system")
         frames[name] = [(s, dict(s.frames)) for s in systems]
     same = all(np.array_equal(states["fast", k], states["portable", k]) for k in runs)
     walls = {key: [] for key in states}

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -31,15 +30,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import rrr4  # noqa: E402
-
-
-def _cpu() -> str:
-    info = Path("/proc/cpuinfo")
-    if info.exists():
-        for line in info.read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    return platform.processor() or platform.machine()
+from rrr4.codegen.build import machine  # noqa: E402
 
 
 def _coordinates(scene, c):
@@ -86,7 +77,7 @@ def main() -> int:
         bare = replace(paper, name="paper_circle without preload",
                        actuation=replace(act, preload=replace(act.preload, method="none")))
         scenes = [paper, bare, rrr4.load_scene(ROOT / "problems" / "flores_slider_crank.yaml")]
-    print(f"{_cpu()}, {os.cpu_count()} cores, load average {', '.join(f'{v:.1f}' for v in os.getloadavg())}; "
+    print(f"{machine()}, load average {', '.join(f'{v:.1f}' for v in os.getloadavg())}; "
           f"medians of {a.repeats}, interleaved in one process")
     for s in scenes:
         compare(s, a.repeats)

@@ -16,9 +16,12 @@ from a validated :class:`~rrr4.scene.Scene` (:meth:`Problem.from_scene`, or
   by every problem of one structure through :meth:`structure` (the Problem of a structure
   key, itself built once).
 
-It is the only place that dispatches n-RRR against graph, and the only reader of the
-scene below the front doors (``solve_preload``, ``simulate``, ``codegen``, ``sweep``,
-the studies), which accept a Scene or a Problem.
+Below the front doors (``solve_preload``, ``simulate``, ``codegen``, ``sweep``, the
+studies), which accept a Scene or a Problem, every algorithm takes the Problem and reads
+the scene's settings through it. Its methods are the one dispatch between the closed-form
+n-RRR and a general graph (effort family, path and body coordinates, seated coordinates);
+what exists only in closed form (the controller step, the generated C, transmission
+angles) is asked with :attr:`Problem.closed_form`.
 """
 
 from __future__ import annotations
@@ -193,13 +196,14 @@ class Problem:
         """What references along the path depend on: the mechanism and the path, not the
         actuation, effects, integrator or initial state."""
         s = self.scene
-        return replace(s, name="", description="", source="", integrator=None, initial=None, actuation=None)
+        return replace(s, name="", description="", source="", integrator=None, initial=None, actuation=None,
+                       effects=None)
 
     def structure(self, key: str) -> Problem:
         """The Problem of one of the structure keys ('controller', 'plant', 'geometry',
         'path'): shared by every problem of that structure, so what is cached on it (its
         :meth:`memo`) is built once for all of them."""
-        return _problem(getattr(self, f"{key}_key"))
+        return _problem(getattr(self, f"{key}_key"), "")
 
     def memo(self, key, build):
         """build() once per problem and key (what is built and compiled for this problem)."""
@@ -216,7 +220,9 @@ class Problem:
     def equations(self, v_min: float = V_MIN, baumgarte: float = BAUMGARTE_OMEGA,
                   inputs: str = "contact") -> Equations:
         """The equations of motion with exactly the effects the scene asks for
-        (:func:`rrr4.dynamics.builder.build_equations`), built once per structure and options."""
+        (:func:`rrr4.dynamics.builder.build_equations`): the parametric equations are built once
+        per structure and options (the structure's Problem shares them); this problem's numbers
+        are folded into them once per problem (about 3 ms on the reference scene)."""
         v_min, baumgarte = argument("v_min", v_min), argument("baumgarte", baumgarte, allow_zero=True)
         if inputs not in INPUTS:
             raise unknown_value("inputs", "value", inputs, INPUTS)
@@ -245,6 +251,14 @@ class Problem:
         _, qdd, _, _ = mech.motion(q, pose_d[:, :k], pose_dd[:, :k])
         return graph_family(mech, q, qdd, self.gravity)
 
+    def path_coordinates(self, pose, pose_d, pose_dd) -> np.ndarray:
+        """q (N, nq) of every body with the task at poses (N, 3) (rates (N, 3) for the closed
+        form): the closed form of an n-RRR, else Newton along the poses (continuation)."""
+        mech = self.mechanism
+        if self.closed_form:
+            return np.array(mech.body_motion_function.map(len(pose))(pose.T, pose_d.T, pose_dd.T)[0]).T
+        return mech.path_coordinates(pose[:, :mech.n_task])
+
     def body_motion(self, target, target_d, target_dd):
         """q, qd, qdd (nq,) of every body with the task (or the drivers) at `target` and its
         rates: the closed form of an n-RRR, else Newton and the velocity analysis."""
@@ -268,7 +282,9 @@ class Problem:
 
 
 @functools.lru_cache(maxsize=64)
-def _problem(scene: Scene) -> Problem:
+def _problem(scene: Scene, source: str = "") -> Problem:
+    """The Problem of `scene`, built once per scene and source file (Scene.source does not
+    take part in a scene's equality, but a problem reports and re-reads its file)."""
     return Problem(scene)
 
 

@@ -29,6 +29,14 @@ def test_every_registry_holds_exactly_the_names_of_the_vocabulary(registry, name
     assert tuple(registry) == tuple(names)
 
 
+def test_a_registry_refuses_names_and_implementations_that_differ():
+    with pytest.raises(RuntimeError, match="differ"):
+        v.registry(("a", "b"), {"a": 1})
+    with pytest.raises(RuntimeError, match="differ"):
+        v.registry(("a",), {"a": 1, "b": 2})
+    assert list(v.registry(("b", "a"), {"a": 1, "b": 2})) == ["b", "a"]
+
+
 def test_error_control_names_the_implicit_methods():
     assert v.ERROR_CONTROLLED == tuple(k for k, m in METHODS.items() if issubclass(m, ImplicitIntegrator))
 

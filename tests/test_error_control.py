@@ -132,6 +132,9 @@ def test_the_newton_norm_is_infinite_for_nan_and_inf(jit):
     """The finiteness guard of every Newton update and error estimate: norm_inf alone drops NaN
     (C's fmax), and the obvious sum - sum == 0 is simplified away by CasADi."""
     from rrr4.integrators.compiled import compiled
+
+    # a private helper on purpose: the guard is an implementation detail of the Newton loop,
+    # and no public name should expose it
     from rrr4.integrators.implicit import _norm
     x = ca.MX.sym("x", 3)
     f = ca.Function("norm_probe", [x], [_norm(x)])

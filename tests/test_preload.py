@@ -147,6 +147,8 @@ def test_qp_extends_to_two_degrees_of_redundancy():
     s = rng.uniform(0.5, 2.0, size=(2 * n, m))  # axial null-space forces along each link
     r_n = np.hstack([e * s[:, k] for k in range(m)])
     r_p = rng.normal(size=(2, 2 * n))
+    # the QP builder itself (private on purpose): a Problem with two degrees of redundancy would
+    # need a whole mechanism, and the formulation only sees tau_n and r_n
     f = qp_module._build("daqp", f_min, (1.0,) * n, (10.0,) * n, (1.0,) * (2 * n), m)
     alpha, tau, feas, _ = (np.array(v).ravel() for v in f(tau_p, tau_n, r_p, r_n))
     assert feas[0] == 1.0

@@ -15,7 +15,6 @@ family computed from it by ``inverse_dynamics``).
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import casadi as ca
@@ -79,10 +78,14 @@ def _renamed(f: ca.Function, name: str, fixed: dict | None = None) -> ca.Functio
                        free, list(f.name_out()), {"cse": True})
 
 
-@functools.cache
 def kernels(problem: Problem, branch: int = 1) -> tuple[Kernel, ...]:
-    """The generated kernels of a 4-RRR problem, in :data:`KERNELS` order (built once, cached);
-    the exact preload (in exact_preload, preload and controller_step) on `branch` (+1, -1, 0)."""
+    """The generated kernels of a 4-RRR problem, in :data:`KERNELS` order (built once per
+    problem and branch, cached on it); the exact preload (in exact_preload, preload and
+    controller_step) on `branch` (+1, -1, 0)."""
+    return problem.memo(("kernels", branch), lambda: _kernels(problem, branch))
+
+
+def _kernels(problem: Problem, branch: int) -> tuple[Kernel, ...]:
     if not problem.closed_form:
         raise SceneError("mechanism.kind: 'graph' is not supported by codegen yet (the generated controller needs "
                          "the closed-form IK of an n-RRR scene: mechanism.kind n-rrr with 4 chains)")

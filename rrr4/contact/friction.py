@@ -19,6 +19,7 @@ import casadi as ca
 
 from ..scene import FrictionEffect
 from ..scene.vocabulary import FRICTION_LAWS as FRICTION_LAW_NAMES
+from ..scene.vocabulary import registry
 
 
 def _coulomb(v_t, f_n, p: FrictionEffect):
@@ -42,7 +43,8 @@ def _stribeck(v_t, f_n, p: FrictionEffect):
 
 
 # the registry, by the names of the scene's vocabulary ('none' has no entry)
-FRICTION_LAWS = dict(zip(FRICTION_LAW_NAMES, (_coulomb, _ambrosio, _smooth, _stribeck), strict=True))
+FRICTION_LAWS = registry(FRICTION_LAW_NAMES, {"coulomb": _coulomb, "ambrosio": _ambrosio, "smooth": _smooth,
+                                              "stribeck": _stribeck})
 
 
 def friction_force(p: FrictionEffect, v_t, f_n):

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import casadi as ca
 
-from ..scene.vocabulary import CONTACT_LAWS
+from ..scene.vocabulary import CONTACT_LAWS, registry
 
 # Floor [m/s] of the captured approach velocity delta_dot0 (grazing / persistent contact).
 V_MIN = 1e-3
@@ -84,8 +84,8 @@ def _hysteresis(law):
 
 
 # the registry, by the names of the scene's vocabulary
-NORMAL_LAWS = {law: _hertz if law == "hertz" else _kelvin_voigt if law == "kelvin-voigt" else _hysteresis(law)
-               for law in CONTACT_LAWS}
+NORMAL_LAWS = registry(CONTACT_LAWS, {"hertz": _hertz, "kelvin-voigt": _kelvin_voigt, **{
+    law: _hysteresis(law) for law in ("hunt-crossley", "lankarani-nikravesh", "flores", "gonthier")}})
 
 
 def normal_force(law: str, delta, delta_dot, delta_dot0, stiffness, exponent, restitution, damping=0.0,

@@ -95,10 +95,7 @@ def graph_references(problem: Problem, t: np.ndarray, preload=None) -> Reference
     model, N, k = problem.model, len(t), mech.n_task
     traj = trajectory_function(problem.path)
     p, pd, pdd = (np.array(v).T for v in traj.map(N)(t[None, :]))
-    if problem.closed_form:
-        q = np.array(mech.body_motion_function.map(N)(p.T, pd.T, pdd.T)[0]).T
-    else:
-        q = mech.path_coordinates(p[:, :k])
+    q = problem.path_coordinates(p, pd, pdd)
     _, qdd, th_d, th_dd = mech.motion(q, pd[:, :k], pdd[:, :k])
     th = np.array(model.actuator_coordinates_function.map(N)(q.T)[0]).T
     fam = graph_family(mech, q, qdd, problem.gravity)

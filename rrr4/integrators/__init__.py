@@ -3,7 +3,7 @@
 ``METHODS`` maps a scene's ``integrator.method`` to its class.
 """
 
-from ..scene.vocabulary import INTEGRATORS
+from ..scene.vocabulary import INTEGRATORS, registry
 from .adaptive import AdaptiveIntegrator
 from .base import FixedStepIntegrator, FrameInputs, Integrator, Run, System
 from .bathe import Bathe
@@ -13,9 +13,9 @@ from .newmark import NewmarkTrapezoidal
 from .rk4 import RK4
 from .scipy_ivp import RK45, Radau
 
-_CLASSES = {m.name: m for m in (Bathe, NewmarkTrapezoidal, GeneralizedAlpha, RK4, Erk, Rosenbrock, Cvodes, Idas,
-                                RK45, Radau)}
-METHODS = {name: _CLASSES[name] for name in INTEGRATORS}  # the registry, by the scene's vocabulary
+# the registry, by the scene's vocabulary
+METHODS = registry(INTEGRATORS, {m.name: m for m in (Bathe, NewmarkTrapezoidal, GeneralizedAlpha, RK4, Erk,
+                                                     Rosenbrock, Cvodes, Idas, RK45, Radau)})
 
 __all__ = ["Integrator", "FixedStepIntegrator", "FrameInputs", "System", "Run", "RK4", "Bathe", "NewmarkTrapezoidal",
            "GeneralizedAlpha", "AdaptiveIntegrator", "Cvodes", "Idas", "Erk", "Rosenbrock", "RK45", "Radau", "METHODS"]

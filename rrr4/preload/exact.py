@@ -72,7 +72,7 @@ def _into_box(x, lo, hi, branch):
     return ca.if_else(branch > 0, ca.fmax(ca.fmin(x, hi), lo), ca.fmin(ca.fmax(x, lo), hi))
 
 
-@functools.cache
+@functools.lru_cache(maxsize=64)
 def _fixed(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...], branch: int, nj: int) -> ca.Function:
     return fix_last_input(parametric_exact_preload(len(weights), nj), [*weights, *limits, f_min, branch])
 

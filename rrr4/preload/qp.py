@@ -27,7 +27,7 @@ import casadi as ca
 from ..errors import SceneError
 from ..functions import fix_last_input
 from ..problem import Problem
-from ..scene.vocabulary import QP_SOLVERS
+from ..scene.vocabulary import QP_SOLVERS, registry
 from .exact import constraint_violation
 
 __all__ = ["qp_preload_function", "scalar_qp_preload_function", "parametric_scalar_qp_preload", "QP_OPTIONS"]
@@ -39,7 +39,7 @@ _OPTIONS = {
     "daqp": {"error_on_fail": False},
     "qpoases": {"printLevel": "none", "error_on_fail": False},
 }
-QP_OPTIONS = {name: _OPTIONS[name] for name in QP_SOLVERS}  # the registry, by the scene's vocabulary
+QP_OPTIONS = registry(QP_SOLVERS, _OPTIONS)  # the registry, by the scene's vocabulary
 # relative tolerance on the constraints when the result is marked feasible
 FEASIBILITY_TOL = 1e-6
 
@@ -85,7 +85,7 @@ def _qp_parts(n: int, nj: int, m: int) -> tuple[ca.Function, ca.Function]:
     return data, result
 
 
-@functools.cache
+@functools.lru_cache(maxsize=64)
 def _build(solver: str, f_min: float, weights: tuple[float, ...], limits: tuple[float, ...],
            signs: tuple[float, ...], m: int) -> ca.Function:
     n, nj = len(weights), len(signs)
@@ -133,7 +133,7 @@ def qp_preload_function(problem: Problem, solver: str = "qrqp", signs=1.0, f_min
 _BIG = 1e30  # stands for an infinite bound in the closed-form QP
 
 
-@functools.cache
+@functools.lru_cache(maxsize=64)
 def _fixed_scalar(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...],
                   signs: tuple[float, ...]) -> ca.Function:
     return fix_last_input(parametric_scalar_qp_preload(len(weights), len(signs)), [*weights, *limits, f_min, *signs])

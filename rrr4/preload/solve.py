@@ -28,6 +28,7 @@ from ..mechanism.workspace import near_singular, path_kinematics
 from ..problem import Problem
 from ..scene import MAX_SAMPLES, Scene
 from ..scene.vocabulary import PRELOAD_METHODS as PRELOAD_METHOD_NAMES
+from ..scene.vocabulary import registry
 from ..trajectory import sample_path
 from .exact import exact_preload_function
 from .nlp import solve_trajectory_nlp
@@ -41,7 +42,7 @@ __all__ = ["solve_preload", "PreloadWarning", "PreloadInfeasibleError", "FEASIBI
 # the methods and the largest degree of redundancy each handles (None: any)
 # the largest degree of redundancy each method handles (None: any), by the scene's vocabulary
 _REDUNDANCY = {"exact": 1, "qp": None, "nlp": None}
-PRELOAD_METHODS = {name: _REDUNDANCY[name] for name in PRELOAD_METHOD_NAMES}
+PRELOAD_METHODS = registry(PRELOAD_METHOD_NAMES, _REDUNDANCY)
 # relative tolerance of the final check (f_min and torque limits); the QP marks its own result with the same
 FEASIBILITY_TOL = QP_FEASIBILITY_TOL
 # relative f_min increase for the NLP on a grid coarser than the samples

@@ -6,7 +6,7 @@ Imports nothing of the package but :mod:`rrr4.errors` and :mod:`rrr4.checks`.
 """
 
 from ..errors import SceneError
-from .fields import BIG, MAX_MAGNITUDE, MAX_SAMPLES
+from .fields import MAX_SAMPLES
 from .keys import get_key, key_steps, set_key
 from .nrrr import bare_nrrr_graph, expand_nrrr
 from .reader import parse_scene, read_scene, read_yaml
@@ -39,5 +39,5 @@ __all__ = [
     "FrictionEffect", "Effects", "PreloadSettings", "Actuation", "PathSpec", "Initial", "IntegratorSettings",
     "Body", "ActuatorSpec", "DriverSpec", "Graph", "GROUND", "MATERIALS", "PASSIVE_JOINTS", "choices",
     "read_scene", "parse_scene", "read_yaml", "expand_nrrr", "bare_nrrr_graph", "get_key", "set_key", "key_steps",
-    "MAX_MAGNITUDE", "BIG", "MAX_SAMPLES",
+    "MAX_SAMPLES",
 ]

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 __all__ = ["MECHANISM_KINDS", "JOINT_TYPES", "PATH_TYPES", "TIME_LAWS", "ACTUATION_MODES", "CONTACT_LAWS",
            "FRICTION_LAWS", "INTEGRATORS", "ERROR_CONTROLLED", "NEWTON", "COORDINATES", "PRELOAD_METHODS",
-           "COMPENSATIONS", "QP_SOLVERS", "JOURNAL_STARTS", "MATERIALS", "GROUND", "choices"]
+           "COMPENSATIONS", "QP_SOLVERS", "JOURNAL_STARTS", "MATERIALS", "GROUND", "choices", "registry"]
 
 GROUND = "ground"  # the fixed frame's name in a graph
 MECHANISM_KINDS = ("n-rrr", "graph")
@@ -49,6 +49,16 @@ _CHOICES = {
     "compensation": COMPENSATIONS,
     "qp solver": QP_SOLVERS,
 }
+
+
+def registry(names: tuple[str, ...], implementations: dict) -> dict:
+    """{name: implementation} in the vocabulary's order: how a registry is built from its
+    names here. Raises RuntimeError (a programming error, at import) when the implementations
+    and the names differ: a name without an implementation, or one the vocabulary lacks."""
+    if set(names) != set(implementations):
+        raise RuntimeError(f"registry: the names {sorted(names)} and the implementations "
+                           f"{sorted(implementations)} differ")
+    return {name: implementations[name] for name in names}
 
 
 def choices(what: str) -> tuple[str, ...]:

@@ -207,7 +207,7 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
 
     tree = in_tree(problem, eqs)
     x0 = initial_state(problem, eqs, efforts, tree, loop.settings)
-    system = system_of(problem, eqs, loop, refs, tree)
+    system = system_of(problem, eqs, loop, refs, tree, overrides.get("inputs") or "contact")
     wall = time.perf_counter()
     run = method.run(system, x0, u, h, spf, progress=bool(overrides.get("progress", False)), every=every)
     wall = time.perf_counter() - wall - u.seconds  # the stepping, without making its inputs

@@ -66,6 +66,7 @@ class Loop:
     path: PathSpec | None = None  # the path a pointwise controller follows inside the right-hand side
     sources: tuple = ()
     settings: tuple = ()
+    key: tuple = ()  # what `control` is built from (a structure key or the generated C), for the system cache
 
 
 def measured(model: Model, q, qd, eqs: Equations | None = None, parameters=None):
@@ -77,7 +78,8 @@ def measured(model: Model, q, qd, eqs: Equations | None = None, parameters=None)
     return theta, S @ qd
 
 
-def system_of(problem: Problem, eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bool = False) -> System:
+def system_of(problem: Problem, eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bool = False,
+              inputs: str = "contact") -> System:
     """The ODE y = [q, qd, W_in, D_damping, D_friction] (with `tree`, the tree coordinates
     p, pd instead of q, qd: see :mod:`rrr4.mechanism.tree`) with discrete z = [delta_dot0,
     in_contact, losses] (nc each) followed by the equations' parameters (contact numbers,
@@ -85,14 +87,15 @@ def system_of(problem: Problem, eqs: Equations, loop: Loop, refs: ca.Function | 
     (both constant: the discrete update keeps them), and the frame inputs of `loop` (see
     :class:`Loop`). The numbers are state, not constants, so every problem that differs only
     in them steps with the same compiled code.
-    refs: the prescribed mode's closed-form references (or None). Built once per (parametric
-    equations, loop, references, coordinates) and cached on the Problem of the plant's
-    structure (the entry holds them, so its key stays unique)."""
-    key = ("system", id(eqs.parametric), loop.kind, id(loop.control), loop.path if loop.kind == "exact" else None,
-           id(refs), tree)
-    entry = problem.structure("plant").memo(key, lambda: (eqs.parametric, loop, refs,
-                                                            _build_system(eqs, loop, refs, tree)))
-    return entry[3]
+    refs: the prescribed mode's closed-form references (or None). Built once per structure:
+    cached on the Problem of the equations' structure key (``inputs``: 'contact' -> the plant's,
+    'geometry' -> the geometry's), keyed by the equations' options, the loop (its kind, what its
+    controller is built from, the path a pointwise controller follows), the references' path
+    and the coordinates."""
+    path = loop.path if loop.kind == "exact" and eqs.mode == "torque" else None
+    key = ("system", eqs.v_min, eqs.baumgarte, loop.kind, loop.key, path, problem.path_key if refs else None, tree)
+    structure = problem.structure("geometry" if inputs == "geometry" else "plant")
+    return structure.memo(key, lambda: _build_system(eqs, loop, refs, tree))
 
 
 def _build_system(eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bool) -> System:
@@ -164,7 +167,7 @@ def loop_of(problem: Problem, eqs: Equations, controller: str, references: str, 
     held = eqs.mode == "torque" and problem.scene.actuation.control_rate is not None
     if eqs.mode != "torque":
         kind = "sampled" if references == "sampled" or (not problem.closed_form and problem.model.task) else "exact"
-        return Loop(kind, None, False, problem.path)
+        return Loop(kind, None, False, problem.path, key=("none",))
     why = pointwise_controller(problem) or ("a feed-forward is given (preload=)" if given is not None else "") or (
         "references='sampled' tabulates the references" if references == "sampled" else "")
     if controller == "generated":
@@ -175,12 +178,14 @@ def loop_of(problem: Problem, eqs: Equations, controller: str, references: str, 
             raise SceneError("controller: 'generated' is not allowed without actuation.control_rate (the generated "
                              "controller runs as a sampled controller with zero-order hold: set a rate in Hz)")
         step, source = generated_controller(problem)
-        return Loop("held", _without_settings(step), True, None, (source,))
+        return Loop("held", _without_settings(step), True, None, (source,), key=("generated", str(source)))
     if why:
         return Loop("held" if held else "sampled", parametric_feedback(problem), False, None,
-                    settings=tuple(feedback_settings(problem)))
+                    settings=tuple(feedback_settings(problem)), key=("feedback", tuple(
+                        problem.joint(j).type for j in problem.model.actuated_joints)))
     return Loop("held" if held else "exact", parametric_controller(problem), True,
-                problem.path if not held else None, settings=tuple(controller_settings(problem)))
+                problem.path if not held else None, settings=tuple(controller_settings(problem)),
+                key=("controller", problem.controller_key))
 
 
 @functools.lru_cache(maxsize=16)
