@@ -10,8 +10,8 @@ journal rests.
 from .friction import FRICTION_LAWS, friction_force
 from .geometry import ClearanceKinematics, clearance_kinematics, contact_generalized_forces
 from .normal import NORMAL_LAWS, V_MIN, elastic_force, hysteresis_factor, normal_force, stiffness_internal_cylinder
-from .seat import SEAT_FORCE, joint_stiffness, seat_gap
+from .seat import SEAT_FORCE, joint_stiffness, seat_gap, seat_gap_function
 
 __all__ = ["ClearanceKinematics", "clearance_kinematics", "contact_generalized_forces", "NORMAL_LAWS",
            "normal_force", "elastic_force", "hysteresis_factor", "stiffness_internal_cylinder", "V_MIN",
-           "FRICTION_LAWS", "friction_force", "seat_gap", "joint_stiffness", "SEAT_FORCE"]
+           "FRICTION_LAWS", "friction_force", "seat_gap", "seat_gap_function", "joint_stiffness", "SEAT_FORCE"]

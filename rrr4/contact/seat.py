@@ -17,12 +17,14 @@ symbols alike.
 
 from __future__ import annotations
 
+import functools
+
 import casadi as ca
 
 from ..scene import JointSpec
 from .normal import stiffness_internal_cylinder
 
-__all__ = ["seat_gap", "joint_stiffness", "SEAT_FORCE"]
+__all__ = ["seat_gap", "seat_gap_function", "joint_stiffness", "SEAT_FORCE"]
 
 SEAT_FORCE = 1e-6  # [N] below this load a journal's seat is undetermined: it is taken as centred
 
@@ -38,6 +40,17 @@ def seat_gap(r, clearance, stiffness, exponent, mu=0.0):
     delta = (f_n / stiffness) ** (1.0 / exponent)
     g = -(clearance + delta) * (r + mu * ca.vertcat(-r[1], r[0])) / (root * ca.fmax(f, SEAT_FORCE))
     return ca.if_else(f > SEAT_FORCE, g, ca.DM.zeros(2)), f_n
+
+
+@functools.cache
+def seat_gap_function() -> ca.Function:
+    """:func:`seat_gap` as an SX Function 'seat_gap': r (2,) [N], clearance [m], stiffness,
+    exponent, mu -> gap (2,) [m], f_n [N]; map it over joints to seat many at once (one call
+    instead of a few dozen DM operations per joint)."""
+    r, c, k, n, mu = ca.SX.sym("r", 2), ca.SX.sym("clearance"), ca.SX.sym("stiffness"), ca.SX.sym("exponent"), \
+        ca.SX.sym("mu")
+    return ca.Function("seat_gap", [r, c, k, n, mu], list(seat_gap(r, c, k, n, mu)),
+                       ["r", "clearance", "stiffness", "exponent", "mu"], ["gap", "f_n"])
 
 
 def joint_stiffness(joint: JointSpec, given: float | None = None) -> float:

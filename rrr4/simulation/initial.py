@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..contact import seat_gap
+from ..contact import seat_gap_function
 from ..dynamics.builder import Equations
 from ..dynamics.family import graph_family
 from ..problem import Problem
@@ -26,13 +26,14 @@ def seated_offsets(problem: Problem, eqs: Equations, q0, qdd0, tau0) -> np.ndarr
     tau_n = fam.tau_n[0]
     alpha = np.linalg.pinv(tau_n) @ (tau0 - fam.tau_p[0]) if tau_n.size else np.zeros(0)
     r = fam.r_p[0] + (fam.r_n[0] @ alpha if alpha.size else 0.0)
-    names = problem.model.preload_joints
-    exponent = problem.scene.effects.contact.exponent
-    out = np.zeros((len(eqs.clearance_joints), 2))
-    for k, (j, K) in enumerate(zip(eqs.clearance_joints, eqs.stiffness, strict=True)):
-        gap, _ = seat_gap(r[names.index(j)], problem.joint(j).radial_clearance, K, exponent)
-        out[k] = np.array(gap).ravel()
-    return out
+    names, joints = problem.model.preload_joints, eqs.clearance_joints
+    if not joints:
+        return np.zeros((0, 2))
+    rj = np.array([r[names.index(j)] for j in joints]).T  # (2, nc)
+    clearance = np.array([[problem.joint(j).radial_clearance for j in joints]])
+    gaps, _ = seat_gap_function().map(len(joints))(rj, clearance, np.array([eqs.stiffness]),
+                                                    problem.scene.effects.contact.exponent, 0.0)
+    return np.array(gaps).T
 
 
 def initial_state(problem: Problem, eqs: Equations, efforts, tree: bool, settings) -> np.ndarray:

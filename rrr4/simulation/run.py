@@ -183,7 +183,7 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
         raise SceneError(f"model: {describe(model_scene)} is not allowed (a Scene of the same mechanism, with the "
                          "same actuators: the controller's model of the simulated one)")
     # the controller's model of the mechanism, on the one commanded path
-    ctrl = Problem.from_scene(replace(model_scene, path=scene.path))
+    ctrl = problem if model_scene is scene else Problem.from_scene(replace(model_scene, path=scene.path))
     loop = loop_of(ctrl, eqs, controller, mode, given)
     held = loop.kind == "held"
 
