@@ -298,3 +298,11 @@ def test_front_doors_refuse_what_is_not_a_scene_or_a_problem_in_one_line(value, 
             door(value)
         assert str(err.value).startswith("scene: ") and "\n" not in str(err.value)
     assert not (tmp_path / "c").exists()
+
+
+@pytest.mark.parametrize("value", [[1.0, 2.0], -1.0, 0.0, None, "x", [1.0, 2.0, 3.0, float("nan")]])
+def test_effort_limits_are_checked_in_one_line(paper_scene, value):
+    with pytest.raises(SceneError) as err:
+        paper_scene.with_torque_limit(value)
+    assert str(err.value).startswith("torque_limit: ") and "\n" not in str(err.value)
+    assert paper_scene.with_torque_limit(2.5).torque_limit == (2.5,) * 4

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
+from ..checks import argument, describe
+from ..errors import SceneError
 from .vocabulary import GROUND
 
 __all__ = ["Link", "Chain", "Platform", "NRRRSpec", "Material", "JointSpec", "Body", "ActuatorSpec", "DriverSpec",
@@ -294,8 +296,14 @@ class Scene:
     def with_torque_limit(self, limits) -> Scene:
         """This scene with the actuators' effort limits replaced (one value for all, or one each)."""
         n = len(self.graph.actuators)
-        limits = (float(limits),) * n if isinstance(limits, (int, float)) else tuple(float(v) for v in limits)
-        acts = tuple(replace(a, limit=v) for a, v in zip(self.graph.actuators, limits, strict=True))
+        values = [limits] * n if isinstance(limits, (int, float)) and not isinstance(limits, bool) else limits
+        try:
+            values = tuple(argument("torque_limit", v) for v in values)
+        except TypeError:
+            values = ()
+        if len(values) != n:
+            raise SceneError(f"torque_limit: {describe(limits)} is not allowed (one number > 0, or a list of {n})")
+        acts = tuple(replace(a, limit=v) for a, v in zip(self.graph.actuators, values, strict=True))
         return replace(self, graph=replace(self.graph, actuators=acts))
 
     def with_ideal_joints(self) -> Scene:
