@@ -27,6 +27,7 @@ angles) is asked with :attr:`Problem.closed_form`.
 from __future__ import annotations
 
 import functools
+import os
 from dataclasses import replace
 
 import numpy as np
@@ -37,7 +38,7 @@ from .dynamics.builder import BAUMGARTE_OMEGA, EFFECT_PARAMETERS, INPUTS, Equati
 from .dynamics.family import EffortFamily, graph_family
 from .dynamics.inverse import inverse_dynamics_function
 from .errors import SceneError
-from .mechanism import Mechanism, Model, geometry_parameters
+from .mechanism import Mechanism, Model, geometry_parameters, load_scene
 from .scene import JointSpec, Scene
 
 __all__ = ["Problem", "build"]
@@ -54,13 +55,16 @@ class Problem:
 
     @staticmethod
     def from_scene(scene: Scene | Problem) -> Problem:
-        """The Problem of `scene` (built once per scene; a Problem is returned as is). Raises
-        SceneError for anything else."""
+        """The Problem of `scene`: a Scene (built once per scene), a scene file's path (read and
+        checked with :func:`rrr4.load_scene`) or a Problem (returned as is). Raises SceneError
+        for anything else."""
         if isinstance(scene, Problem):
             return scene
+        if isinstance(scene, (str, os.PathLike)):
+            scene = load_scene(scene)
         if not isinstance(scene, Scene):
-            raise SceneError(f"scene: {describe(scene)} is not allowed (a Scene from rrr4.load_scene, or a Problem "
-                             "from rrr4.build)")
+            raise SceneError(f"scene: {describe(scene)} is not allowed (a Scene from rrr4.load_scene, a scene file's "
+                             "path, or a Problem from rrr4.build)")
         return _problem(scene)
 
     def __repr__(self) -> str:

@@ -290,9 +290,10 @@ def test_result_directories_get_the_umask_mode(tmp_path):
     assert (out.stat().st_mode & 0o777) == 0o755
 
 
-@pytest.mark.parametrize("value", ["paper_circle.yaml", 42, None, [], {"name": "x"}])
+@pytest.mark.parametrize("value", [42, None, [], {"name": "x"}, b"paper_circle.yaml"])
 def test_front_doors_refuse_what_is_not_a_scene_or_a_problem_in_one_line(value, tmp_path):
-    """Every front door builds its Problem through Problem.from_scene, which names the argument."""
+    """Every front door builds its Problem through Problem.from_scene, which names the argument
+    (a scene file's path is read; a missing one is the file's own one-line error)."""
     for door in (rrr4.build, rrr4.simulate, rrr4.solve_preload, lambda s: rrr4.codegen(s, tmp_path / "c")):
         with pytest.raises(SceneError) as err:
             door(value)
@@ -306,3 +307,34 @@ def test_effort_limits_are_checked_in_one_line(paper_scene, value):
         paper_scene.with_torque_limit(value)
     assert str(err.value).startswith("torque_limit: ") and "\n" not in str(err.value)
     assert paper_scene.with_torque_limit(2.5).torque_limit == (2.5,) * 4
+
+
+def test_front_doors_take_a_scene_files_path(tmp_path):
+    assert rrr4.build(PAPER).scene == rrr4.load_scene(PAPER)
+    assert rrr4.build(str(PAPER)) is rrr4.build(PAPER)
+    with pytest.raises(SceneError, match="scene file 'missing.yaml' does not exist"):
+        rrr4.simulate("missing.yaml")
+
+
+def test_nesting_and_alias_bombs_end_in_one_line(tmp_path):
+    from rrr4.scene import MAX_DEPTH, read_yaml
+    deep = tmp_path / "deep.yaml"
+    deep.write_text("mechanism: " + "[" * 3000 + "]" * 3000 + "\n")
+    with pytest.raises(SceneError, match=f"nested too deeply \\(at most {MAX_DEPTH} levels"):
+        rrr4.load_scene(deep)
+    bomb = tmp_path / "bomb.yaml"
+    bomb.write_text("a: &a [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]\n" + "".join(
+        f"{c}: &{c} [{', '.join(['*' + p] * 10)}]\n" for p, c in zip("abcdef", "bcdefg", strict=True)))
+    with pytest.raises(SceneError, match="too large"):
+        read_yaml(bomb)
+
+
+def test_a_sweep_over_one_joints_clearance_changes_only_that_joint():
+    """redundant_five_bar.yaml shares one clearance block among its five joints through a YAML
+    alias (&pin): reading a scene gives every joint its own block."""
+    from rrr4.scene import read_yaml
+    data = read_yaml(ROOT / "problems" / "redundant_five_bar.yaml")
+    set_key(data, "mechanism.joints[3].clearance.radial_clearance", 2.0e-4)
+    scene = parse_scene(data)
+    clear = {j.name: j.radial_clearance for j in scene.graph.joints if j.clearance}
+    assert clear.pop("B1") == 2.0e-4 and set(clear.values()) == {1.0e-4}, clear

@@ -137,6 +137,14 @@ def test_monte_carlo_is_reproducible_from_its_seed(tmp_path):
      "mean"),
     ({"t_end": -1}, "t_end: -1 is not allowed"),
     ({"scenery": 1}, "scenery: unknown key of a sweep spec"),
+    # round two: keys that are not strings, no case at all, a grid counted before it is expanded,
+    # a case that does not assemble (as rrr4 check says), all refused before any work
+    ({"grid": {None: [1]}}, "grid: key None is not allowed"),
+    ({"grid": {True: [1]}}, "grid: key True is not allowed"),
+    ({"monte_carlo": {"samples": 2, "keys": {7: {"uniform": [0, 1]}}}}, "monte_carlo.keys: key 7 is not allowed"),
+    ({"grid": {}}, "grid: no grid and no monte_carlo is not allowed"),
+    ({"grid": {f"effects.friction.v{i}": list(range(10)) for i in range(9)}}, "grid: 1,000,000,000 cases"),
+    ({"grid": {"mechanism.chain_defaults.following_link.length": [0.05]}}, r"in the case mechanism\.chain_defaults"),
 ])
 def test_bad_specs_end_in_one_line(tmp_path, change, match):
     spec = yaml.safe_load(_spec(tmp_path).read_text())
@@ -221,3 +229,15 @@ def test_a_sweep_over_the_mechanism_takes_its_geometry_as_inputs():
     continuous = parse_spec({"scene": "no_preload_circle.yaml", "grid": {"path.duration": [0.5, 1.0]}},
                             ROOT / "problems")
     assert case_options(continuous) == {"references": "sampled"}
+
+
+def test_sweep_refuses_a_non_spec_and_too_many_workers_in_one_line(tmp_path):
+    import os
+
+    from rrr4.studies.sweeps import MAX_WORKERS_PER_CORE
+    with pytest.raises(SceneError, match="spec: None is not allowed"):
+        sweep(None)
+    too_many = MAX_WORKERS_PER_CORE * (os.cpu_count() or 1) + 1
+    with pytest.raises(SceneError, match=f"--workers: {too_many} is not allowed"):
+        sweep(_spec(tmp_path), out=tmp_path / "o", workers=too_many)
+    assert not (tmp_path / "o").exists()

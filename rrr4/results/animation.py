@@ -23,13 +23,12 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-import yaml  # noqa: E402
 from matplotlib.animation import FuncAnimation, PillowWriter  # noqa: E402
 
 from ..errors import Rrr4Error  # noqa: E402
 from ..mechanism import Model  # noqa: E402
 from ..problem import Problem  # noqa: E402
-from ..scene import GROUND, Scene, parse_scene  # noqa: E402
+from ..scene import GROUND, Scene, load_yaml, parse_scene  # noqa: E402
 from .figures import STYLE, save_figure  # noqa: E402
 
 __all__ = ["save_motion", "load_motion", "render", "MOTION", "FRAMES", "FPS"]
@@ -47,7 +46,7 @@ def save_motion(study, path: Path, rate: float | None = None) -> Path | None:
     if not scene.source or not Path(scene.source).is_file():
         return None
     text = Path(scene.source).read_text()
-    if parse_scene(yaml.safe_load(text), name=Path(scene.source).stem, source=scene.source) != scene:
+    if parse_scene(load_yaml(text, scene.source), name=Path(scene.source).stem, source=scene.source) != scene:
         return None     # the file changed since the study read it
     base = next(iter(study.arms.values())).simulation
     rate = scene.path.sample_rate if rate is None else rate
@@ -79,7 +78,7 @@ def load_motion(result_dir) -> tuple[dict, Scene]:
     try:
         with np.load(f, allow_pickle=False) as z:
             data = {k: z[k] for k in z.files}
-        scene = parse_scene(yaml.safe_load(str(data["scene_yaml"])), name=str(data["scene_name"]))
+        scene = parse_scene(load_yaml(str(data["scene_yaml"]), f"{f}: scene_yaml"), name=str(data["scene_name"]))
     except Exception as e:  # noqa: BLE001 - a damaged file is one line for the user
         raise Rrr4Error(f"result_dir: '{f}' cannot be read ({type(e).__name__}: {e})") from None
     return data, scene

@@ -9,7 +9,7 @@ from ..errors import SceneError
 from .fields import MAX_SAMPLES
 from .keys import get_key, key_steps, set_key
 from .nrrr import bare_nrrr_graph, expand_nrrr
-from .reader import parse_scene, read_scene, read_yaml
+from .reader import MAX_BYTES, MAX_DEPTH, MAX_NODES, load_yaml, parse_scene, read_scene, read_yaml
 from .schema import (
     PASSIVE_JOINTS,
     Actuation,
@@ -38,6 +38,7 @@ __all__ = [
     "SceneError", "Scene", "Link", "Chain", "Platform", "NRRRSpec", "Material", "JointSpec", "ContactEffect",
     "FrictionEffect", "Effects", "PreloadSettings", "Actuation", "PathSpec", "Initial", "IntegratorSettings",
     "Body", "ActuatorSpec", "DriverSpec", "Graph", "GROUND", "MATERIALS", "PASSIVE_JOINTS", "choices",
-    "read_scene", "parse_scene", "read_yaml", "expand_nrrr", "bare_nrrr_graph", "get_key", "set_key", "key_steps",
-    "MAX_SAMPLES",
+    "read_scene", "parse_scene", "read_yaml", "load_yaml",
+    "expand_nrrr", "bare_nrrr_graph", "get_key", "set_key", "key_steps",
+    "MAX_SAMPLES", "MAX_BYTES", "MAX_DEPTH", "MAX_NODES",
 ]

@@ -51,7 +51,7 @@ from .vocabulary import (
     choices,
 )
 
-__all__ = ["read_scene", "parse_scene", "read_yaml"]
+__all__ = ["read_scene", "parse_scene", "read_yaml", "load_yaml", "MAX_BYTES", "MAX_DEPTH", "MAX_NODES"]
 
 
 def _link(sec: Section, defaults: dict | None, defaults_path: str) -> Link:
@@ -532,6 +532,56 @@ class _UniqueKeyLoader(yaml.SafeLoader):
         return super().construct_mapping(node, deep=deep)
 
 
+MAX_BYTES = 16 * 2**20  # largest YAML file read [bytes]
+MAX_DEPTH = 64           # deepest nesting of mappings and lists
+MAX_NODES = 1_000_000    # most mappings, lists and values, aliases expanded
+
+
+def load_yaml(text: str, where: str):
+    """The data of YAML `text` (`where` names it in errors), read safely: no key given twice,
+    nesting at most MAX_DEPTH deep, at most MAX_NODES nodes with every alias expanded into a
+    node of its own (a scene or spec that shares a block through an alias, ``&pin``/``*pin``,
+    is read as if the block were written out at each place, so that setting one key changes
+    one place). Raises :class:`SceneError` in one line."""
+    try:
+        data = yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 - a SafeLoader subclass
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = (str(getattr(e, "problem", None) or e).splitlines() or [type(e).__name__])[0][:100]
+        raise SceneError(f"{where}: not valid YAML{at} ({problem})") from None
+    except RecursionError:
+        raise SceneError(f"{where}: nested too deeply (at most {MAX_DEPTH} levels of mappings and lists)") from None
+    return _unshared(data, where)
+
+
+def _unshared(data, where: str):
+    """A copy of `data` in which no mapping or list is shared (YAML aliases expanded), made
+    without recursion; SceneError beyond MAX_DEPTH levels or MAX_NODES nodes."""
+    def fresh(v):
+        return {} if isinstance(v, dict) else [] if isinstance(v, list) else v
+
+    root = fresh(data)
+    stack, nodes = ([(data, root, 1)] if isinstance(data, (dict, list)) else []), 1
+    while stack:
+        src, dst, depth = stack.pop()
+        if depth > MAX_DEPTH:
+            raise SceneError(f"{where}: nested too deeply (at most {MAX_DEPTH} levels of mappings and lists)")
+        items = src.items() if isinstance(src, dict) else enumerate(src)
+        for k, v in items:
+            nodes += 1
+            if nodes > MAX_NODES:
+                raise SceneError(f"{where}: too large (more than {MAX_NODES:g} values, aliases expanded)")
+            copy = fresh(v)
+            if isinstance(dst, dict):
+                dst[k] = copy
+            else:
+                dst.append(copy)
+            if isinstance(v, (dict, list)):
+                stack.append((v, copy, depth + 1))
+    return root
+
+
 def read_yaml(path, what: str = "scene"):
     """The data of a YAML file (`what` names it in errors: 'scene', 'sweep spec'), with the
     file checks: it exists, is a regular UTF-8 text file, valid YAML, no key given twice, not
@@ -544,6 +594,9 @@ def read_yaml(path, what: str = "scene"):
     if not p.is_file():
         raise SceneError(f"{what} file '{path}' is not a regular file (a YAML {what} file is required)")
     try:
+        size = p.stat().st_size
+        if size > MAX_BYTES:
+            raise SceneError(f"{what} file '{path}' is too large ({size:,} bytes; at most {MAX_BYTES:,})")
         raw = p.read_bytes()
     except OSError as e:
         raise SceneError(f"{what} file '{path}' cannot be read ({e.strerror})") from None
@@ -553,12 +606,7 @@ def read_yaml(path, what: str = "scene"):
         text = raw.decode("utf-8")
     except UnicodeDecodeError as e:
         raise SceneError(f"{what} file '{path}' is not UTF-8 text (invalid byte at offset {e.start})") from None
-    try:
-        data = yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 - a SafeLoader subclass
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        raise SceneError(f"{path}: not valid YAML{where} ({getattr(e, 'problem', e)})") from None
+    data = load_yaml(text, str(path))
     if data is None:
         raise SceneError(f"{what} file '{path}' is empty (a {what} mapping is required"
                          + (": mechanism, path, ...)" if what == "scene" else ")"))

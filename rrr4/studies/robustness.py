@@ -16,13 +16,11 @@ import json
 import time
 from pathlib import Path
 
-import yaml
-
 from ..errors import SceneError
 from ..files import write_atomic
 from ..problem import Problem
 from ..results.metrics import scalar_metrics
-from ..scene import Scene, parse_scene, set_key
+from ..scene import Scene, parse_scene, read_yaml, set_key
 from ..simulation import simulate
 from .study import arm_scene
 
@@ -49,7 +47,7 @@ def _nominal_data(problem: Problem) -> dict:
     source = problem.scene.source
     if not source or not Path(source).is_file():
         raise SceneError(f"scene: {problem.name!r} has no YAML file to vary (load it with rrr4.load_scene)")
-    return yaml.safe_load(Path(source).read_text())
+    return read_yaml(source)
 
 
 def perturbed(problem: Problem, case: str) -> Scene:

@@ -29,6 +29,7 @@ import hashlib
 import io
 import itertools
 import json
+import math
 import os
 import time
 from dataclasses import dataclass
@@ -39,6 +40,7 @@ import yaml
 
 from ..checks import describe
 from ..errors import Rrr4Error, SceneError
+from ..mechanism import check_scene
 from ..results.metrics import SCALAR_METRICS, scalar_metrics
 from ..results.study import PRELOAD_ARMS
 from ..scene import get_key, key_steps, parse_scene, read_yaml, set_key
@@ -49,6 +51,7 @@ METRICS = (*SCALAR_METRICS, "wall_time_s")  # the CSV columns of each arm
 DISTRIBUTIONS = ("normal", "uniform")
 SPEC_KEYS = ("scene", "t_end", "arms", "grid", "monte_carlo")
 MAX_CASES = 100_000
+MAX_WORKERS_PER_CORE = 4  # local worker processes a machine holds per core (each a Python with CasADi)
 
 
 @dataclass(frozen=True)
@@ -89,7 +92,8 @@ def parse_spec(data: dict, root: Path = Path(".")) -> SweepSpec:
         raise SceneError(f"scene: {describe(data.get('scene'))} is not allowed (the base scene's YAML file)")
     scene_path = (root / data["scene"]).resolve()
     base = read_yaml(scene_path, "scene")
-    parse_scene(copy.deepcopy(base), name=scene_path.stem, source=str(scene_path))  # the base itself is valid
+    # the base itself is a valid scene that assembles along its path
+    check_scene(parse_scene(copy.deepcopy(base), name=scene_path.stem, source=str(scene_path)))
     t_end = data.get("t_end")
     if t_end is not None:
         t_end = _number("t_end", t_end, "t_end [s]")
@@ -105,22 +109,36 @@ def parse_spec(data: dict, root: Path = Path(".")) -> SweepSpec:
     mc = data.get("monte_carlo")
     if not isinstance(grid, dict):
         raise SceneError(f"grid: {describe(grid)} is not allowed (scene key paths -> lists of values)")
+    if not grid and mc is None:
+        raise SceneError("grid: no grid and no monte_carlo is not allowed (give at least one key path with a list "
+                         "of values, or a monte_carlo)")
     for k, vals in grid.items():
-        key_steps(str(k))
+        _key("grid", k)
         if not isinstance(vals, list) or not vals:
             raise SceneError(f"grid.{k}: {describe(vals)} is not allowed (a non-empty list of values)")
+    n_points = math.prod(len(v) for v in grid.values())
+    n_samples = mc.get("samples", 1) if isinstance(mc, dict) and isinstance(mc.get("samples"), int) else 1
+    if n_points * n_samples > MAX_CASES:  # counted, not expanded
+        raise SceneError(f"grid: {n_points * n_samples:,} cases is not allowed (at most {MAX_CASES:,})")
     points = [dict(zip(grid, combo, strict=True)) for combo in itertools.product(*grid.values())] or [{}]
     samples = [{}]
     mc_keys: list = []
     if mc is not None:
         samples, mc_keys = _monte_carlo(mc, base)
-    if len(points) * len(samples) > MAX_CASES:
-        raise SceneError(f"grid: {len(points) * len(samples)} cases is not allowed (at most {MAX_CASES})")
     cases = tuple({**pt, **smp} for pt in points for smp in samples)
     keys = tuple(grid) + tuple(k for k in mc_keys if k not in grid)
     for case in cases:  # every case is a valid scene before anything runs
         case_scene(base, scene_path, case)
     return SweepSpec(base, scene_path, t_end, tuple(arms), keys, cases, tuple(grid), tuple(mc_keys))
+
+
+def _key(where: str, k) -> None:
+    """A spec's key path `k` under `where` (grid or monte_carlo.keys): a string of dotted
+    scene keys, list items as [i]; SceneError otherwise."""
+    if not isinstance(k, str):
+        raise SceneError(f"{where}: key {describe(k)} is not allowed (a dotted scene key path, list items as [i], "
+                         "e.g. mechanism.chains[0].base[1])")
+    key_steps(k)
 
 
 def _monte_carlo(mc, base) -> tuple[list[dict], list[str]]:
@@ -138,8 +156,8 @@ def _monte_carlo(mc, base) -> tuple[list[dict], list[str]]:
     rng = np.random.default_rng(seed)
     draws = {}
     for k, dist in keys.items():
+        _key("monte_carlo.keys", k)
         key = f"monte_carlo.keys.{k}"
-        key_steps(str(k))
         if not isinstance(dist, dict) or len(dist) != 1 or next(iter(dist)) not in DISTRIBUTIONS:
             raise SceneError(f"{key}: {describe(dist)} is not allowed ({{normal: {{std, mean}}}} or "
                              "{uniform: [low, high]})")
@@ -172,6 +190,8 @@ def case_scene(base: dict, scene_path: Path, case: dict):
     text = yaml.safe_dump(data, sort_keys=True)
     try:
         scene = parse_scene(data, name=scene_path.stem, source="")
+        if any(k.startswith(("mechanism.", "path.")) for k in case):  # it must still assemble along its path
+            check_scene(scene)
     except SceneError as e:
         values = ", ".join(f"{k} = {describe(v)}" for k, v in case.items())
         raise SceneError(f"{e} (in the case {values})") from None
@@ -284,6 +304,8 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
     cache)}."""
     say = log or (lambda _m: None)
     name = None
+    if not isinstance(spec, (str, Path, dict, SweepSpec)):
+        raise SceneError(f"spec: {describe(spec)} is not allowed (a sweep spec file, a mapping or a SweepSpec)")
     if isinstance(spec, (str, Path)):
         name = Path(spec).stem
         spec = load_spec(spec)
@@ -292,8 +314,10 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
     out = Path(out) if out is not None else Path("results") / "sweeps" / (name or spec.scene_path.stem)
     if out.exists() and not out.is_dir():
         raise SceneError(f"--out: {str(out)!r} is a file (expected a directory)")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
-        raise SceneError(f"--workers: {describe(workers)} is not allowed (an integer >= 1)")
+    most = MAX_WORKERS_PER_CORE * (os.cpu_count() or 1)
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= most):
+        raise SceneError(f"--workers: {describe(workers)} is not allowed (an integer from 1 to {most}: "
+                         f"{MAX_WORKERS_PER_CORE} local worker processes per core at most)")
     out.mkdir(parents=True, exist_ok=True)
     csv_path = out / "results.csv"
     columns = _columns(spec)
