@@ -8,6 +8,7 @@ import signal
 import sys
 
 from .errors import Rrr4Error
+from .files import check_writable
 
 
 def _check(args) -> int:
@@ -21,6 +22,7 @@ def _codegen(args) -> int:
     from .codegen import codegen
     from .mechanism import load_scene
     branch = args.branch if args.branch == "auto" else int(args.branch)
+    check_writable(args.out)
     for f in codegen(load_scene(args.scene), args.out, branch=branch):
         print(f)
     print(f"build the example with: cd {args.out} && gcc -O2 -Wall *.c -lm -o example && ./example")
@@ -40,8 +42,8 @@ def _run(args) -> int:
         argument("--t-end", args.t_end)
     scene = load_scene(args.scene)
     out = Path(args.out) if args.out else Path("results") / scene.name
+    check_writable(out)
     check_target(out)
-    _check_writable(out)
     study = run_study(scene, t_end=args.t_end, progress=True, log=lambda m: tqdm.write(f"rrr4 run: {m}"))
     _, files = write_results(study, out, progress=True)
     print(f"wrote {len(files)} files to {out}/: {', '.join(files)}")
@@ -51,16 +53,10 @@ def _run(args) -> int:
 
 def _animate(args) -> int:
     from .results.animation import render
+    if args.out:
+        check_writable(args.out, kind="file")
     print(render(args.result_dir, args.out, progress=True))
     return 0
-
-
-def _check_writable(out) -> None:
-    """Refuse an output directory that cannot be written, before any work is done."""
-    from .errors import SceneError
-    parent = next((p for p in (out, *out.parents) if p.exists()), None)
-    if parent is None or not os.access(parent, os.W_OK | os.X_OK):
-        raise SceneError(f"--out: '{out}' is not allowed (cannot write into '{parent}')")
 
 
 def _bench(args) -> int:
@@ -70,7 +66,7 @@ def _bench(args) -> int:
     if args.t_end is not None and not (args.t_end > 0):
         raise SceneError(f"--t-end: {args.t_end!r} is not allowed (must be > 0 s)")
     scene = load_scene(args.scene)
-    out = args.out or "results/work_precision"
+    out = check_writable(args.out or "results/work_precision")
     t_end = scene.path.duration if args.t_end is None else args.t_end
     rows = work_precision(scene, t_end=t_end, progress=True)
     for f in write_work_precision(rows, scene, out, t_end):
@@ -90,7 +86,7 @@ def _robustness(args) -> int:
         argument("--t-end", args.t_end)
     scene = load_scene(args.scene)
     out = Path(args.out) if args.out else Path("results") / f"{scene.name}_robustness"
-    _check_writable(out)
+    check_writable(out)
     for f in write_robustness(scene, out, t_end=args.t_end, log=lambda m: tqdm.write(f"rrr4 robustness: {m}")):
         print(f)
     return 0
@@ -103,7 +99,7 @@ def _map(args) -> int:
     from .studies.maps import write_map
     scene = load_scene(args.scene)
     out = Path(args.out) if args.out else Path("results") / f"{scene.name}_map"
-    _check_writable(out)
+    check_writable(out)
     for f in write_map(scene, out, grid=args.grid):
         print(f)
     return 0

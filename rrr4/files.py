@@ -19,8 +19,8 @@ from pathlib import Path
 
 from .errors import Rrr4Error, SceneError
 
-__all__ = ["atomic_file", "write_atomic", "atomic_directory", "check_target", "run_c_compiler", "c_compiler",
-           "BuildError"]
+__all__ = ["atomic_file", "write_atomic", "atomic_directory", "check_target", "check_writable", "run_c_compiler",
+           "c_compiler", "BuildError"]
 
 
 class BuildError(Rrr4Error, RuntimeError):
@@ -55,6 +55,30 @@ def atomic_file(path, fill) -> Path:
 def write_atomic(path, text: str) -> Path:
     """Write `text` to `path` through a temporary file in the same directory (:func:`atomic_file`)."""
     return atomic_file(path, lambda tmp: Path(tmp).write_text(text))
+
+
+def check_writable(out, key: str = "--out", kind: str = "directory") -> Path:
+    """Refuse, before any work, an output `out` (a directory, or with kind='file' a file)
+    that cannot be written: one that exists as the other kind, lies under a file, or whose
+    nearest existing directory refuses a real write (probed with a temporary file, so that
+    /proc, read-only mounts and permissions all count, for root too). Returns `out`."""
+    out = Path(out)
+    if kind == "directory" and out.exists() and not out.is_dir():
+        raise SceneError(f"{key}: '{out}' is not allowed (it is a file; a directory is required)")
+    if kind == "file" and out.is_dir():
+        raise SceneError(f"{key}: '{out}' is not allowed (it is a directory; a file is required)")
+    start = out.parent if kind == "file" else out
+    parent = next((p for p in (start, *start.parents) if p.exists()), Path("."))
+    if not parent.is_dir():
+        raise SceneError(f"{key}: '{out}' is not allowed ('{parent}' is a file, not a directory)")
+    if kind == "file" and parent != out.parent:
+        raise SceneError(f"{key}: '{out}' is not allowed (the directory '{out.parent}' does not exist)")
+    try:
+        with tempfile.TemporaryFile(dir=parent):
+            pass
+    except OSError as e:
+        raise SceneError(f"{key}: '{out}' is not allowed (cannot write into '{parent}': {e.strerror})") from None
+    return out
 
 
 def check_target(out: Path, marker: str) -> None:

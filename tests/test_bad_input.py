@@ -338,3 +338,47 @@ def test_a_sweep_over_one_joints_clearance_changes_only_that_joint():
     scene = parse_scene(data)
     clear = {j.name: j.radial_clearance for j in scene.graph.joints if j.clearance}
     assert clear.pop("B1") == 2.0e-4 and set(clear.values()) == {1.0e-4}, clear
+
+
+@pytest.mark.parametrize("command", ["run", "map", "robustness", "bench", "codegen", "sweep", "animate"])
+def test_every_command_refuses_an_output_it_cannot_write_before_any_work(tmp_path, capsys, command):
+    """--out under a file, under /proc, onto the wrong kind: one line naming --out, exit 2,
+    nothing written (checked before the scene is simulated or the cluster started)."""
+    from rrr4.cli import main
+    a_file = tmp_path / "file.txt"
+    a_file.write_text("keep")
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(yaml.safe_dump({"scene": str(PAPER), "grid": {"joints.radial_clearance": [1e-4]}}))
+    first = {"sweep": str(spec), "animate": str(ROOT / "results" / "paper_circle")}.get(command, str(PAPER))
+    outs = [a_file / "sub", "/proc/rrr4-out"] + ([tmp_path / "missing" / "m.gif", tmp_path] if command == "animate"
+                                                 else [a_file])
+    for out in outs:
+        code = main([command, *(["accuracy"] if command == "bench" else []), first, "--out", str(out)])
+        err = capsys.readouterr().err.strip()
+        assert code == 2 and err.count("\n") == 0 and "--out" in err, (out, err)
+    assert a_file.read_text() == "keep" and sorted(p.name for p in tmp_path.iterdir()) == ["file.txt", "spec.yaml"]
+
+
+def test_api_options_that_do_not_apply_and_wrong_guesses_end_in_one_line():
+    slider = rrr4.load_scene(ROOT / "problems" / "flores_slider_crank.yaml")
+    with pytest.raises(SceneError, match="controller: 'generated' is not allowed here \\(actuation.mode is 'free'"):
+        rrr4.simulate(slider, controller="generated", t_end=1e-3)
+    mech = rrr4.Mechanism.from_scene(slider)
+    target = mech.driver_targets(0.0)[0]
+    for guess in ([0.0, 0.0], "x", [float("nan")] * mech.nq):
+        with pytest.raises(SceneError, match=f"guess: .* is not allowed \\(a vector of {mech.nq} finite numbers\\)"):
+            mech.assemble(target, guess=guess)
+    with pytest.raises(SceneError, match="target: .* is not allowed"):
+        mech.assemble([0.0, 1.0, 2.0])
+
+
+def test_a_file_that_is_not_a_scene_is_named_never_echoed(tmp_path, capsys):
+    from rrr4.cli import main
+    secret = tmp_path / "passwd"
+    secret.write_text("root:x:0:0:root:/root:/bin/bash\n")
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(yaml.safe_dump({"scene": str(secret), "grid": {"joints.radial_clearance": [1e-4]}}))
+    for args in (["check", str(secret)], ["sweep", str(spec), "--out", str(tmp_path / "o")]):
+        assert main(args) == 2
+        err = capsys.readouterr().err
+        assert "is not a scene" in err and "root:x" not in err and err.count("\n") == 1

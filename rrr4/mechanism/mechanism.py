@@ -18,6 +18,7 @@ import itertools
 import casadi as ca
 import numpy as np
 
+from ..checks import describe
 from ..errors import KinematicsError, SceneError
 from ..scene import NRRRSpec, Scene, bare_nrrr_graph
 from . import kinematics as kin
@@ -26,6 +27,17 @@ from .model import Model
 __all__ = ["Mechanism", "NRRRMechanism"]
 
 NEWTON = {"abstol": 1e-13, "max_iter": 60, "error_on_fail": False}
+
+
+def _vector(key: str, v, n: int) -> np.ndarray:
+    """`v` as a finite float vector of n entries, or a one-line SceneError naming `key`."""
+    try:
+        x = np.asarray(v, float).ravel()
+    except (TypeError, ValueError):
+        x = None
+    if x is None or x.size != n or not np.all(np.isfinite(x)):
+        raise SceneError(f"{key}: {describe(v)} is not allowed (a vector of {n} finite numbers)")
+    return x
 
 
 class Mechanism:
@@ -97,11 +109,11 @@ class Mechanism:
         second point minus its first: the eccentricity when the journal sits on the second
         body, minus it otherwise) with the task rows at `target`; Newton from `guess`
         (default: the bodies' pose guesses). Raises KinematicsError if it does not close."""
-        target = np.atleast_1d(np.asarray(target, float))
+        target = _vector("target", target, self.n_task)
         off = np.zeros(self._n_rows)
         if offsets is not None:
-            off[self._clearance_rows] = np.asarray(offsets, float).ravel()
-        guess = self.model.pose_guess if guess is None else np.asarray(guess, float)
+            off[self._clearance_rows] = _vector("offsets", offsets, len(self._clearance_rows))
+        guess = self.model.pose_guess if guess is None else _vector("guess", guess, self.nq)
         p = np.r_[target, off]
         q = np.array(self.assemble_function(guess, p)).ravel()
         res = np.array(self.closure_function(q, p)).ravel()

@@ -610,6 +610,9 @@ def read_yaml(path, what: str = "scene"):
     if data is None:
         raise SceneError(f"{what} file '{path}' is empty (a {what} mapping is required"
                          + (": mechanism, path, ...)" if what == "scene" else ")"))
+    if not isinstance(data, dict):  # named, never echoed: it may be any file
+        raise SceneError(f"{what} file '{path}' is not a {what} (its YAML is a {type(data).__name__}, not a mapping of "
+                         + ("mechanism, path, ...)" if what == "scene" else "keys)"))
     return data
 
 

@@ -165,6 +165,9 @@ def loop_of(problem: Problem, eqs: Equations, controller: str, references: str, 
     controller's model); raises SceneError for a combination that does not exist (a
     generated controller without a closed form or rate)."""
     held = eqs.mode == "torque" and problem.scene.actuation.control_rate is not None
+    if controller == "generated" and eqs.mode != "torque":
+        raise SceneError(f"controller: 'generated' is not allowed here (actuation.mode is {eqs.mode!r}: the generated "
+                         "controller step commands torques; choose the default controller)")
     if eqs.mode != "torque":
         kind = "sampled" if references == "sampled" or (not problem.closed_form and problem.model.task) else "exact"
         return Loop(kind, None, False, problem.path, key=("none",))

@@ -72,49 +72,51 @@ def work_precision(scene: Scene | Problem, t_end: float | None = None, plan: dic
     if progress:
         from tqdm import tqdm
         bar = tqdm(total=len(runs) + 3, desc=f"bench accuracy ({scene.name}, {t_end:g} s)", unit="run")
-    warm_up = 2.0 / scene.path.sample_rate  # two output intervals: same step Function as the timed run
+    try:  # the bar is closed before an error reaches the user, so nothing prints after it
+        warm_up = 2.0 / scene.path.sample_rate  # two output intervals: same step Function as the timed run
 
-    def run(method, **kw):
-        if method.jit:
-            simulate(problem, method, t_end=warm_up, preload=preload, **kw)
-        sim = simulate(problem, method, t_end=t_end, preload=preload, **kw)
-        if bar is not None:
-            bar.update()
-        return sim
-
-    finest = min([v for m, k, v in runs if m == "rk4"] or [scene.integrator.step])
-    ref = run(RK4(jit=True), step=finest / _RATIO)
-    name = f"rk4 (C), h = {ref.stats['step']:.3g} s"
-
-    def error(sim) -> float:
-        return float(np.max(np.linalg.norm(_positions(sim, task) - _positions(ref, task), axis=2)))
-
-    def row(method, kind, setting, status, sim=None):
-        return {"method": method, "kind": kind, "setting": setting, "status": status,
-                "error_m": error(sim) if sim is not None else float("nan"),
-                "cpu_s": float(sim.stats["wall_time"]) if sim is not None else float("nan"),
-                "steps": int(sim.stats.get("steps", 0)) if sim is not None else 0, "reference": name}
-
-    rows = [row("rk4 (C), 2x reference step", "step", 2 * ref.stats["step"], "cross-check",
-                run(RK4(jit=True), step=2 * ref.stats["step"])),
-            row("cvodes", "rtol", CROSS_CHECK_RTOL, "cross-check",
-                run(Cvodes(rtol=CROSS_CHECK_RTOL, atol=CROSS_CHECK_RTOL * 1e-3)))]
-    for method, kind, v in runs:
-        if kind == "step":
-            integrator, kw = METHODS[method](jit=True), {"step": v}
-        else:
-            integrator, kw = METHODS[method](rtol=v, atol=v * 1e-3), {}
-        try:
-            sim = run(integrator, **kw)
-        except SimulationError:  # non-finite state: beyond the stability limit, or the solver gave up
+        def run(method, **kw):
+            if method.jit:
+                simulate(problem, method, t_end=warm_up, preload=preload, **kw)
+            sim = simulate(problem, method, t_end=t_end, preload=preload, **kw)
             if bar is not None:
                 bar.update()
-            taken = _step_taken(scene.path.sample_rate, t_end, v) if kind == "step" else v
-            rows.append(row(method, kind, taken, "unstable"))
-            continue
-        rows.append(row(method, kind, sim.stats["step"] if kind == "step" else v, "ok", sim))
-    if bar is not None:
-        bar.close()
+            return sim
+
+        finest = min([v for m, k, v in runs if m == "rk4"] or [scene.integrator.step])
+        ref = run(RK4(jit=True), step=finest / _RATIO)
+        name = f"rk4 (C), h = {ref.stats['step']:.3g} s"
+
+        def error(sim) -> float:
+            return float(np.max(np.linalg.norm(_positions(sim, task) - _positions(ref, task), axis=2)))
+
+        def row(method, kind, setting, status, sim=None):
+            return {"method": method, "kind": kind, "setting": setting, "status": status,
+                    "error_m": error(sim) if sim is not None else float("nan"),
+                    "cpu_s": float(sim.stats["wall_time"]) if sim is not None else float("nan"),
+                    "steps": int(sim.stats.get("steps", 0)) if sim is not None else 0, "reference": name}
+
+        rows = [row("rk4 (C), 2x reference step", "step", 2 * ref.stats["step"], "cross-check",
+                    run(RK4(jit=True), step=2 * ref.stats["step"])),
+                row("cvodes", "rtol", CROSS_CHECK_RTOL, "cross-check",
+                    run(Cvodes(rtol=CROSS_CHECK_RTOL, atol=CROSS_CHECK_RTOL * 1e-3)))]
+        for method, kind, v in runs:
+            if kind == "step":
+                integrator, kw = METHODS[method](jit=True), {"step": v}
+            else:
+                integrator, kw = METHODS[method](rtol=v, atol=v * 1e-3), {}
+            try:
+                sim = run(integrator, **kw)
+            except SimulationError:  # non-finite state: beyond the stability limit, or the solver gave up
+                if bar is not None:
+                    bar.update()
+                taken = _step_taken(scene.path.sample_rate, t_end, v) if kind == "step" else v
+                rows.append(row(method, kind, taken, "unstable"))
+                continue
+            rows.append(row(method, kind, sim.stats["step"] if kind == "step" else v, "ok", sim))
+    finally:
+        if bar is not None:
+            bar.close()
     return rows
 
 

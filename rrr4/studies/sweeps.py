@@ -40,6 +40,7 @@ import yaml
 
 from ..checks import describe
 from ..errors import Rrr4Error, SceneError
+from ..files import check_writable
 from ..mechanism import check_scene
 from ..results.metrics import SCALAR_METRICS, scalar_metrics
 from ..results.study import PRELOAD_ARMS
@@ -311,9 +312,9 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
         spec = load_spec(spec)
     elif isinstance(spec, dict):
         spec = parse_spec(spec)
-    out = Path(out) if out is not None else Path("results") / "sweeps" / (name or spec.scene_path.stem)
-    if out.exists() and not out.is_dir():
-        raise SceneError(f"--out: {str(out)!r} is a file (expected a directory)")
+    out = check_writable(Path(out) if out is not None else Path("results") / "sweeps" / (name or spec.scene_path.stem))
+    if (out / "results.csv").exists() and not (out / "results.csv").is_file():
+        raise SceneError(f"--out: '{out}' is not allowed (its results.csv is not a file)")
     most = MAX_WORKERS_PER_CORE * (os.cpu_count() or 1)
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= most):
         raise SceneError(f"--workers: {describe(workers)} is not allowed (an integer from 1 to {most}: "
