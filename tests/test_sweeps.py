@@ -241,3 +241,39 @@ def test_sweep_refuses_a_non_spec_and_too_many_workers_in_one_line(tmp_path):
     with pytest.raises(SceneError, match=f"--workers: {too_many} is not allowed"):
         sweep(_spec(tmp_path), out=tmp_path / "o", workers=too_many)
     assert not (tmp_path / "o").exists()
+
+
+def test_any_scheduler_address_ends_in_one_line_within_the_stated_time(tmp_path, monkeypatch):
+    """Not a Dask scheduler: an HTTP server, a server that accepts and never answers, a bad or
+    unsupported address. Each ends in one SceneError naming the address, within the bound."""
+    import socket
+    import threading
+    import time
+    from http.server import SimpleHTTPRequestHandler, ThreadingHTTPServer
+
+    from rrr4.studies import sweeps as sweeps_module
+    monkeypatch.setattr(sweeps_module, "SCHEDULER_TIMEOUT", 3.0)
+    spec = _spec(tmp_path)
+    for bad, match in ((8786, "--scheduler: 8786 is not allowed"), ("tls://127.0.0.1:1", "tls:// is not supported"),
+                       ("tcp://127.0.0.1:x", "is not allowed")):
+        with pytest.raises(SceneError, match=match):
+            sweep(spec, out=tmp_path / "o", scheduler=bad)
+    silent = socket.socket()
+    silent.bind(("127.0.0.1", 0))
+    silent.listen(8)  # accepts connections (the kernel's backlog) and never answers
+    class Quiet(SimpleHTTPRequestHandler):
+        def log_message(self, *args):  # the rejected Dask handshake is expected
+            pass
+
+    ThreadingHTTPServer.daemon_threads = True  # a request that never completes must not keep it alive
+    http = ThreadingHTTPServer(("127.0.0.1", 0), Quiet)
+    threading.Thread(target=http.serve_forever, daemon=True).start()
+    try:
+        for port in (silent.getsockname()[1], http.server_address[1]):
+            t0 = time.perf_counter()
+            with pytest.raises(SceneError, match=f"--scheduler: 'tcp://127.0.0.1:{port}' is not a reachable") as e:
+                sweep(spec, out=tmp_path / "o", scheduler=f"tcp://127.0.0.1:{port}")
+            assert "\n" not in str(e.value) and time.perf_counter() - t0 < 3.0 + 10.0
+    finally:
+        silent.close()
+        http.shutdown()

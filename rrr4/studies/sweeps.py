@@ -133,6 +133,51 @@ def parse_spec(data: dict, root: Path = Path(".")) -> SweepSpec:
     return SweepSpec(base, scene_path, t_end, tuple(arms), keys, cases, tuple(grid), tuple(mc_keys))
 
 
+SCHEDULER_TIMEOUT = 20.0  # [s] an address that is not a Dask scheduler answering within this ends in one line
+SCHEDULER_SCHEMES = ("tcp",)
+
+
+def _scheduler_address(scheduler) -> str:
+    """`scheduler` as a Dask address tcp://host:port (a bare host:port means tcp), or a
+    one-line SceneError naming it."""
+    if not isinstance(scheduler, str):
+        raise SceneError(f"--scheduler: {describe(scheduler)} is not allowed (an address such as "
+                         "tcp://127.0.0.1:8786)")
+    scheme, sep, rest = scheduler.partition("://")
+    if not sep:
+        scheme, rest = "tcp", scheduler
+    host, _, port = rest.rpartition(":")
+    if scheme not in SCHEDULER_SCHEMES or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise SceneError(f"--scheduler: {describe(scheduler)} is not allowed (an address tcp://host:port; "
+                         f"{scheme}:// is not supported here)" if scheme not in SCHEDULER_SCHEMES else
+                         f"--scheduler: {describe(scheduler)} is not allowed (an address tcp://host:port)")
+    return f"{scheme}://{rest}"
+
+
+def _connect(client_class, scheduler):
+    """A Dask client of the scheduler at `scheduler`, or a one-line SceneError naming the
+    address within SCHEDULER_TIMEOUT seconds: whatever answers there (nothing, an HTTP
+    server, a server that accepts and stays silent) and whatever the client raises."""
+    import threading
+    address = _scheduler_address(scheduler)
+    box: dict = {}
+
+    def connect():
+        try:
+            box["client"] = client_class(address, timeout=f"{SCHEDULER_TIMEOUT / 2:g}s")
+        except BaseException as e:  # noqa: BLE001 - anything: one line for the user
+            box["error"] = e
+
+    thread = threading.Thread(target=connect, name="rrr4-scheduler-connect", daemon=True)
+    thread.start()
+    thread.join(SCHEDULER_TIMEOUT)
+    if "client" in box:
+        return box["client"]
+    why = (f"{type(box['error']).__name__}: {str(box['error']).splitlines()[0][:120] if str(box['error']) else ''}"
+           if "error" in box else f"no Dask scheduler answered within {SCHEDULER_TIMEOUT:g} s")
+    raise SceneError(f"--scheduler: {address!r} is not a reachable Dask scheduler ({why})")
+
+
 def _key(where: str, k) -> None:
     """A spec's key path `k` under `where` (grid or monte_carlo.keys): a string of dotted
     scene keys, list items as [i]; SceneError otherwise."""
@@ -315,6 +360,8 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
     out = check_writable(Path(out) if out is not None else Path("results") / "sweeps" / (name or spec.scene_path.stem))
     if (out / "results.csv").exists() and not (out / "results.csv").is_file():
         raise SceneError(f"--out: '{out}' is not allowed (its results.csv is not a file)")
+    if scheduler is not None:
+        _scheduler_address(scheduler)  # before any work
     most = MAX_WORKERS_PER_CORE * (os.cpu_count() or 1)
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= most):
         raise SceneError(f"--workers: {describe(workers)} is not allowed (an integer from 1 to {most}: "
@@ -342,10 +389,7 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
                                    dashboard_address=":0")
             client = Client(cluster)
         else:
-            try:
-                client = Client(scheduler, timeout="10s")
-            except (OSError, TimeoutError, ValueError) as e:
-                raise SceneError(f"--scheduler: {scheduler!r} is not reachable ({type(e).__name__}: {e})") from None
+            client = _connect(Client, scheduler)
         bar = None
         try:
             futures = {client.submit(run_case, text, spec.scene_path.stem, spec.t_end, spec.arms, jit, options,
