@@ -71,3 +71,41 @@ def test_animate_refuses_a_directory_that_is_not_a_result_or_has_no_motion(paper
         load_motion(bare)
     r = subprocess.run([sys.executable, "-m", "rrr4.cli", "animate", str(bare)], capture_output=True, text=True)
     assert r.returncode != 0 and "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("damage", ["missing q", "columns", "all nan", "empty", "arm name", "other scene", "not text"])
+def test_a_saved_result_is_checked_against_what_its_writer_writes(tmp_path, damage, capsys):
+    """rrr4 animate on a motion.npz that loads but is wrong ends in one line naming the entry,
+    and writes nothing."""
+    import shutil
+
+    import numpy as np
+
+    from rrr4.cli import main
+    src = ROOT / "results" / "paper_circle"
+    d = tmp_path / "r"
+    d.mkdir()
+    shutil.copy(src / "summary.json", d)
+    with np.load(src / "motion.npz", allow_pickle=False) as z:
+        data = {k: z[k] for k in z.files}
+    arm = str(data["arms"][0])
+    if damage == "missing q":
+        del data[f"q_{arm}"]
+    elif damage == "columns":
+        data[f"q_{arm}"] = data[f"q_{arm}"][:, :-1]
+    elif damage == "all nan":
+        data[f"normal_force_{arm}"] = np.full_like(data[f"normal_force_{arm}"], np.nan)
+    elif damage == "empty":
+        data = {k: (v[:0] if v.ndim and k not in ("arms",) and not k.startswith("clearance_joints") else v)
+                for k, v in data.items()}
+    elif damage == "arm name":
+        data["arms"] = np.array(["../../etc"] + [str(a) for a in data["arms"][1:]])
+    elif damage == "other scene":
+        data["scene_yaml"] = np.array((ROOT / "problems" / "flores_slider_crank.yaml").read_text())
+    else:
+        data["scene_yaml"] = np.array("mechanism: !!python/object:os.system {}")
+    np.savez_compressed(d / "motion.npz", **data)
+    assert main(["animate", str(d)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "motion.npz" in err, err
+    assert sorted(p.name for p in d.iterdir()) == ["motion.npz", "summary.json"]

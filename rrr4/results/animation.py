@@ -25,11 +25,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.animation import FuncAnimation, PillowWriter  # noqa: E402
 
+from ..checks import describe  # noqa: E402
 from ..errors import Rrr4Error  # noqa: E402
 from ..mechanism import Model  # noqa: E402
 from ..problem import Problem  # noqa: E402
 from ..scene import GROUND, Scene, load_yaml, parse_scene  # noqa: E402
 from .figures import STYLE, save_figure  # noqa: E402
+from .study import ARMS  # noqa: E402
 
 __all__ = ["save_motion", "load_motion", "render", "MOTION", "FRAMES", "FPS"]
 
@@ -80,8 +82,47 @@ def load_motion(result_dir) -> tuple[dict, Scene]:
             data = {k: z[k] for k in z.files}
         scene = parse_scene(load_yaml(str(data["scene_yaml"]), f"{f}: scene_yaml"), name=str(data["scene_name"]))
     except Exception as e:  # noqa: BLE001 - a damaged file is one line for the user
-        raise Rrr4Error(f"result_dir: '{f}' cannot be read ({type(e).__name__}: {e})") from None
+        raise Rrr4Error(f"result_dir: '{f}' cannot be read ({type(e).__name__}: {str(e).splitlines()[0][:160]})") \
+            from None
+    _check_motion(data, Problem.from_scene(scene).model, f)
     return data, scene
+
+
+def _check_motion(data: dict, model: Model, f) -> None:
+    """`data` holds what :func:`save_motion` writes, for the scene it claims: the arm names of
+    a study, the time grid, finite coordinates of the scene's bodies, and the contact arrays of
+    its clearance joints; else one Rrr4Error line naming the entry."""
+    def bad(key, why):
+        return Rrr4Error(f"result_dir: '{f}' is not a motion file rrr4 wrote ({key}: {why})")
+
+    def array(key, ndim):
+        if key not in data:
+            raise bad(key, "missing")
+        a = data[key]
+        if a.ndim != ndim:
+            raise bad(key, f"{a.ndim} dimensions, expected {ndim}")
+        return a
+
+    arms = array("arms", 1)
+    if arms.dtype.kind != "U" or not arms.size or any(a not in ARMS for a in arms.tolist()):
+        raise bad("arms", f"{describe(arms.tolist())} (the names of a study's arms: {', '.join(ARMS)})")
+    t = array("t", 1)
+    if t.dtype.kind != "f" or t.size < 1 or not np.all(np.isfinite(t)) or np.any(np.diff(t) < 0):
+        raise bad("t", "not a finite, non-decreasing time grid")
+    n = t.size
+    shapes = {"pose_ref": (n, 3)}
+    for arm in arms.tolist():
+        joints = array(f"clearance_joints_{arm}", 1).tolist()
+        if any(j not in model.clearance_joints for j in joints):
+            raise bad(f"clearance_joints_{arm}", f"{describe(joints)} are not clearance joints of the scene")
+        nc = len(joints)
+        shapes.update({f"q_{arm}": (n, model.nq), f"eccentricity_{arm}": (n, nc, 2), f"normal_force_{arm}": (n, nc)})
+    for key, shape in shapes.items():
+        a = array(key, len(shape))
+        if a.shape != shape:
+            raise bad(key, f"shape {a.shape}, the scene and the time grid make {shape}")
+        if a.dtype.kind != "f" or not np.all(np.isfinite(a)):
+            raise bad(key, "not finite numbers")
 
 
 def body_points(model: Model, q: np.ndarray) -> dict[str, np.ndarray]:
