@@ -277,3 +277,38 @@ def test_any_scheduler_address_ends_in_one_line_within_the_stated_time(tmp_path,
     finally:
         silent.close()
         http.shutdown()
+
+
+def test_any_value_on_any_spec_key_is_a_spec_or_one_line(tmp_path):
+    """Property (the bad-scene property, for sweep specs): whatever value lands on whatever
+    key of a spec, parsing it ends in a SweepSpec or in a one-line SceneError."""
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
+    base = yaml.safe_load(_spec(tmp_path).read_text())
+    values = st.one_of(st.none(), st.booleans(), st.integers(-10**20, 10**20), st.floats(allow_nan=True),
+                       st.text(max_size=12), st.lists(st.one_of(st.floats(-1e3, 1e3), st.none(), st.text(max_size=3)),
+                                                      max_size=4),
+                       st.dictionaries(st.one_of(st.text(max_size=8), st.none(), st.integers()),
+                                       st.one_of(st.integers(), st.lists(st.floats(0, 1), max_size=3)), max_size=3))
+    keys = ["scene", "t_end", "arms", "grid", "monte_carlo", "grid.joints.radial_clearance", "monte_carlo.samples",
+            "monte_carlo.keys", "monte_carlo.seed", "extra"]
+
+    @settings(max_examples=120, deadline=None, suppress_health_check=list(HealthCheck))
+    @given(key=st.sampled_from(keys), value=values)
+    def check(key, value):
+        spec = yaml.safe_load(yaml.safe_dump(base))
+        head, _, rest = key.partition(".")
+        if rest:
+            spec.setdefault(head, {})
+            if not isinstance(spec[head], dict):
+                spec[head] = {}
+            spec[head][rest] = value
+        else:
+            spec[key] = value
+        try:
+            parse_spec(spec)
+        except SceneError as e:
+            assert "\n" not in str(e)
+
+    check()
