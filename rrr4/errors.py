@@ -16,3 +16,8 @@ class SimulationError(Rrr4Error, RuntimeError):
 
 class KinematicsError(Rrr4Error, RuntimeError):
     """A kinematic problem has no solution (unreachable pose, FK without convergence)."""
+
+
+class InfeasibleError(Rrr4Error, RuntimeError):
+    """An optimal-control problem has no solution: the message names where along the path
+    (or at which node) and which constraint (an actuator's limit, a joint's contact condition)."""

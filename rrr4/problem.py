@@ -236,24 +236,25 @@ class Problem:
             key.model, key.scene.effects, key.mode, self.equation_parameters(geometry), v_min=v_min,
             baumgarte=baumgarte, inputs=inputs))
 
-    def inverse_dynamics(self):
+    def inverse_dynamics(self, gravity=None):
         """The n-RRR's closed-form 'inverse_dynamics' Function (pose, pose_d, pose_dd ->
-        tau_p, tau_n, r_p, r_n) with the scene's gravity."""
-        return inverse_dynamics_function(self.mechanism, self.gravity)
+        tau_p, tau_n, r_p, r_n) with the scene's gravity (or `gravity` (2,) [m/s^2])."""
+        return inverse_dynamics_function(self.mechanism, self.gravity if gravity is None else gravity)
 
-    def effort_family(self, pose, pose_d, pose_dd, q=None) -> EffortFamily:
+    def effort_family(self, pose, pose_d, pose_dd, q=None, gravity=None) -> EffortFamily:
         """The affine family of efforts and passive-joint reactions of the ideal mechanism at
         task poses (N, 3) and their rates: the closed form of an n-RRR, else the graph's SVD
-        (q: the graph's coordinates at the poses, if known)."""
+        (q: the graph's coordinates at the poses, if known). gravity (2,) [m/s^2]: default
+        the scene's."""
         pose, pose_d, pose_dd = (np.atleast_2d(np.asarray(v, float)) for v in (pose, pose_d, pose_dd))
         if self.closed_form:
             N = pose.shape[0]
-            return EffortFamily.from_raw(self.inverse_dynamics().map(N)(pose.T, pose_d.T, pose_dd.T))
+            return EffortFamily.from_raw(self.inverse_dynamics(gravity).map(N)(pose.T, pose_d.T, pose_dd.T))
         mech = self.mechanism
         k = mech.n_task
         q = mech.path_coordinates(pose[:, :k]) if q is None else np.asarray(q, float)
         _, qdd, _, _ = mech.motion(q, pose_d[:, :k], pose_dd[:, :k])
-        return graph_family(mech, q, qdd, self.gravity)
+        return graph_family(mech, q, qdd, self.gravity if gravity is None else gravity)
 
     def path_coordinates(self, pose, pose_d, pose_dd) -> np.ndarray:
         """q (N, nq) of every body with the task at poses (N, 3) (rates (N, 3) for the closed

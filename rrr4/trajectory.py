@@ -16,7 +16,7 @@ from scipy.interpolate import CubicSpline
 
 from .scene import PathSpec
 
-__all__ = ["trajectory_function", "sample_path", "PathSamples"]
+__all__ = ["trajectory_function", "path_geometry_function", "sample_path", "PathSamples"]
 
 
 def _time_law(law: str, tau):
@@ -27,6 +27,22 @@ def _time_law(law: str, tau):
     if law == "cycloidal":
         return tau - ca.sin(2 * ca.pi * tau) / (2 * ca.pi)
     return tau
+
+
+def _tabulated_progress(table, t):
+    """s(t) of a time table (rows t, s, s_dot; :mod:`rrr4.scene.time_table`) at t in [0, T]:
+    piecewise quadratic with a constant acceleration per row, exactly. With L the linear
+    interpolant of s, E that of t^2 and a the slope of the linear interpolant of s_dot,
+    s(t) = L(t) - a(t) (E(t) - t^2) / 2, since E(t) - t^2 = tau (h - tau) on a segment of
+    length h (tau = t - t_k). Interpolants are code-generable, so are their derivatives."""
+    tk, sk, vk = (np.array(c, float) for c in zip(*table, strict=True))
+    grid = [tk.tolist()]
+    lin_s = ca.interpolant("time_table_s", "linear", grid, sk.tolist())
+    lin_t2 = ca.interpolant("time_table_t2", "linear", grid, (tk**2).tolist())
+    lin_v = ca.interpolant("time_table_s_dot", "linear", grid, vk.tolist())
+    tt = ca.SX.sym("tt")
+    a = ca.Function("time_table_s_ddot", [tt], [ca.jacobian(lin_v(tt), tt)])(t)
+    return lin_s(t) - 0.5 * a * (lin_t2(t) - t**2)
 
 
 def _pose_of_progress(spec: PathSpec, s):
@@ -59,11 +75,27 @@ def trajectory_function(spec: PathSpec) -> ca.Function:
     Before t = 0 and after the duration the pose rests at the end points.
     """
     t = ca.SX.sym("t")
-    tau = ca.fmin(ca.fmax(t / spec.duration, 0.0), 1.0)
-    pose = _pose_of_progress(spec, _time_law(spec.time_law, tau))
+    if spec.time_law == "table":
+        s = _tabulated_progress(spec.time_table, ca.fmin(ca.fmax(t, 0.0), spec.duration))
+    else:
+        s = _time_law(spec.time_law, ca.fmin(ca.fmax(t / spec.duration, 0.0), 1.0))
+    pose = _pose_of_progress(spec, s)
     pose_d = ca.jacobian(pose, t)
     pose_dd = ca.jacobian(pose_d, t)
     return ca.Function("trajectory", [t], [pose, pose_d, pose_dd], ["t"], ["pose", "pose_d", "pose_dd"])
+
+
+@functools.cache
+def path_geometry_function(spec: PathSpec) -> ca.Function:
+    """CasADi Function 'path_geometry': s [-] in [0, 1] -> pose (3), pose_s (3), pose_ss (3):
+    the path's pose as a function of its progress and its first two derivatives in s, the
+    geometry a time law moves along (pose_d = pose_s s_dot, pose_dd = pose_s s_ddot + pose_ss
+    s_dot^2)."""
+    s = ca.SX.sym("s")
+    pose = _pose_of_progress(spec, s)
+    pose_s = ca.jacobian(pose, s)
+    return ca.Function("path_geometry", [s], [pose, pose_s, ca.jacobian(pose_s, s)], ["s"],
+                       ["pose", "pose_s", "pose_ss"])
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,7 @@
 """Scenes: the YAML schema as frozen dataclasses (:mod:`.schema`), its reader and validation
 (:mod:`.reader`, :mod:`.fields`), the vocabulary of allowed names (:mod:`.vocabulary`), the
-n-RRR expansion into a graph (:mod:`.nrrr`) and dotted key paths (:mod:`.keys`).
+n-RRR expansion into a graph (:mod:`.nrrr`), dotted key paths (:mod:`.keys`) and tabulated
+time laws (:mod:`.time_table`).
 
 Imports nothing of the package but :mod:`rrr4.errors` and :mod:`rrr4.checks`.
 """
@@ -32,6 +33,7 @@ from .schema import (
     PreloadSettings,
     Scene,
 )
+from .time_table import TIME_TABLE_COLUMNS, check_time_table, read_time_table, time_table_text
 from .vocabulary import GROUND, MATERIALS, choices
 
 __all__ = [
@@ -41,4 +43,5 @@ __all__ = [
     "read_scene", "parse_scene", "read_yaml", "load_yaml",
     "expand_nrrr", "bare_nrrr_graph", "get_key", "set_key", "key_steps",
     "MAX_SAMPLES", "MAX_BYTES", "MAX_DEPTH", "MAX_NODES",
+    "TIME_TABLE_COLUMNS", "check_time_table", "read_time_table", "time_table_text",
 ]

@@ -39,6 +39,7 @@ from .schema import (
     PreloadSettings,
     Scene,
 )
+from .time_table import read_time_table
 from .vocabulary import (
     ACTUATION_MODES,
     GROUND,
@@ -406,16 +407,34 @@ def _actuation(sec: Section, n: int, graph: Graph | None = None) -> tuple[Actuat
                      compensation), limits
 
 
-def _path(sec: Section, task: bool = True) -> PathSpec:
+def _path(sec: Section, task: bool = True, base: Path = Path()) -> PathSpec:
     kind = sec.choice("type", PATH_TYPES, None if task else "none")
     if (kind == "none") == task:
         raise SceneError(f"{sec.key('type')}: {kind!r} is not allowed "
                          + ("(the task body follows a path: circle, line or waypoints)" if task else
                             "(no task body: the drivers set the motion; use 'none' with duration and sample_rate)"))
+    law = sec.choice("time_law", TIME_LAWS, "quintic")
+    table = ()
+    if law == "table":
+        if sec.raw("time_table") is None:
+            raise SceneError(f"{sec.key('time_table')}: missing (time_law 'table' reads a CSV file with columns "
+                             "t,s,s_dot, relative to the scene file)")
+        name = sec.string("time_table")
+        table = read_time_table(base / name, sec.key("time_table"))
+    elif sec.raw("time_table") is not None:
+        raise SceneError(f"{sec.key('time_table')}: not allowed with time_law {law!r} (only with time_law: table)")
+    if table and sec.raw("duration") is None:
+        duration = table[-1][0]
+    else:
+        duration = sec.number("duration", positive=True)
+        if table and abs(duration - table[-1][0]) > 1e-9 * duration:
+            raise SceneError(f"{sec.key('duration')}: {duration:g} s is not allowed (the time table ends at "
+                             f"{table[-1][0]:.9g} s; leave duration out or give that)")
     common = dict(
         type=kind,
-        duration=sec.number("duration", positive=True),
-        time_law=sec.choice("time_law", TIME_LAWS, "quintic"),
+        duration=duration,
+        time_law=law,
+        time_table=table,
         sample_rate=sec.number("sample_rate", 1000.0, positive=True),
         max_condition_number=sec.number("max_condition_number", 1e3, lo=1.0, lo_open=True),
         min_transmission=sec.number("min_transmission", 0.05, lo=0.0, hi=1.0, hi_open=True),
@@ -497,7 +516,7 @@ def parse_scene(data, name: str = "scene", source: str = "") -> Scene:
         graph=graph,
         effects=_effects(top.section("effects")),
         actuation=actuation,
-        path=_path(top.section("path"), graph.task is not None),
+        path=_path(top.section("path"), graph.task is not None, Path(source).parent if source else Path()),
         initial=_initial(top.section("initial")),
         integrator=_integrator(top.section("integrator")),
         source=source,

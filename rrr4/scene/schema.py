@@ -7,6 +7,7 @@ from dataclasses import dataclass, field, replace
 
 from ..checks import argument, describe
 from ..errors import SceneError
+from .time_table import check_time_table
 from .vocabulary import GROUND
 
 __all__ = ["Link", "Chain", "Platform", "NRRRSpec", "Material", "JointSpec", "Body", "ActuatorSpec", "DriverSpec",
@@ -226,6 +227,8 @@ class PathSpec:
     points: tuple[tuple[float, float, float], ...] = ()
     max_condition_number: float = 1.0e3
     min_transmission: float = 0.05
+    # time_law 'table': rows (t [s], s [-], s_dot [1/s]) of rrr4.scene.time_table; () otherwise
+    time_table: tuple[tuple[float, float, float], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -305,6 +308,13 @@ class Scene:
             raise SceneError(f"torque_limit: {describe(limits)} is not allowed (one number > 0, or a list of {n})")
         acts = tuple(replace(a, limit=v) for a, v in zip(self.graph.actuators, values, strict=True))
         return replace(self, graph=replace(self.graph, actuators=acts))
+
+    def with_time_table(self, rows) -> Scene:
+        """This scene with its path followed by the time table `rows` (t [s], s, s_dot [1/s];
+        checked as :func:`rrr4.scene.check_time_table` does): time_law 'table', the duration
+        the table's. E.g. ``scene.with_time_table(law.table)`` for an optimal time law."""
+        table = check_time_table(rows)
+        return replace(self, path=replace(self.path, time_law="table", time_table=table, duration=table[-1][0]))
 
     def with_ideal_joints(self) -> Scene:
         """This scene with every joint ideal (the ideal twin of a clearance mechanism)."""

@@ -1,0 +1,9 @@
+"""Optimal control that keeps every clearance joint in contact (DESIGN.md §10): the effort
+family along a path as a function of its speed (:mod:`.family`) and time-optimal path
+following with the null-space efforts as decision variables (:mod:`.time_law`).
+"""
+
+from .family import PathFamily, path_family
+from .time_law import OBJECTIVES, OptimalTimeLaw, optimal_time_law
+
+__all__ = ["PathFamily", "path_family", "OptimalTimeLaw", "optimal_time_law", "OBJECTIVES"]

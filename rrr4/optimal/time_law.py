@@ -1,0 +1,428 @@
+"""Time-optimal path following with the null-space efforts as decision variables.
+
+On N + 1 grid points s_k = k / N of the scene's path the unknowns are b_k = s_dot^2,
+c_k = s_dot (relaxed: c_k^2 <= b_k, tight at the optimum) and the null-space efforts alpha_k.
+The segment acceleration a_k = (b_{k+1} - b_k) / (2 ds) is constant on each segment (so is
+s_ddot in time), and point k uses a_k (the last point a_{N-1}). With the affine family of
+:mod:`rrr4.optimal.family`, at every point
+
+- each actuator's limit |tau_i| <= L_i,
+- the preload layer's contact condition at every passive revolute joint (the QP's rule,
+  :mod:`rrr4.preload.qp`): sigma d_j . r_j >= f_min, d_j the direction of the joint's
+  null-space reaction, sigma the one sign for all joints,
+- optional bounds: s_dot <= max_speed, the task point's speed and acceleration,
+
+are linear in (a, b, alpha) (the acceleration bound is a convex quadratic). The duration
+sum 2 ds / (c_k + c_{k+1}) and the effort integral sum (tau^T W tau) 2 ds / (c_k + c_{k+1})
+(W the preload weights) are convex, so the program is convex (Verscheure et al., IEEE TAC
+54(10), 2009) and IPOPT, on CasADi's sparse (banded) derivatives, finds its global optimum.
+The relaxation c <= sqrt(b) keeps every function smooth where the path is at rest.
+
+Objectives: 'time'; 'effort' at a given duration; 'time+effort' (time plus effort_weight
+times the effort integral). ``contact=False`` drops the contact rows, ``null_space=False``
+fixes alpha = 0 (the minimum-norm efforts), so a user sees what each costs. Where the
+layer would pick one sign for all joints, both are solved and the faster kept; both are
+reported. Before solving, the path is checked at rest (a = b = 0): if no null-space effort
+within the limits meets the contact condition somewhere, or the limits cannot hold the
+path at rest, :class:`~rrr4.errors.InfeasibleError` names where and which constraint.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from ..checks import argument, unknown_value
+from ..dynamics.family import EffortFamily
+from ..errors import InfeasibleError, SceneError
+from ..preload.qp import qp_preload_function
+from ..problem import Problem
+from .family import PathFamily, path_family
+
+__all__ = ["OptimalTimeLaw", "optimal_time_law", "OBJECTIVES", "MAX_POINTS", "contact_directions"]
+
+OBJECTIVES = ("time", "effort", "time+effort")
+MAX_POINTS = 100_000
+# a constraint whose relative slack is below this is reported as binding
+BINDING_TOL = 1e-5
+IPOPT_OPTIONS = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-10,
+                 "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 500, "ipopt.mu_strategy": "adaptive"}
+
+
+def contact_directions(r_n: np.ndarray) -> np.ndarray:
+    """(N, nj, 2) unit direction d_j of each joint's reaction along the first null-space
+    direction (r_n (N, nj, 2, m)): the direction of the preload QP's contact condition."""
+    d = r_n[..., 0]
+    return d / np.maximum(np.linalg.norm(d, axis=-1, keepdims=True), 1e-300)
+
+
+@dataclass(frozen=True)
+class OptimalTimeLaw:
+    """An optimal time law along the scene's path, on N + 1 grid points.
+
+    t, s, s_dot, s_ddot (N+1,) [s, -, 1/s, 1/s^2] (s_ddot: the acceleration of the segment
+    that starts at the point; the last point repeats the last segment's); pose, pose_d, pose_dd
+    (N+1, 3) of the task; alpha (N+1, m) null-space efforts; efforts (N+1, n) [N m or N];
+    reactions (N+1, nj, 2) [N]; axial (N+1, nj) [N]: sigma d_j . r_j, the contact
+    condition's left side (>= f_min where it holds); binding (N+1,): the constraint with the
+    smallest slack where it binds ('' where none does); duration [s]; statistics: solver, status,
+    iterations, build and solve times, the duration with each sign."""
+    objective: str
+    t: np.ndarray
+    s: np.ndarray
+    s_dot: np.ndarray
+    s_ddot: np.ndarray
+    pose: np.ndarray
+    pose_d: np.ndarray
+    pose_dd: np.ndarray
+    alpha: np.ndarray
+    efforts: np.ndarray
+    reactions: np.ndarray
+    axial: np.ndarray
+    binding: tuple[str, ...]
+    duration: float
+    contact: bool
+    null_space: bool
+    sign: int
+    f_min: float
+    torque_limit: tuple[float, ...]
+    actuator_names: tuple[str, ...]
+    joint_names: tuple[str, ...]
+    statistics: dict = field(default_factory=dict)
+
+    @property
+    def table(self) -> np.ndarray:
+        """(N+1, 3) rows (t, s, s_dot) of the time table a scene carries
+        (:meth:`rrr4.scene.Scene.with_time_table`)."""
+        return np.column_stack([self.t, self.s, self.s_dot])
+
+    def binding_counts(self) -> dict[str, int]:
+        """How many grid points each constraint binds at."""
+        out: dict[str, int] = {}
+        for names in self.binding:
+            for b in names.split(", ") if names else ():
+                out[b] = out.get(b, 0) + 1
+        return dict(sorted(out.items()))
+
+    def summary(self) -> dict:
+        """The law's numbers as plain JSON types."""
+        return {"objective": self.objective, "duration_s": self.duration, "points": len(self.s),
+                "contact_condition": self.contact, "null_space": self.null_space, "sign": self.sign,
+                "f_min_N": self.f_min, "peak_effort_ratio": float(np.max(np.abs(self.efforts) /
+                                                                         np.asarray(self.torque_limit))),
+                "min_contact_margin_N": (float(self.axial.min() - self.f_min) if self.axial.size else None),
+                "binding": self.binding_counts(), "statistics": _plain(self.statistics)}
+
+
+def _plain(d):
+    if isinstance(d, dict):
+        return {str(k): _plain(v) for k, v in d.items()}
+    if isinstance(d, (np.floating, np.integer)):
+        return d.item()
+    return d
+
+
+def _grid(points) -> int:
+    if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or not 2 <= points <= MAX_POINTS:
+        raise SceneError(f"points: {points!r} is not allowed (an integer from 2 to {MAX_POINTS})")
+    return int(points)
+
+
+def optimal_time_law(scene, objective: str = "time", *, points: int = 1000, contact: bool = True,
+                     null_space: bool = True, sign: int | None = None, duration: float | None = None,
+                     effort_weight: float = 1.0, max_speed: float | None = None,
+                     max_task_speed: float | None = None, max_task_acceleration: float | None = None,
+                     end_speeds=(0.0, 0.0), f_min: float | None = None) -> OptimalTimeLaw:
+    """The optimal time law along the scene's path (see the module docstring).
+
+    scene: a Scene, a Problem or a scene file's path. objective: 'time', 'effort' (needs
+    `duration` [s]) or 'time+effort' (time + effort_weight [1/(N m)^2 s]... the effort
+    integral). points: grid intervals N. contact: keep the contact condition (needs a
+    redundant mechanism with a preload's f_min > 0). null_space: alpha free (else 0).
+    sign: +1 / -1 for the contact condition (default: both, the better kept). max_speed
+    [1/s] on s_dot; max_task_speed [m/s], max_task_acceleration [m/s^2] of the task point.
+    end_speeds: s_dot [1/s] at s = 0 and s = 1 (rest to rest by default). f_min [N]: default
+    the scene's ``actuation.preload.min_force``. Raises InfeasibleError where no law exists.
+    """
+    problem = Problem.from_scene(scene)
+    if objective not in OBJECTIVES:
+        raise unknown_value("objective", "value", objective, OBJECTIVES)
+    N = _grid(points)
+    if problem.model.task is None:
+        raise SceneError("path.type: 'none' is not allowed for a time law (the scene has no task body: its drivers "
+                         "set the motion)")
+    if objective == "effort":
+        if duration is None:
+            raise SceneError("duration: missing (objective 'effort' minimises the effort at a given duration [s])")
+        duration = argument("duration", duration)
+    effort_weight = argument("effort_weight", effort_weight, allow_zero=True)
+    bounds = {k: None if v is None else argument(k, v) for k, v in
+              (("max_speed", max_speed), ("max_task_speed", max_task_speed),
+               ("max_task_acceleration", max_task_acceleration))}
+    try:
+        ends = tuple(argument("end_speeds", v, allow_zero=True) for v in end_speeds)
+    except TypeError:
+        ends = ()
+    if len(ends) != 2:
+        raise SceneError(f"end_speeds: {end_speeds!r} is not allowed (two s_dot values >= 0 [1/s], at s = 0 and 1)")
+    model = problem.model
+    m = model.redundancy
+    f_min = problem.scene.actuation.preload.min_force if f_min is None else argument("f_min", f_min)
+    if contact and (m < 1 or f_min <= 0):
+        raise SceneError(f"contact: True is not allowed for this scene (the contact condition needs actuation "
+                         f"redundancy and f_min > 0; redundancy {m}, f_min {f_min:g} N): pass contact=False")
+    fam = path_family(problem, np.linspace(0.0, 1.0, N + 1))
+    if sign is not None and sign not in (1, -1):
+        raise SceneError(f"sign: {sign!r} is not allowed (+1 or -1)")
+    signs = (sign,) if sign is not None else ((1, -1) if contact else (1,))
+    setup = _Setup(problem, fam, objective, contact, null_space, duration, effort_weight, bounds, ends, f_min)
+    results, failures = {}, {}
+    for sg in signs:
+        where = setup.at_rest(sg)
+        if where:
+            failures[sg] = where
+            continue
+        results[sg] = setup.solve(sg)
+    if not results:
+        raise InfeasibleError(" ".join(failures[sg] for sg in signs))
+    by_sign = {sg: (r.duration if r.statistics["success"] else None) for sg, r in results.items()}
+    by_sign.update({sg: None for sg in failures})
+    ok = [r for r in results.values() if r.statistics["success"]]
+    if not ok:
+        r = next(iter(results.values()))
+        raise InfeasibleError(f"optimal time law: the solver stopped with {r.statistics['return_status']} "
+                              f"(largest violation {r.statistics['max_violation']:.3g} at s = "
+                              f"{r.statistics['worst_s']:.4g}, {r.statistics['worst_constraint']})")
+    best = min(ok, key=lambda r: r.statistics["objective_value"])
+    best.statistics.update(duration_by_sign={f"{k:+d}": v for k, v in by_sign.items()},
+                           at_rest_infeasible={f"{k:+d}": v for k, v in failures.items()})
+    return best
+
+
+class _Setup:
+    """One time-law program on a path family; solved per contact sign."""
+
+    def __init__(self, problem, fam: PathFamily, objective, contact, null_space, duration, effort_weight,
+                 bounds, ends, f_min):
+        self.problem, self.fam, self.objective = problem, fam, objective
+        self.contact, self.null_space, self.duration = contact, null_space, duration
+        self.effort_weight, self.bounds, self.ends, self.f_min = effort_weight, bounds, ends, f_min
+        self.limits = np.asarray(problem.torque_limit, float)
+        self.weights = np.asarray(problem.scene.actuation.preload.weights, float)
+        self.names = problem.model.actuator_names
+        self.joints = problem.model.preload_joints
+        self.d = contact_directions(fam.r_n) if fam.r_n.shape[-1] else np.zeros(fam.r_g.shape)
+        self.m = fam.tau_n.shape[2] if null_space else 0
+
+    # ------------------------------------------------------------------ at rest
+
+    def at_rest(self, sign: int) -> str:
+        """'' if the path can be held at rest (a = b = 0) at every grid point with some alpha,
+        else one sentence naming the first point and the constraint."""
+        fam, L = self.fam, self.limits
+        N1 = len(fam.s)
+        if self.m == 0:
+            alpha = np.zeros((N1, 0))
+            feasible = np.ones(N1, bool)
+        else:
+            alpha, feasible = self._rest_alpha(sign)
+        tau = fam.tau_g + np.einsum("knm,km->kn", fam.tau_n[:, :, :self.m], alpha)
+        over = np.abs(tau) / L - 1.0
+        axial = self._axial(fam.r_g + np.einsum("kjcm,km->kjc", fam.r_n[..., :self.m], alpha), sign)
+        short = (self.f_min - axial) / self.f_min if self.contact else np.full((N1, 1), -1.0)
+        bad = ~feasible | (over.max(axis=1) > 1e-9) | (short.max(axis=1) > 1e-9)
+        if not bad.any():
+            return ""
+        k = int(np.flatnonzero(bad)[0])
+        if short[k].max() > 1e-9 and (over[k].max() <= 1e-9 or short[k].max() >= over[k].max()):
+            j = int(np.argmax(short[k]))
+            what = (f"no null-space effort within the limits meets the contact condition at joint {self.joints[j]} "
+                    f"(f_min {self.f_min:g} N, sign {sign:+d})")
+        else:
+            i = int(np.argmax(over[k]))
+            what = (f"actuator {self.names[i]} needs |{tau[k, i]:.4g}| > its limit {L[i]:g} to hold the path at "
+                    "rest")
+        return f"path infeasible at s = {fam.s[k]:.4g} (pose {np.round(fam.pose[k], 6).tolist()}): {what}."
+
+    def _rest_alpha(self, sign):
+        """alpha (N+1, m) and a feasibility flag per point of the static problem: the preload
+        layer's QP (its rule and its tolerance) at a = b = 0."""
+        fam = self.fam
+        f = qp_preload_function(self.problem, "qrqp", float(sign), f_min=self.f_min if self.contact else -1e30)
+        raw = EffortFamily(fam.tau_g, fam.tau_n, fam.r_g, fam.r_n).raw
+        alpha, _, feas, _ = (np.array(v) for v in f.map(len(fam.s))(*raw))
+        return alpha.T.reshape(len(fam.s), -1), feas.ravel() > 0.5
+
+    def _axial(self, r, sign):
+        return sign * np.einsum("kjc,kjc->kj", self.d, r)
+
+    # ------------------------------------------------------------------ the program
+
+    def solve(self, sign: int) -> OptimalTimeLaw:
+        fam, N1, m = self.fam, len(self.fam.s), self.m
+        N = N1 - 1
+        ds = 1.0 / N
+        t0 = time.perf_counter()
+        X = ca.SX.sym("x", 2 + m, N1)  # per point: b, c, alpha (grid-major: a banded KKT system)
+        b, c = X[0, :].T, X[1, :].T
+        alpha = [X[2 + i, :].T for i in range(m)]
+        a_seg = (b[1:] - b[:-1]) / (2 * ds)
+        # each point is reached with the acceleration of the segment before it and left with
+        # that of the segment after it: the constraints hold on both sides, with one alpha
+        sides = (ca.vertcat(a_seg, a_seg[-1]), ca.vertcat(a_seg[0], a_seg))
+        dt = 2 * ds / (c[:-1] + c[1:])  # segment durations
+
+        def affine(a, ca_, cb, cg, cn):
+            e = ca.DM(ca_) * a + ca.DM(cb) * b + ca.DM(cg)
+            for i in range(m):
+                e += ca.DM(cn[:, i]) * alpha[i]
+            return e
+
+        n_act = fam.tau_a.shape[1]
+        taus = [[affine(a, fam.tau_a[:, i], fam.tau_b[:, i], fam.tau_g[:, i], fam.tau_n[:, i, :]) for i in
+                 range(n_act)] for a in sides]
+        g, lbg, ubg, labels = [], [], [], []
+        for side in taus:
+            for i, tau in enumerate(side):
+                g.append(tau / self.limits[i])
+                lbg.append(-np.ones(N1))
+                ubg.append(np.ones(N1))
+                labels.append(f"actuator {self.names[i]}")
+        if self.contact:
+            for a in sides:
+                for j in range(fam.r_g.shape[1]):
+                    d = self.d[:, j, :]
+                    coef = [np.einsum("kc,kc->k", d, v[:, j, :]) for v in (fam.r_a, fam.r_b, fam.r_g)]
+                    cn = np.einsum("kc,kcm->km", d, fam.r_n[:, j, :, :m])
+                    g.append(sign * affine(a, *coef, cn) / self.f_min)
+                    lbg.append(np.ones(N1))
+                    ubg.append(np.full(N1, np.inf))
+                    labels.append(f"contact {self.joints[j]}")
+        g.append(c**2 - b)
+        lbg.append(np.full(N1, -np.inf))
+        ubg.append(np.zeros(N1))
+        labels.append("relaxation")
+        amax = self.bounds["max_task_acceleration"]
+        k2 = 2  # the task point's x, y
+        if amax is not None:
+            ps, pss = ca.DM(fam.pose_s[:, :k2]), ca.DM(fam.pose_ss[:, :k2])
+            for a in sides:
+                acc = [ps[:, i] * a + pss[:, i] * b for i in range(k2)]
+                g.append(sum(v**2 for v in acc) / amax**2)
+                lbg.append(np.full(N1, -np.inf))
+                ubg.append(np.ones(N1))
+                labels.append("task acceleration")
+        time_total = ca.sum1(dt)
+        # on each segment the mean of its two ends' weighted squared efforts
+        right, left = (sum(self.weights[i] * side[i]**2 for i in range(n_act)) for side in taus)
+        effort = ca.sum1(0.5 * (right[:-1] + left[1:]) * dt)
+        # per-point rows in grid order (a banded Jacobian), then the duration for 'effort'
+        F = len(g)
+        G = ca.vec(ca.horzcat(*g).T)
+        lo, hi = np.column_stack(lbg).ravel(), np.column_stack(ubg).ravel()
+        if self.objective == "time":
+            f = time_total
+        elif self.objective == "effort":
+            f = effort
+            G = ca.vertcat(G, time_total)
+            lo, hi = np.r_[lo, self.duration], np.r_[hi, self.duration]
+        else:
+            f = time_total + self.effort_weight * effort
+        # bounds on the unknowns
+        bmax = np.full(N1, np.inf)
+        if self.bounds["max_speed"] is not None:
+            bmax = np.minimum(bmax, self.bounds["max_speed"] ** 2)
+        if self.bounds["max_task_speed"] is not None:
+            speed2 = np.sum(fam.pose_s[:, :k2] ** 2, axis=1)
+            bmax = np.minimum(bmax, self.bounds["max_task_speed"] ** 2 / np.maximum(speed2, 1e-300))
+        lbx = np.zeros((2 + m, N1))
+        ubx = np.vstack([bmax, np.sqrt(bmax), np.full((m, N1), np.inf)])
+        lbx[2:] = -np.inf
+        v0, v1 = self.ends
+        for k, v in ((0, v0), (N, v1)):
+            if v**2 > bmax[k] * (1 + 1e-12):
+                raise SceneError(f"end_speeds: s_dot {v:g} 1/s at s = {k / N:g} is not allowed (above the speed "
+                                 f"bounds there: {np.sqrt(bmax[k]):.4g} 1/s)")
+            lbx[0, k] = ubx[0, k] = v**2
+            lbx[1, k] = ubx[1, k] = v
+        # start: a sine speed profile below the speed bounds; alpha 0
+        shape = np.sin(np.pi * fam.s) + np.linspace(v0, v1, N1)
+        x0 = np.zeros((2 + m, N1))
+        x0[1] = np.minimum(shape, 0.9 * np.sqrt(np.minimum(bmax, 1e300)))
+        x0[1, [0, N]] = v0, v1
+        x0[0] = x0[1] ** 2
+        solver = ca.nlpsol("optimal_time_law", "ipopt", {"x": ca.vec(X), "f": f, "g": G}, IPOPT_OPTIONS)
+        build = time.perf_counter() - t0
+        t1 = time.perf_counter()
+        sol = solver(x0=x0.T.ravel(), lbx=lbx.T.ravel(), ubx=ubx.T.ravel(), lbg=lo, ubg=hi)
+        solve_time = time.perf_counter() - t1
+        st = solver.stats()
+        x = np.array(sol["x"]).reshape(N1, 2 + m).T
+        stats = {"solver": "ipopt", "return_status": st["return_status"], "success": bool(st["success"]),
+                 "iterations": int(st["iter_count"]), "build_time_s": build, "solve_time_s": solve_time,
+                 "points": N1, "objective_value": float(sol["f"]), "sign": sign}
+        law = self._law(sign, np.maximum(x[0], 0.0), x[2:].T, stats)
+        gv = np.array(sol["g"]).ravel()
+        viol = np.maximum(lo - gv, gv - hi)
+        w = int(np.argmax(viol))
+        point, row = divmod(w, F)
+        stats.update(max_violation=float(max(viol.max(), 0.0)), worst_s=float(fam.s[min(point, N)]),
+                     worst_constraint=labels[row] if point <= N else "duration")
+        return law
+
+    def _law(self, sign, b, alpha, stats) -> OptimalTimeLaw:
+        fam = self.fam
+        N1 = len(fam.s)
+        N = N1 - 1
+        ds = 1.0 / N
+        sd = np.sqrt(b)
+        a_seg = np.diff(b) / (2 * ds)
+        a, a_left = np.r_[a_seg, a_seg[-1]], np.r_[a_seg[0], a_seg]
+        seg = 2 * ds / np.maximum(sd[:-1] + sd[1:], 1e-300)
+        t = np.r_[0.0, np.cumsum(seg)]
+        m_all = fam.tau_n.shape[2]
+        alpha_full = np.zeros((N1, m_all))
+        alpha_full[:, :self.m] = alpha
+        tau, tau_left = fam.efforts(a, b, alpha_full), fam.efforts(a_left, b, alpha_full)
+        r, r_left = fam.reactions(a, b, alpha_full), fam.reactions(a_left, b, alpha_full)
+        axial = self._axial(r, sign) if m_all else np.zeros((N1, 0))
+        axial_left = self._axial(r_left, sign) if m_all else np.zeros((N1, 0))
+        binding = self._binding((tau, tau_left), (axial, axial_left), b, (a, a_left))
+        return OptimalTimeLaw(
+            objective=self.objective, t=t, s=fam.s, s_dot=sd, s_ddot=a, pose=fam.pose,
+            pose_d=fam.pose_s * sd[:, None], pose_dd=fam.pose_s * a[:, None] + fam.pose_ss * b[:, None],
+            alpha=alpha_full, efforts=tau, reactions=r, axial=np.minimum(axial, axial_left), binding=binding,
+            duration=float(t[-1]), contact=self.contact, null_space=self.null_space, sign=sign if self.contact else 0,
+            f_min=self.f_min, torque_limit=tuple(self.limits.tolist()), actuator_names=self.names,
+            joint_names=self.joints, statistics=stats)
+
+    def _binding(self, taus, axials, b, accs) -> tuple[str, ...]:
+        """Per point the constraints whose relative slack (on either side of the point) is
+        below BINDING_TOL, tightest first, joined by ', ' ('' where none binds)."""
+        slack = [1.0 - np.maximum(*(np.abs(t) for t in taus)) / self.limits]
+        names = [f"actuator {n}" for n in self.names]
+        if self.contact:
+            slack.append(np.minimum(*axials) / self.f_min - 1.0)
+            names += [f"contact {j}" for j in self.joints]
+        fam, k2 = self.fam, 2  # the task point's x, y
+        if self.bounds["max_speed"] is not None:
+            slack.append((1.0 - b / self.bounds["max_speed"] ** 2)[:, None])
+            names.append("speed")
+        if self.bounds["max_task_speed"] is not None:
+            v = np.sqrt(np.sum(fam.pose_s[:, :k2] ** 2, axis=1) * b)
+            slack.append((1.0 - v / self.bounds["max_task_speed"])[:, None])
+            names.append("task speed")
+        if self.bounds["max_task_acceleration"] is not None:
+            acc = np.maximum(*(np.linalg.norm(fam.pose_s[:, :k2] * a[:, None] + fam.pose_ss[:, :k2] * b[:, None],
+                                              axis=1) for a in accs))
+            slack.append((1.0 - acc / self.bounds["max_task_acceleration"])[:, None])
+            names.append("task acceleration")
+        S = np.concatenate(slack, axis=1)
+        out = []
+        for row in S:
+            idx = [i for i in np.argsort(row) if row[i] < BINDING_TOL]
+            out.append(", ".join(names[i] for i in idx))
+        return tuple(out)
