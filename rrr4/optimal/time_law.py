@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
@@ -38,8 +39,10 @@ import numpy as np
 from ..checks import argument, unknown_value
 from ..dynamics.family import EffortFamily
 from ..errors import InfeasibleError, SceneError
+from ..files import write_atomic
 from ..preload.qp import qp_preload_function
 from ..problem import Problem
+from ..scene import time_table_text
 from .family import PathFamily, path_family
 
 __all__ = ["OptimalTimeLaw", "optimal_time_law", "OBJECTIVES", "MAX_POINTS", "contact_directions"]
@@ -98,6 +101,12 @@ class OptimalTimeLaw:
         """(N+1, 3) rows (t, s, s_dot) of the time table a scene carries
         (:meth:`rrr4.scene.Scene.with_time_table`)."""
         return np.column_stack([self.t, self.s, self.s_dot])
+
+    def save_table(self, path) -> Path:
+        """Write the time table (CSV: t, s, s_dot, s_ddot; :mod:`rrr4.scene.time_table`) to
+        `path`, atomically; a scene refers to it with ``path.time_law: table`` and
+        ``path.time_table: FILE``."""
+        return write_atomic(path, time_table_text(self.t, self.s, self.s_dot, self.s_ddot))
 
     def binding_counts(self) -> dict[str, int]:
         """How many grid points each constraint binds at."""
@@ -187,7 +196,7 @@ def optimal_time_law(scene, objective: str = "time", *, points: int = 1000, cont
             continue
         results[sg] = setup.solve(sg)
     if not results:
-        raise InfeasibleError(" ".join(failures[sg] for sg in signs))
+        raise InfeasibleError("; ".join(failures[sg] for sg in signs))
     by_sign = {sg: (r.duration if r.statistics["success"] else None) for sg, r in results.items()}
     by_sign.update({sg: None for sg in failures})
     ok = [r for r in results.values() if r.statistics["success"]]
@@ -237,15 +246,16 @@ class _Setup:
         if not bad.any():
             return ""
         k = int(np.flatnonzero(bad)[0])
-        if short[k].max() > 1e-9 and (over[k].max() <= 1e-9 or short[k].max() >= over[k].max()):
+        i = int(np.argmax(over[k]))
+        where = f"path infeasible at s = {fam.s[k]:.4g} (pose {np.round(fam.pose[k], 6).tolist()}): "
+        if not self.contact:
+            return where + f"actuator {self.names[i]} needs |{tau[k, i]:.4g}| > its limit {L[i]:g} to hold it at rest"
+        if short[k].max() > 1e-9:
             j = int(np.argmax(short[k]))
-            what = (f"no null-space effort within the limits meets the contact condition at joint {self.joints[j]} "
-                    f"(f_min {self.f_min:g} N, sign {sign:+d})")
-        else:
-            i = int(np.argmax(over[k]))
-            what = (f"actuator {self.names[i]} needs |{tau[k, i]:.4g}| > its limit {L[i]:g} to hold the path at "
-                    "rest")
-        return f"path infeasible at s = {fam.s[k]:.4g} (pose {np.round(fam.pose[k], 6).tolist()}): {what}."
+            return where + (f"no null-space effort meets the contact condition at joint {self.joints[j]} (f_min "
+                            f"{self.f_min:g} N, sign {sign:+d})")
+        return where + (f"the contact condition (f_min {self.f_min:g} N at every passive joint, sign {sign:+d}) "
+                        f"needs actuator {self.names[i]} at |{tau[k, i]:.4g}| > its limit {L[i]:g} at rest")
 
     def _rest_alpha(self, sign):
         """alpha (N+1, m) and a feasibility flag per point of the static problem: the preload

@@ -68,7 +68,8 @@ def read_time_table(path: str | os.PathLike, key: str = "path.time_table") -> tu
     naming the key and the file otherwise."""
     p = Path(path)
     if not p.is_file():
-        raise SceneError(f"{key}: {str(path)!r} is not allowed (no such file; a CSV with columns t,s,s_dot)")
+        raise SceneError(f"{key}: {p.name!r} is not allowed (no such file beside the scene; a CSV with columns "
+                         "t,s,s_dot)")
     try:
         with p.open(newline="", encoding="utf-8") as f:
             reader = csv.DictReader(f)
