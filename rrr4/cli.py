@@ -9,6 +9,7 @@ import sys
 
 from .errors import Rrr4Error
 from .files import check_writable
+from .scene.vocabulary import OBJECTIVES
 
 
 def _check(args) -> int:
@@ -48,6 +49,40 @@ def _run(args) -> int:
     _, files = write_results(study, out, progress=True)
     print(f"wrote {len(files)} files to {out}/: {', '.join(files)}")
     print((out / "report.md").read_text())
+    return 0
+
+
+def _optimize(args) -> int:
+    from pathlib import Path
+
+    from tqdm import tqdm
+
+    from .files import check_target
+    from .mechanism import load_scene
+    from .results.optimal import MARKER, write_optimization
+    from .studies.optimize import optimize
+    scene = load_scene(args.scene)
+    out = Path(args.out) if args.out else Path("results") / f"{scene.name}_optimal"
+    check_writable(out)
+    check_target(out, MARKER)
+    opt = optimize(scene, args.objective, points=args.points, duration=args.duration, replay=not args.no_replay,
+                   progress=True, log=lambda m: tqdm.write(f"rrr4 optimize: {m}"))
+    summary, files = write_optimization(opt, out, animate=not args.no_replay, progress=True)
+    print(f"wrote {len(files)} files to {out}/")
+    law = summary["law"]
+    print(f"optimal duration: {law['duration_s']:.6g} s ({law['objective']}, "
+          f"{'with the contact condition' if law['contact_condition'] else 'actuator limits'}, "
+          f"{law['points']} points, {law['statistics']['iterations']} iterations, "
+          f"{law['statistics']['solve_time_s']:.3g} s solve)")
+    if summary.get("contact_cost_ratio"):
+        print(f"with the actuator limits only: {summary['optimal_duration_limits_only_s']:.6g} s; keeping contact "
+              f"costs x{summary['contact_cost_ratio']:.3f} in cycle time")
+    for arm, m in (summary.get("replay") or {}).items():
+        print(f"replay {arm}: contact losses {m['contact_loss_events']}, platform error RMS "
+              f"{m['platform_error_rms_m'] * 1e6:.3g} um, torque RMS {m['torque_rms_Nm']:.3g}")
+    if summary.get("headroom"):
+        h = summary["headroom"]
+        print(f"f_min headroom: {h['tried']}; smallest f_min without losses: {h['smallest_f_min_without_losses_N']}")
     return 0
 
 
@@ -145,6 +180,19 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", help="result directory (default results/<scene name>/); replaced atomically")
     r.add_argument("--t-end", type=float, default=None, help="simulated time [s] (default: the path duration)")
     r.set_defaults(func=_run)
+    op = sub.add_parser("optimize", help="the optimal time law along the scene's path (every actuator within its "
+                                         "limit, every passive joint loaded, as the preload layer requires), the "
+                                         "same with the actuator limits only, and its replay with the clearance "
+                                         "dynamics and the scene's controller; writes figures, time_law.csv, "
+                                         "optimization.json and replay/")
+    op.add_argument("scene", help="scene YAML file with a task body, e.g. problems/paper_circle.yaml")
+    op.add_argument("--objective", choices=OBJECTIVES, default="time",
+                    help="time (default), effort (at --duration) or time+effort")
+    op.add_argument("--duration", type=float, default=None, help="duration [s] for --objective effort")
+    op.add_argument("--points", type=int, default=1000, help="grid intervals along the path (default 1000)")
+    op.add_argument("--no-replay", action="store_true", help="solve only; do not replay the law")
+    op.add_argument("--out", help="directory (default results/<scene name>_optimal/); replaced atomically")
+    op.set_defaults(func=_optimize)
     an = sub.add_parser("animate", help="remake the animation (motion.gif) of a saved result without simulating")
     an.add_argument("result_dir", help="a result directory of rrr4 run, e.g. results/paper_circle")
     an.add_argument("--out", help="GIF file to write (default RESULT_DIR/motion.gif)")

@@ -43,11 +43,11 @@ from ..files import write_atomic
 from ..preload.qp import qp_preload_function
 from ..problem import Problem
 from ..scene import time_table_text
+from ..scene.vocabulary import OBJECTIVES
 from .family import PathFamily, path_family
 
 __all__ = ["OptimalTimeLaw", "optimal_time_law", "OBJECTIVES", "MAX_POINTS", "contact_directions"]
 
-OBJECTIVES = ("time", "effort", "time+effort")
 MAX_POINTS = 100_000
 # a constraint whose relative slack is below this is reported as binding
 BINDING_TOL = 1e-5

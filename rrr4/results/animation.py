@@ -16,6 +16,7 @@ centre's eccentricity is visible; the journal centre is coloured by its contact 
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import matplotlib
@@ -48,7 +49,11 @@ def save_motion(study, path: Path, rate: float | None = None) -> Path | None:
     if not scene.source or not Path(scene.source).is_file():
         return None
     text = Path(scene.source).read_text()
-    if parse_scene(load_yaml(text, scene.source), name=Path(scene.source).stem, source=scene.source) != scene:
+    parsed = parse_scene(load_yaml(text, scene.source), name=Path(scene.source).stem, source=scene.source)
+    # the file's scene, but for the time law (an optimal one replayed: pose_ref holds the motion)
+    timed = replace(parsed.path, time_law=scene.path.time_law, time_table=scene.path.time_table,
+                    duration=scene.path.duration)
+    if replace(parsed, path=timed) != scene:
         return None     # the file changed since the study read it
     base = next(iter(study.arms.values())).simulation
     rate = scene.path.sample_rate if rate is None else rate

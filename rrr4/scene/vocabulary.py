@@ -10,7 +10,7 @@ from __future__ import annotations
 
 __all__ = ["MECHANISM_KINDS", "JOINT_TYPES", "PATH_TYPES", "TIME_LAWS", "ACTUATION_MODES", "CONTACT_LAWS",
            "FRICTION_LAWS", "INTEGRATORS", "ERROR_CONTROLLED", "NEWTON", "COORDINATES", "PRELOAD_METHODS",
-           "COMPENSATIONS", "QP_SOLVERS", "JOURNAL_STARTS", "MATERIALS", "GROUND", "choices", "registry"]
+           "COMPENSATIONS", "QP_SOLVERS", "JOURNAL_STARTS", "OBJECTIVES", "MATERIALS", "GROUND", "choices", "registry"]
 
 GROUND = "ground"  # the fixed frame's name in a graph
 MECHANISM_KINDS = ("n-rrr", "graph")
@@ -29,6 +29,7 @@ PRELOAD_METHODS = ("exact", "qp", "nlp")  # a scene may also say 'none'
 COMPENSATIONS = ("none", "clearance")  # actuation.compensation
 QP_SOLVERS = ("qrqp", "osqp", "daqp", "qpoases")  # actuation.preload.qp_solver (CasADi conic plugins)
 JOURNAL_STARTS = ("centred", "seated")  # initial.journals
+OBJECTIVES = ("time", "effort", "time+effort")  # of an optimal time law (rrr4 optimize --objective)
 MATERIALS = {  # name: (Young's modulus [Pa], Poisson ratio)
     "steel": (207e9, 0.3),
     "aluminium": (70e9, 0.33),

@@ -1,0 +1,101 @@
+"""``rrr4 optimize``: the design card's loop. Solve the optimal time law along the scene's
+path (:func:`rrr4.optimal.optimal_time_law`: with the contact condition where the scene
+preloads, and with the actuator limits only, so the cost of keeping contact is a ratio of
+two durations), then replay it: the scene, following the optimal law
+(:meth:`rrr4.scene.Scene.with_time_table`), goes through the study (:func:`run_study`) with
+its own controller (sampled, the generated C where the study would use it) and its clearance
+dynamics, in the study's arms (``with_preload``: the controller's pointwise preload, whose
+QP meets the same contact rule the optimum kept; ``without_preload``: the same time law with
+the minimum-norm efforts; ``with_preload_compensated`` where the scene has clearance joints).
+
+If the preloaded replay loses contact although the ideal model kept f_min everywhere (the
+controller's dynamics, the clearance), the law is solved again with f_min raised by the
+factors of :data:`HEADROOM_FACTORS` and replayed (preloaded arm only) until no contact is
+lost; the smallest such f_min is reported (or that none of them was enough).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import replace
+
+from ..errors import InfeasibleError
+from ..optimal import optimal_time_law
+from ..optimal.limits import limit_curves
+from ..problem import Problem
+from ..results.metrics import scalar_metrics
+from ..results.optimal import Optimization
+from ..simulation import simulate
+from .study import arm_scene, run_study, study_controller
+
+__all__ = ["optimize", "HEADROOM_FACTORS"]
+
+HEADROOM_FACTORS = (1.25, 1.5, 2.0, 3.0)
+
+
+def optimize(scene, objective: str = "time", *, points: int = 1000, duration: float | None = None,
+             effort_weight: float = 1.0, replay: bool = True, progress: bool = False, log=None) -> Optimization:
+    """The optimal time law of `scene`'s path and its replay (see the module docstring).
+
+    scene: a Scene, a Problem or a scene file's path; objective: 'time', 'effort' (at
+    `duration` [s]) or 'time+effort' (effort_weight); points: grid intervals; replay: run
+    the study on the law; log: callable taking one line per stage."""
+    say = log or (lambda _msg: None)
+    problem = Problem.from_scene(scene)
+    contact = problem.has_preload
+    t0 = time.perf_counter()
+    what = "with the contact condition" if contact else "with the actuator limits"
+    say(f"optimal time law ({objective}) {what}, {points} grid intervals")
+    law = optimal_time_law(problem, objective, points=points, contact=contact, duration=duration,
+                           effort_weight=effort_weight)
+    free = None
+    if contact:
+        say("the same with the actuator limits only")
+        free = optimal_time_law(problem, objective, points=points, contact=False, duration=duration,
+                                effort_weight=effort_weight)
+    say("limit curves of the phase plane")
+    curves = limit_curves(problem, min(points, 200), sign=law.sign or 1)
+    stats = {"optimization_wall_time_s": time.perf_counter() - t0}
+    study = headroom = None
+    if replay:
+        follow = problem.scene.with_time_table(law.table)
+        say(f"replay: the study of the scene following the optimal law ({law.duration:.4g} s)")
+        study = run_study(follow, t_end=_replay_end(follow, law.duration), progress=progress, log=log)
+        arm = study.arms.get("with_preload")
+        if contact and arm is not None and sum(arm.simulation.contact_loss_events.values()) > 0:
+            headroom = _headroom(problem, law, sum(arm.simulation.contact_loss_events.values()), objective, points,
+                                 duration, effort_weight, say)
+    return Optimization(problem, law, free, curves, study, headroom, stats)
+
+
+def _replay_end(scene, duration: float) -> float:
+    """The law's duration rounded up to whole control periods (or steps): a sampled controller
+    runs whole periods; the path rests at its end pose after the duration."""
+    period = 1.0 / scene.actuation.control_rate if scene.actuation.control_rate else scene.integrator.step
+    return math.ceil(duration / period - 1e-9) * period
+
+
+def _headroom(problem, law, losses, objective, points, duration, effort_weight, say) -> dict:
+    """Raise f_min until the preloaded replay loses no contact (see the module docstring)."""
+    tried = [{"f_min_N": law.f_min, "duration_s": law.duration, "contact_loss_events": int(losses)}]
+    found = None
+    for factor in HEADROOM_FACTORS:
+        f_min = law.f_min * factor
+        say(f"replay lost contact {losses} times: trying f_min = {f_min:g} N")
+        sc = problem.scene
+        sc = replace(sc, actuation=replace(sc.actuation, preload=replace(sc.actuation.preload, min_force=f_min)))
+        try:
+            raised = optimal_time_law(sc, objective, points=points, duration=duration, effort_weight=effort_weight)
+        except InfeasibleError as e:  # an f_min no preload reaches ends the search, and is reported
+            tried.append({"f_min_N": f_min, "infeasible": str(e)})
+            break
+        follow = Problem.from_scene(arm_scene(Problem.from_scene(sc.with_time_table(raised.table)), "with_preload"))
+        sim = simulate(follow, t_end=_replay_end(follow.scene, raised.duration),
+                       output_rate=1.0 / follow.scene.integrator.step, controller=study_controller(follow))
+        losses = scalar_metrics(sim)["contact_loss_events"]
+        tried.append({"f_min_N": f_min, "duration_s": raised.duration, "contact_loss_events": int(losses)})
+        if losses == 0:
+            found = f_min
+            break
+    return {"tried": tried, "smallest_f_min_without_losses_N": found}
