@@ -78,7 +78,7 @@ def _optimize(args) -> int:
         print(f"with the actuator limits only: {summary['optimal_duration_limits_only_s']:.6g} s; keeping contact "
               f"costs x{summary['contact_cost_ratio']:.3f} in cycle time")
     for arm, m in (summary.get("replay") or {}).items():
-        print(f"replay {arm}: contact losses {m['contact_loss_events']}, platform error RMS "
+        print(f"replay {arm}: contact losses {sum(m['contact_loss_events'].values())}, platform error RMS "
               f"{m['platform_error_rms_m'] * 1e6:.3g} um, torque RMS {m['torque_rms_Nm']:.3g}")
     if summary.get("headroom"):
         h = summary["headroom"]

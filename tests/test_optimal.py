@@ -207,3 +207,57 @@ def test_speed_bounds_bind():
     acc = optimal_time_law(TABLE, points=100, contact=False, max_task_acceleration=5.0)
     assert np.max(np.linalg.norm(acc.pose_dd[:, :2], axis=1)) <= 5.0 * (1 + 1e-6)
     assert acc.duration > optimal_time_law(TABLE, points=100, contact=False).duration
+
+
+def test_replay_keeps_contact_at_the_optimal_duration(paper, tmp_path):
+    """The design card's loop on the reference scene: every arm of the study replays the
+    optimal law, and the preloaded arms lose no contact."""
+    from rrr4.results.optimal import write_optimization
+    from rrr4.studies.optimize import optimize
+    opt = optimize(paper, points=200)
+    assert set(opt.replay.arms) == {"with_preload", "with_preload_compensated", "without_preload"}
+    for name, arm in opt.replay.arms.items():
+        assert arm.simulation.t[-1] == pytest.approx(opt.law.duration, abs=1.01e-4)
+        losses = sum(arm.simulation.contact_loss_events.values())
+        assert (losses == 0) if name != "without_preload" else (losses > 0)
+    assert opt.headroom is None
+    assert opt.limits_only.duration < opt.law.duration
+    summary, files = write_optimization(opt, tmp_path / "out", animate=False)
+    assert summary["contact_cost_ratio"] == pytest.approx(opt.law.duration / opt.limits_only.duration)
+    assert summary["replay"]["with_preload"]["contact_loss_events"] == {j: 0 for j in paper.clearance_joints}
+    for f in ("phase_plane.png", "efforts.png", "contact_margin.png", "time_law.csv", "optimization.json",
+              "replay/summary.json"):
+        assert f in files and (tmp_path / "out" / f).is_file()
+    again = rrr4.load_scene(PAPER).with_time_table(rrr4.scene.read_time_table(tmp_path / "out" / "time_law.csv"))
+    assert again.path.duration == pytest.approx(opt.law.duration, rel=1e-12)
+
+
+def test_optimize_command_line(tmp_path):
+    import subprocess
+    import sys
+    out = tmp_path / "xyt"
+    cmd = [sys.executable, "-m", "rrr4.cli", "optimize", str(TABLE), "--no-replay", "--points", "100", "--out", str(out)]
+    r = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    assert r.returncode == 0, r.stderr
+    assert "optimal duration: 0.236643" in r.stdout
+    assert (out / "phase_plane.png").is_file() and not (out / "contact_margin.png").exists()
+    bad = subprocess.run([*cmd[:5], "--objective", "effort", "--out", str(tmp_path / "bad")], capture_output=True,
+                         text=True, cwd=ROOT)
+    assert bad.returncode == 2 and bad.stderr.strip().count("\n") == 0 and "duration: missing" in bad.stderr
+    assert not (tmp_path / "bad").exists()  # writes nothing
+
+
+@pytest.mark.skipif(__import__("shutil").which("gcc") is None, reason="needs gcc")
+def test_generated_c_follows_the_optimal_time_law(law, paper, tmp_path):
+    """codegen on a scene carrying the law: the compiled trajectory kernel is the law's motion."""
+    from rrr4.codegen import codegen, compile_library, load_library
+    scene = paper.scene.with_time_table(law.table)
+    codegen(scene, tmp_path / "src", branch=1)
+    lib = load_library(compile_library(tmp_path / "src", tmp_path / "librrr4.so"), ["trajectory"])["trajectory"]
+    python = trajectory_function(scene.path)
+    t = np.r_[law.t[::7], np.random.default_rng(2).uniform(0, law.duration, 40), law.duration + 0.1]
+    for tk in t:
+        for c, p in zip(lib(tk), python(tk), strict=True):
+            assert np.allclose(np.array(c), np.array(p), rtol=1e-12, atol=1e-12)
+    at_grid = np.array([np.array(lib(tk)[0]).ravel() for tk in law.t[::7]])
+    assert np.abs(at_grid - law.pose[::7]).max() < 1e-12
