@@ -236,7 +236,8 @@ def test_optimize_command_line(tmp_path):
     import subprocess
     import sys
     out = tmp_path / "xyt"
-    cmd = [sys.executable, "-m", "rrr4.cli", "optimize", str(TABLE), "--no-replay", "--points", "100", "--out", str(out)]
+    cmd = [sys.executable, "-m", "rrr4.cli", "optimize", str(TABLE), "--no-replay", "--points", "100",
+           "--out", str(out)]
     r = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
     assert r.returncode == 0, r.stderr
     assert "optimal duration: 0.236643" in r.stdout
