@@ -31,7 +31,7 @@ from .study import arm_scene, run_study, study_controller
 
 __all__ = ["optimize", "HEADROOM_FACTORS"]
 
-HEADROOM_FACTORS = (1.25, 1.5, 2.0, 3.0)
+HEADROOM_FACTORS = (1.25, 1.5, 2.0, 3.0, 5.0, 10.0)
 
 
 def optimize(scene, objective: str = "time", *, points: int = 1000, duration: float | None = None,
