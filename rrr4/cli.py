@@ -209,8 +209,9 @@ def build_parser() -> argparse.ArgumentParser:
                                       "Dask; writes results.csv (one row per case and arm), skips finished cases")
     sw.add_argument("spec", help="sweep spec YAML, e.g. problems/sweeps/clearance_vs_preload.yaml")
     sw.add_argument("--out", help="directory (default results/sweeps/<spec name>/)")
-    sw.add_argument("--scheduler", help="address of a running Dask scheduler, e.g. tcp://127.0.0.1:8786 "
-                                        "(default: a local cluster on this machine)")
+    sw.add_argument("--scheduler", help="address of a running Dask scheduler, tcp://HOST:PORT (e.g. "
+                                        "tcp://127.0.0.1:8786; tls:// is not supported: no certificate options); "
+                                        "default: a local cluster on this machine")
     sw.add_argument("--workers", type=int, help="worker processes of the local cluster (default: the cores)")
     sw.set_defaults(func=_sweep)
     mp = sub.add_parser("map", help="workspace maps of a scene with a task body (n-RRR or graph): Jacobian "

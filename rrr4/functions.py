@@ -1,17 +1,67 @@
 """Helpers for CasADi Functions that every layer uses: evaluation on numpy arrays through the
 buffer interface, mapped evaluation a block at a time, fixing a Function's last input
-(``parameters`` or ``settings``) to numbers, and the size of a Function's graph."""
+(``parameters`` or ``settings``) to numbers, the size of a Function's graph, and the one home
+of solver quiet: :data:`QUIET` options and :func:`solver_output_captured`."""
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import io
+import os
+import sys
+import tempfile
 
 import casadi as ca
 import numpy as np
 
 from .errors import SimulationError
 
-__all__ = ["evaluate", "mapped", "mapped_function", "nonzeros", "fix_last_input", "graph_size"]
+__all__ = ["evaluate", "mapped", "mapped_function", "nonzeros", "fix_last_input", "graph_size", "QUIET",
+           "solver_output_captured"]
+
+# Options of CasADi's oracle-based solvers (rootfinder, nlpsol, integrator): no warning line
+# per failed evaluation. A Newton iteration that meets NaN otherwise prints one line per
+# evaluation (about 30 000 for a floating sub-mechanism before its one error); the caller
+# checks the result and reports a failure once.
+QUIET = {"show_eval_warnings": False}
+
+
+@contextlib.contextmanager
+def solver_output_captured():
+    """Capture what a solver prints inside the block, for the few outputs that no option turns
+    off (qpOASES prints its copyright notice whenever a solver memory is made, whatever its
+    printLevel). CasADi routes its C++ output through Python's sys.stdout and sys.stderr; a
+    library that writes to the C streams goes to file descriptors 1 and 2: both are captured.
+    Yields a list that holds the captured text once the block ends. The streams and the
+    descriptors are the process's: use it only around a solver call, never around user code."""
+    captured: list[str] = []
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    text = io.StringIO()
+    with tempfile.TemporaryFile() as sink:
+        saved = [os.dup(1), os.dup(2)]
+        try:
+            os.dup2(sink.fileno(), 1)
+            os.dup2(sink.fileno(), 2)
+            with contextlib.redirect_stdout(text), contextlib.redirect_stderr(text):
+                yield captured
+        finally:
+            _flush_c_streams()
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            for fd in saved:
+                os.close(fd)
+            sink.seek(0)
+            captured.append(text.getvalue() + sink.read().decode(errors="replace"))
+
+
+def _flush_c_streams() -> None:
+    """fflush(NULL): C's stdio buffers go to the descriptors they were written for."""
+    with contextlib.suppress(Exception):
+        import ctypes
+        ctypes.CDLL(None).fflush(None)
 
 
 def evaluate(f: ca.Function, args, results) -> None:

@@ -109,3 +109,86 @@ def test_a_saved_result_is_checked_against_what_its_writer_writes(tmp_path, dama
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "motion.npz" in err, err
     assert sorted(p.name for p in d.iterdir()) == ["motion.npz", "summary.json"]
+
+
+def test_any_damage_to_a_saved_result_loads_or_ends_in_one_line(paper_result, tmp_path_factory):
+    """Property (the bad-scene property, for saved results): a real motion.npz as the study
+    writes it, damaged in drawn ways (arrays dropped, reshaped, of another dtype, empty, with
+    NaN or inf, odd arm or joint names, another or no scene text), either loads, and then
+    draws, or ends in one Rrr4Error line; never another exception."""
+    import shutil
+
+    import matplotlib.pyplot as plt
+    from hypothesis import HealthCheck, example, given, settings
+    from hypothesis import strategies as st
+    from hypothesis.extra import numpy as hnp
+
+    out, _ = paper_result
+    with np.load(out / MOTION, allow_pickle=False) as z:
+        base = {k: z[k] for k in z.files}
+    d = tmp_path_factory.mktemp("damaged")
+    shutil.copy(out / "summary.json", d)
+    keys = sorted(base) + ["extra"]
+    numeric = st.sampled_from(sorted(k for k in base if base[k].dtype.kind == "f"))  # t, pose_ref, q, ...
+    texts = st.text(st.characters(codec="utf-8"), max_size=12)
+    scene_texts = st.sampled_from([(ROOT / "problems" / f).read_text() for f in
+                                   ("flores_slider_crank.yaml", "paper_circle_graph.yaml", "rrr3_circle.yaml")]
+                                  + ["", "[1, 2]", "mechanism: !!python/object:os.system {}", "a: [", "name: x"])
+    arrays = hnp.arrays(st.one_of(hnp.floating_dtypes(), hnp.integer_dtypes(), hnp.boolean_dtypes(),
+                                  hnp.unicode_string_dtypes(max_len=4), hnp.complex_number_dtypes()),
+                        hnp.array_shapes(min_dims=0, max_dims=3, min_side=0, max_side=4))
+    values = st.one_of(arrays, texts.map(np.array), st.lists(texts, max_size=3).map(lambda v: np.array(v, str)),
+                       scene_texts.map(np.array), st.just(np.array([None, 1], dtype=object)))
+    damage = st.one_of(
+        st.tuples(st.just("drop"), st.sampled_from(keys)),
+        st.tuples(st.just("value"), st.sampled_from(keys), values),
+        st.tuples(st.just("rows"), st.one_of(numeric, st.sampled_from(keys)), st.integers(0, 30)),
+        st.tuples(st.just("dtype"), st.sampled_from(keys), st.sampled_from(["i8", "f2", "U3", "?", "c16", "O"])),
+        st.tuples(st.just("nonfinite"), numeric, st.sampled_from([np.nan, np.inf, -np.inf]),
+                  st.integers(0, 10**6)),
+        st.tuples(st.just("shift"), st.one_of(st.just("t"), numeric), st.floats(-1e3, 1e3)),
+    )
+
+    def damaged(ops):
+        data = dict(base)
+        for op, key, *arg in ops:
+            a = data.get(key)
+            if op == "drop":
+                data.pop(key, None)
+            elif op == "value":
+                data[key] = arg[0]
+            elif a is None:
+                continue
+            elif op == "rows":
+                data[key] = a[:arg[0]] if a.ndim and arg[0] <= len(a) else np.resize(a, (arg[0],) + a.shape[1:])
+            elif op == "dtype":
+                try:
+                    data[key] = a.astype(arg[0])
+                except (ValueError, TypeError, OverflowError):
+                    continue
+            elif op == "nonfinite" and a.size and a.dtype.kind in "fc":
+                a = a.copy()
+                a.flat[arg[1] % a.size] = arg[0]
+                data[key] = a
+            elif op == "shift" and a.dtype.kind in "fc":
+                data[key] = a + arg[0]
+        return data
+
+    @settings(max_examples=40, deadline=None, suppress_health_check=list(HealthCheck))
+    @given(ops=st.lists(damage, min_size=1, max_size=3))
+    @example(ops=[("shift", "t", -1.0)])    # a grid before 0 s: nothing to draw (IndexError once)
+    def check(ops):
+        np.savez(d / MOTION, **damaged(ops))
+        try:
+            data, scene = load_motion(d)
+        except Rrr4Error as e:
+            assert "\n" not in str(e) and str(e).startswith("result_dir: "), str(e)
+            return
+        fig, update, n = build(data, rrr4.build(scene), frames=3)
+        try:
+            for k in range(n):
+                update(k)
+        finally:
+            plt.close(fig)
+
+    check()

@@ -7,6 +7,7 @@ import os
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 import yaml
 
@@ -382,3 +383,63 @@ def test_a_file_that_is_not_a_scene_is_named_never_echoed(tmp_path, capsys):
         assert main(args) == 2
         err = capsys.readouterr().err
         assert "is not a scene" in err and "root:x" not in err and err.count("\n") == 1
+
+
+FLOATING_PAIR = """
+    - name: float1
+      mass: 0.1
+      inertia: 1.0e-4
+      points: {P: [0.05, 0.0], Q: [0.05, 0.02]}
+      pose: [0.3, 0.3, 0.0]
+    - name: float2
+      mass: 0.1
+      inertia: 1.0e-4
+      points: {P: [-0.05, 0.0], Q: [-0.05, 0.02]}
+      pose: [0.4, 0.3, 0.0]
+  joints:
+    - {name: F, type: revolute, bodies: [float1, float2], points: [P, P]}
+    - {name: G, type: revolute, bodies: [float1, float2], points: [Q, Q]}
+"""
+
+
+@pytest.mark.parametrize("command", ["check", "run"])
+def test_a_floating_sub_mechanism_ends_in_one_line_naming_its_bodies(tmp_path, command):
+    """Two bodies pinned to each other twice, not to the ground, with a driver on each pin so
+    that the count of degrees of freedom matches: one line naming the floating bodies, no
+    solver chatter (it printed about 30 000 lines of CasADi warnings before its error)."""
+    text = (ROOT / "problems" / "flores_slider_crank.yaml").read_text()
+    text = text.replace("  joints:\n", FLOATING_PAIR, 1).replace("  drivers:\n", (
+        "  drivers:\n    - {name: f_drive, joint: F, initial_deg: 0.0, speed_rpm: 0.0}\n"
+        "    - {name: g_drive, joint: G, initial_deg: 0.0, speed_rpm: 0.0}\n"), 1)
+    scene = tmp_path / "floating.yaml"
+    scene.write_text(text)
+    args = [command, str(scene)] + (["--out", str(tmp_path / "out")] if command == "run" else [])
+    r = subprocess.run([sys.executable, "-m", "rrr4.cli", *args], capture_output=True, text=True, timeout=300,
+                       env={**os.environ, "PYTHONPATH": str(ROOT)}, cwd=tmp_path)
+    lines = (r.stdout + r.stderr).strip().splitlines()
+    assert r.returncode == 2 and len(lines) == 1, lines[:5]
+    assert "mechanism.joints: bodies 'float1', 'float2' are not allowed to float" in lines[0]
+    assert not (tmp_path / "out").exists()
+
+
+def test_newton_that_meets_nan_prints_nothing_and_fails_in_one_line(paper_scene, capfd):
+    """Assembly at targets out of reach: CasADi's Newton meets NaN and warned once per
+    evaluation; now nothing is printed at the file-descriptor level, and the error is one line."""
+    m = rrr4.Mechanism.from_scene(paper_scene)
+    for target in ([5.0, 5.0, 0.0], [0.0, 0.0, 3.0]):
+        with pytest.raises(rrr4.KinematicsError) as e:
+            m.assemble(target)
+        assert "\n" not in str(e.value)
+    out, err = capfd.readouterr()
+    assert out == "" and err == ""
+
+
+def test_building_a_qpoases_preload_prints_no_banner(paper_data, capfd):
+    """qpOASES prints its copyright notice when a solver is built, whatever its printLevel:
+    it is captured (the one place that captures C output), the preload still solves."""
+    paper_data["actuation"]["preload"]["min_force"] = 9.875  # a solver no other test builds
+    scene = parse_scene(paper_data)
+    capfd.readouterr()
+    sol = rrr4.solve_preload(scene, "qp", qp_solver="qpoases", sample_rate=50.0, signs=1.0)
+    out, err = capfd.readouterr()
+    assert out == "" and err == "" and np.all(np.isfinite(sol.alpha))

@@ -312,3 +312,18 @@ def test_any_value_on_any_spec_key_is_a_spec_or_one_line(tmp_path):
             assert "\n" not in str(e)
 
     check()
+
+
+@pytest.mark.parametrize("address", ["tls://127.0.0.1:8786", "wss://127.0.0.1:8786", "inproc://x"])
+def test_an_unsupported_scheduler_scheme_says_what_is_supported_and_why_before_any_work(tmp_path, capsys, address):
+    """tls:// (and the other Dask schemes) are refused on the command line in one line that
+    names the address, the supported form and the reason, before the spec's cases are run or
+    the output directory is made."""
+    from rrr4.cli import main
+    out = tmp_path / "o"
+    assert main(["sweep", str(_spec(tmp_path)), "--scheduler", address, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"--scheduler: '{address}' is not allowed" in err, err
+    assert "tcp://HOST:PORT" in err and "is not supported: " in err
+    assert ("certificate" in err) == (address.startswith(("tls", "wss")))
+    assert not out.exists()

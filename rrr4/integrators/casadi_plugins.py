@@ -11,6 +11,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from ..functions import QUIET
 from .adaptive import AdaptiveIntegrator
 from .base import System
 
@@ -23,9 +24,9 @@ class CasadiPlugin(AdaptiveIntegrator):
         y, tau = ca.SX.sym("y", ny), ca.SX.sym("t")
         p = ca.SX.sym("p", 1 + nz + nu)
         f = system.ode(p[0] + tau, y, p[1:1 + nz], p[1 + nz:])
-        opts = {"reltol": self.rtol, "abstol": self.atol}
-        if self.plugin in ("cvodes", "idas"):
-            opts.update({"max_num_steps": 10**7, "max_step_size": 0.0})
+        opts = {"reltol": self.rtol, "abstol": self.atol, **QUIET}
+        if self.plugin in ("cvodes", "idas"):  # SUNDIALS' own messages: a failed frame is reported as NaN
+            opts.update({"max_num_steps": 10**7, "max_step_size": 0.0, "disable_internal_warnings": True})
         self._dt = None
         self._dae, self._opts, self._nz = {"x": y, "p": p, "t": tau, "ode": f}, opts, nz
         self._fun = None

@@ -20,13 +20,14 @@ import numpy as np
 
 from ..checks import describe
 from ..errors import KinematicsError, SceneError
+from ..functions import QUIET
 from ..scene import NRRRSpec, Scene, bare_nrrr_graph
 from . import kinematics as kin
 from .model import Model
 
 __all__ = ["Mechanism", "NRRRMechanism"]
 
-NEWTON = {"abstol": 1e-13, "max_iter": 60, "error_on_fail": False}
+NEWTON = {"abstol": 1e-13, "max_iter": 60, "error_on_fail": False, **QUIET}
 
 
 def _vector(key: str, v, n: int) -> np.ndarray:
@@ -316,7 +317,7 @@ class NRRRMechanism(Mechanism):
             res.append((ca.sumsqr(C - B) - c.following.length**2) / c.following.length)
         closure = ca.Function("closure", [pose, theta], [ca.vertcat(*res)], ["pose", "theta"], ["residual"])
         self.fk_function = ca.rootfinder("fk", "newton", closure,
-                                         {"abstol": 1e-14, "max_iter": 50, "error_on_fail": False})
+                                         {**NEWTON, "abstol": 1e-14, "max_iter": 50})
         all_res = []
         for i, c in enumerate(data.chains):
             B = ca.DM(c.base) + c.driving.length * kin.unit(theta[i])

@@ -27,9 +27,11 @@ import time
 import casadi as ca
 import numpy as np
 
+from ..functions import QUIET
+
 __all__ = ["solve_trajectory_nlp", "IPOPT_OPTIONS"]
 
-IPOPT_OPTIONS = {"print_time": False,
+IPOPT_OPTIONS = {"print_time": False, **QUIET,
                  "ipopt": {"print_level": 0, "sb": "yes", "max_iter": 500, "tol": 1e-8,
                            "mu_strategy": "adaptive", "nlp_scaling_method": "gradient-based"}}
 

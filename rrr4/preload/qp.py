@@ -20,17 +20,20 @@ qpoases.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 
 import casadi as ca
+import numpy as np
 
 from ..errors import SceneError
-from ..functions import fix_last_input
+from ..functions import fix_last_input, solver_output_captured
 from ..problem import Problem
 from ..scene.vocabulary import QP_SOLVERS, registry
 from .exact import constraint_violation
 
-__all__ = ["qp_preload_function", "scalar_qp_preload_function", "parametric_scalar_qp_preload", "QP_OPTIONS"]
+__all__ = ["qp_preload_function", "qp_preloads", "scalar_qp_preload_function", "parametric_scalar_qp_preload",
+           "QP_OPTIONS"]
 
 _OPTIONS = {
     "qrqp": {"print_iter": False, "print_header": False, "print_info": False, "error_on_fail": False},
@@ -91,8 +94,9 @@ def _build(solver: str, f_min: float, weights: tuple[float, ...], limits: tuple[
     n, nj = len(weights), len(signs)
     data, result = _qp_parts(n, nj, m)
     settings = ca.DM([*weights, *limits, f_min, *signs])
-    qp = ca.conic("qp_preload_solver", solver, {"h": ca.Sparsity.dense(m, m), "a": ca.Sparsity.dense(nj + n, m)},
-                  QP_OPTIONS[solver])
+    with solver_output_captured() if solver == "qpoases" else contextlib.nullcontext():  # its banner (see qp_preloads)
+        qp = ca.conic("qp_preload_solver", solver, {"h": ca.Sparsity.dense(m, m), "a": ca.Sparsity.dense(nj + n, m)},
+                      QP_OPTIONS[solver])
     ins = [ca.MX.sym("tau_p", n), ca.MX.sym("tau_n", n, m), ca.MX.sym("r_p", 2, nj), ca.MX.sym("r_n", 2, nj * m)]
     Hm, gm, Am, lbam, ubam = data(*ins, settings)
     # unit row norms: qrqp otherwise cycles on nearly parallel active rows of different scale
@@ -128,6 +132,16 @@ def qp_preload_function(problem: Problem, solver: str = "qrqp", signs=1.0, f_min
     p = problem.scene.actuation.preload
     fm = p.min_force if f_min is None else float(f_min)
     return _build(solver, float(fm), tuple(p.weights), problem.torque_limit, tuple(s), m)
+
+
+def qp_preloads(problem: Problem, solver: str, signs, raw) -> tuple[np.ndarray, ...]:
+    """(alpha, tau, feasible, margin) of :func:`qp_preload_function` at every column of the
+    effort family `raw` (``EffortFamily.raw``: tau_p (n, N), ...), in one mapped call. qpOASES
+    prints its banner whenever a solver memory is made (at the first call of a Function that
+    holds it), whatever its printLevel: captured here."""
+    f = qp_preload_function(problem, solver, signs).map(raw[0].shape[1])
+    with solver_output_captured() if solver == "qpoases" else contextlib.nullcontext():
+        return tuple(np.array(v) for v in f(*raw))
 
 
 _BIG = 1e30  # stands for an infinite bound in the closed-form QP

@@ -15,7 +15,7 @@ import numpy as np
 from ..problem import Problem
 from ..trajectory import sample_path
 from .exact import exact_preload_function
-from .qp import qp_preload_function
+from .qp import qp_preloads
 
 __all__ = ["choose_signs", "preload_sign"]
 
@@ -26,8 +26,11 @@ def choose_signs(problem: Problem, raw, solver: str, exact: bool = False):
     the exact law instead of the QP's axial-force sign."""
     best = None
     for s in (1.0, -1.0):
-        f = exact_preload_function(problem, branch=int(s)) if exact else qp_preload_function(problem, solver, s)
-        alpha, tau, feas, _ = (np.array(v) for v in f.map(raw[0].shape[1])(*raw))
+        if exact:
+            f = exact_preload_function(problem, branch=int(s))
+            alpha, tau, feas, _ = (np.array(v) for v in f.map(raw[0].shape[1])(*raw))
+        else:
+            alpha, tau, feas, _ = qp_preloads(problem, solver, s, raw)
         effort = np.nansum(tau**2)
         key = (-np.nansum(feas), effort)
         if best is None or key < best[0]:

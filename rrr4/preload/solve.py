@@ -33,7 +33,7 @@ from ..trajectory import sample_path
 from .exact import exact_preload_function
 from .nlp import solve_trajectory_nlp
 from .qp import FEASIBILITY_TOL as QP_FEASIBILITY_TOL
-from .qp import QP_OPTIONS, qp_preload_function
+from .qp import QP_OPTIONS, qp_preloads
 from .signs import choose_signs
 from .solution import Infeasibility, PreloadSolution
 
@@ -120,7 +120,7 @@ def solve_preload(scene: Scene | Problem, method: str | None = None, *, qp_solve
             used_signs, alpha, feas = choose_signs(problem, raw, solver)
         else:
             used_signs = signs
-            alpha, _, feas, _ = (np.array(v) for v in qp_preload_function(problem, solver, signs).map(N)(*raw))
+            alpha, _, feas, _ = qp_preloads(problem, solver, signs, raw)
         alpha, method_ok = alpha.T, feas.ravel() > 0.5
         stats.update(solver=solver, signs=used_signs)
     else:

@@ -112,8 +112,8 @@ def _check_motion(data: dict, model: Model, f) -> None:
     if arms.dtype.kind != "U" or not arms.size or any(a not in ARMS for a in arms.tolist()):
         raise bad("arms", f"{describe(arms.tolist())} (the names of a study's arms: {', '.join(ARMS)})")
     t = array("t", 1)
-    if t.dtype.kind != "f" or t.size < 1 or not np.all(np.isfinite(t)) or np.any(np.diff(t) < 0):
-        raise bad("t", "not a finite, non-decreasing time grid")
+    if t.dtype.kind != "f" or t.size < 1 or not np.all(np.isfinite(t)) or np.any(np.diff(t) < 0) or t[0] < 0:
+        raise bad("t", "not a finite, non-decreasing time grid from 0 s")
     n = t.size
     shapes = {"pose_ref": (n, 3)}
     for arm in arms.tolist():

@@ -331,8 +331,29 @@ def _graph(sec: Section) -> Graph:
         task = None
     elif task not in names[1:]:
         raise unknown_value(sec.key("task"), "body", task, names[1:] + ["none"])
+    floating = _floating_bodies([b.name for b in bodies], joints, task)
+    if floating:
+        raise SceneError(f"{sec.key('joints')}: bodies {', '.join(map(repr, floating))} are not allowed to float "
+                         "(their joints connect them only to each other, neither to the ground nor to the task "
+                         "body, so nothing fixes where they are: join one of them to the ground or to a connected "
+                         "body)")
     sec.done()
     return Graph(tuple(bodies), tuple(joints), tuple(actuators), tuple(drivers), task, task_point)
+
+
+def _floating_bodies(bodies: list[str], joints, task: str | None) -> list[str]:
+    """The bodies that no chain of joints reaches from the ground or the task body (whose pose
+    the path sets): a floating sub-mechanism, whose rigid motion nothing fixes."""
+    reached, todo = {GROUND, task} - {None}, [GROUND] + ([task] if task else [])
+    while todo:
+        here = todo.pop()
+        for j in joints:
+            if here in j.bodies:
+                for b in j.bodies:
+                    if b not in reached:
+                        reached.add(b)
+                        todo.append(b)
+    return [b for b in bodies if b not in reached]
 
 
 def _effects(sec: Section) -> Effects:

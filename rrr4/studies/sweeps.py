@@ -147,10 +147,15 @@ def _scheduler_address(scheduler) -> str:
     if not sep:
         scheme, rest = "tcp", scheduler
     host, _, port = rest.rpartition(":")
-    if scheme not in SCHEDULER_SCHEMES or not host or not port.isdigit() or not 0 < int(port) < 65536:
-        raise SceneError(f"--scheduler: {describe(scheduler)} is not allowed (an address tcp://host:port; "
-                         f"{scheme}:// is not supported here)" if scheme not in SCHEDULER_SCHEMES else
-                         f"--scheduler: {describe(scheduler)} is not allowed (an address tcp://host:port)")
+    if scheme not in SCHEDULER_SCHEMES:
+        why = ("it needs the CA file, client certificate and key of Dask's Security, which rrr4 takes no option "
+               "for yet" if scheme.lower() in ("tls", "wss") else "rrr4 reaches a Dask scheduler over plain TCP")
+        shown = f"{scheme}://" if scheme.isascii() and scheme.isalnum() and len(scheme) <= 12 else "that scheme"
+        raise SceneError(f"--scheduler: {describe(scheduler)} is not allowed (rrr4 supports tcp://HOST:PORT or "
+                         f"HOST:PORT only; {shown} is not supported: {why})")
+    if not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise SceneError(f"--scheduler: {describe(scheduler)} is not allowed (an address tcp://HOST:PORT, "
+                         "port 1 to 65535)")
     return f"{scheme}://{rest}"
 
 
