@@ -100,6 +100,19 @@ def test_results_hold_figures_csv_and_report(paper_summary, paper_study):
     assert f"{summary['with_preload']['platform_error_rms_m'] * 1e6:.4g}" in report
 
 
+def test_summary_and_report_give_the_contact_numbers_the_simulations_used(paper_summary, paper_study):
+    """stiffness: auto, the hysteresis factor, v_min and the friction parameters are written
+    (not only the law's name), as the equations took them."""
+    summary, out = paper_summary
+    c = summary["contact"]
+    problem = paper_study.problem
+    assert c["stiffness_N_per_m^n"] == {j: problem.joint_stiffness(j) for j in JOINTS}
+    assert c["v_min_m_s"] == paper_study.arms["with_preload"].simulation.stats["v_min"]
+    assert c["friction"] == {"law": "ambrosio", "coefficient": 0.1, "v0_m_s": 1e-4, "v1_m_s": 2e-4}
+    report = (out / "report.md").read_text()
+    assert f"{problem.joint_stiffness('B1'):.4g} N/m^1.5" in report and "chi = 0.1425" in report
+
+
 def test_rewriting_a_result_directory_replaces_it_and_leaves_no_temporaries(paper_study, tmp_path):
     out = tmp_path / "r"
     write_results(paper_study, out, animate=False)

@@ -10,15 +10,67 @@ from pathlib import Path
 
 import numpy as np
 
+from ..contact import V_MIN, hysteresis_factor
 from ..functions import graph_size
 from ..mechanism.workspace import path_kinematics
 from ..problem import Problem
 from ..scene import Scene
+from ..scene.vocabulary import CONTACT_LAW_KEYS, FRICTION_LAW_KEYS
 from ..trajectory import sample_path
 from .metrics import arm_metrics, driven_metrics
 from .study import PRELOAD_ARMS, Study
 
-__all__ = ["scene_summary", "study_summary", "target_checks"]
+__all__ = ["scene_summary", "study_summary", "target_checks", "contact_numbers"]
+
+STIFFNESS_FROM_MATERIALS = "materials and radii (Lankarani-Nikravesh / Flores, internal cylinders)"
+_FRICTION_UNITS = {"coefficient": "", "static_coefficient": "", "v0": "_m_s", "v1": "_m_s",
+                   "stribeck_velocity": "_m_s"}
+
+
+def contact_numbers(problem: Problem, v_min: float = V_MIN) -> dict | None:
+    """Every number the scene's contact and friction laws use, the derived ones included
+    (JSON-ready, units in the keys; None without a clearance joint): the law and its keys,
+    the hysteresis factor chi(c_r) and the floor v_min [m/s] of the approach velocity (laws
+    with hysteresis damping), the stiffness K [N/m^n] of every clearance joint and where it
+    comes from, and the friction law with the keys it uses."""
+    joints = problem.clearance_joints
+    if not joints:
+        return None
+    c, f = problem.scene.effects.contact, problem.scene.effects.friction
+    uses = CONTACT_LAW_KEYS[c.law]
+    out: dict = {"law": c.law, "exponent": c.exponent}
+    if "restitution" in uses:
+        out.update(restitution=c.restitution, hysteresis_factor=hysteresis_factor(c.law, c.restitution),
+                   v_min_m_s=v_min)
+    if "damping" in uses:
+        out["damping_Ns_per_m"] = c.damping
+    out["stiffness_from"] = "scene" if c.stiffness is not None else STIFFNESS_FROM_MATERIALS
+    out["stiffness_N_per_m^n"] = {j: problem.joint_stiffness(j) for j in joints}
+    out["friction"] = {"law": f.law, **{k + _FRICTION_UNITS[k]: getattr(f, k) for k in FRICTION_LAW_KEYS[f.law]}}
+    return out
+
+
+def contact_lines(numbers: dict | None) -> list[str]:
+    """The lines of :func:`contact_numbers` that `rrr4 check` prints and report.md shows."""
+    if numbers is None:
+        return ["contact: none (all joints ideal, no contact or friction terms)"]
+    n = numbers
+    law = [f"contact: {n['law']}, exponent {n['exponent']:g}"]
+    if "restitution" in n:
+        law.append(f"c_r = {n['restitution']:g} (hysteresis factor chi = {n['hysteresis_factor']:.4g}), approach "
+                   f"velocity floored at v_min = {n['v_min_m_s']:g} m/s")
+    if "damping_Ns_per_m" in n:
+        law.append(f"damping {n['damping_Ns_per_m']:g} N s/m")
+    groups: dict[float, list[str]] = {}
+    for j, k in n["stiffness_N_per_m^n"].items():
+        groups.setdefault(k, []).append(j)
+    stiff = "; ".join(f"{' '.join(js)}: {k:.4g} N/m^{n['exponent']:g}" for k, js in groups.items())
+    fr = n["friction"]
+    units = {"v0_m_s": ("v0", "m/s"), "v1_m_s": ("v1", "m/s"), "stribeck_velocity_m_s": ("v_s", "m/s"),
+             "coefficient": ("mu", ""), "static_coefficient": ("mu_s", "")}
+    terms = [f"{units[k][0]} = {v:g}{' ' + units[k][1] if units[k][1] else ''}" for k, v in fr.items() if k != "law"]
+    friction = (f"friction: {fr['law']}, " + ", ".join(terms)) if terms else "friction: none (no friction terms)"
+    return [", ".join(law), f"  stiffness from {n['stiffness_from']}: {stiff}", friction]
 
 
 def _preload(study: Study) -> dict:
@@ -65,8 +117,7 @@ def study_summary(study: Study) -> dict:
            "chains": sc.mechanism.n_chains if problem.closed_form else None,
            "bodies": list(model.body_names), "actuators": list(model.actuator_names),
            "clearance_joints": list(sc.clearance_joints),
-           "contact_law": sc.effects.contact.law if sc.clearance_joints else None,
-           "friction_law": sc.effects.friction.law if sc.clearance_joints else None,
+           "contact": contact_numbers(problem, _v_min(study)),
            "gains": {"kp_Nm_per_rad": sc.actuation.kp, "kd_Nms_per_rad": sc.actuation.kd},
            "initial_journals": sc.initial.journals,
            "preload": _preload(study),
@@ -79,6 +130,11 @@ def study_summary(study: Study) -> dict:
         out.update(_driven(study, out))
     out["targets"] = target_checks(out)
     return out
+
+
+def _v_min(study: Study) -> float:
+    """The approach-velocity floor [m/s] the study's simulations used."""
+    return next((a.simulation.stats.get("v_min", V_MIN) for a in study.arms.values()), V_MIN)
 
 
 def _controller(study: Study) -> dict:
@@ -180,16 +236,7 @@ def scene_summary(scene: Scene | Problem) -> str:
     lines.append("")
     lines.append("effects simulated:")
     e = scene.effects
-    if cl:
-        k = "from materials" if e.contact.stiffness is None else f"{e.contact.stiffness:.4g}"
-        lines.append(f"  contact: {e.contact.law}, c_r = {e.contact.restitution:g}, "
-                     f"exponent {e.contact.exponent:g}, stiffness {k}")
-        if e.friction.law == "none":
-            lines.append("  friction: none (no friction terms)")
-        else:
-            lines.append(f"  friction: {e.friction.law}, mu = {e.friction.coefficient:g}")
-    else:
-        lines.append("  contact: none (all joints ideal, no contact or friction terms)")
+    lines += [f"  {line}" for line in contact_lines(contact_numbers(problem))]
     g = e.gravity
     lines.append(f"  gravity: {'none' if g == (0.0, 0.0) else f'({g[0]:g}, {g[1]:g}) m/s^2'}")
     a = scene.actuation

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from .study import PRELOAD_ARMS, Study
+from .summary import contact_lines
 
 __all__ = ["write_timeseries_csv", "report_markdown"]
 
@@ -104,7 +105,8 @@ def report_markdown(summary: dict) -> str:
                     f"[{pre['alpha_min_Nm']:.4g}, {pre['alpha_max_Nm']:.4g}] N m.")
     else:
         pre_line = f"No preload arm: {pre['reason']}."
-    lines = [f"# Study of `{summary['scene']}`", "", summary["description"], "", pre_line, "", *rows, *per]
+    lines = [f"# Study of `{summary['scene']}`", "", summary["description"], "", pre_line, "", *_contact(summary),
+             *rows, *per]
     tg = summary.get("targets") or {}
     if tg:
         lines += ["", "Targets: zero losses with preload over the whole run: "
@@ -120,6 +122,11 @@ def report_markdown(summary: dict) -> str:
               + (" (each clearance journal rests on its bearing wall under the ideal reaction at t = 0; "
                  "with no load, as without preload at rest, it stays centred)." if journals == "seated" else ".")]
     return "\n".join(lines) + "\n"
+
+
+def _contact(summary: dict) -> list[str]:
+    """The contact and friction numbers the simulations used, as a list, then a blank line."""
+    return [f"- {line.strip()}" for line in contact_lines(summary.get("contact"))] + [""]
 
 
 def _driven_report(summary: dict) -> str:
@@ -155,5 +162,6 @@ def _driven_report(summary: dict) -> str:
              f"revolution takes {summary['revolution_s']:.4g} s, and rates and deviations are taken after "
              f"t = {after:.4g} s (the start transient). The half-step column repeats the clearance run at half "
              "the step: where it agrees, the number has converged in the step; impact-resolved quantities of a "
-             "rattling joint (peak forces, the timing of single impacts) are sensitive to it.", "", *rows, "", agree]
+             "rattling joint (peak forces, the timing of single impacts) are sensitive to it.", "",
+             *_contact(summary), *rows, "", agree]
     return "\n".join(lines) + "\n"
