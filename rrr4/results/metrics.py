@@ -81,6 +81,7 @@ def arm_metrics(sim: Simulation, wall_time: float) -> dict:
         "platform_error_max_m": flat["platform_error_max_m"],
         "torque_rms_Nm": flat["torque_rms_Nm"],
         "torque_peak_Nm": float(np.max(np.abs(sim.tau), initial=0.0)),
+        **_at_limit(sim),
         "energy_audit_residual": float(sim.energy_audit_residual),
         "wall_time_s": float(wall_time),
         "simulated_time_s": float(sim.t[-1] - sim.t[0]),
@@ -88,6 +89,17 @@ def arm_metrics(sim: Simulation, wall_time: float) -> dict:
         "step_s": float(sim.stats["step"]),
         "steps": int(sim.stats["steps"]),
     }
+
+
+def _at_limit(sim: Simulation) -> dict:
+    """effort_at_limit_fraction: actuator -> share of output samples where the controller's
+    effort sits at its limit (clipped), for a torque-driven simulation with actuators."""
+    model = Problem.from_scene(sim.scene).model
+    if sim.scene.actuation.mode != "torque" or not model.n_actuators:
+        return {}
+    limits = np.asarray(sim.scene.torque_limit, float)
+    at = np.abs(sim.tau) >= limits * (1 - 1e-9)
+    return {"effort_at_limit_fraction": {a: float(np.mean(at[:, i])) for i, a in enumerate(model.actuator_names)}}
 
 
 def contact_onsets(sim: Simulation) -> dict:

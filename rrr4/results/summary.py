@@ -5,6 +5,7 @@ checks)."""
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import replace
 from pathlib import Path
 
@@ -13,6 +14,7 @@ import numpy as np
 from ..contact import V_MIN, hysteresis_factor
 from ..functions import graph_size
 from ..mechanism.workspace import path_kinematics
+from ..preload import PreloadSolution, PreloadWarning, solve_preload
 from ..problem import Problem
 from ..scene import Scene
 from ..scene.vocabulary import CONTACT_LAW_KEYS, FRICTION_LAW_KEYS
@@ -20,7 +22,11 @@ from ..trajectory import sample_path
 from .metrics import arm_metrics, driven_metrics
 from .study import PRELOAD_ARMS, Study
 
-__all__ = ["scene_summary", "study_summary", "target_checks", "contact_numbers"]
+__all__ = ["scene_summary", "scene_check", "study_summary", "target_checks", "contact_numbers", "preload_lines",
+           "CLIPPED"]
+
+# what the simulation does with efforts beyond the limits (one sentence for check, run, summary.json)
+CLIPPED = ("the controller clips every effort at its limit, so there the journals are not held with f_min")
 
 STIFFNESS_FROM_MATERIALS = "materials and radii (Lankarani-Nikravesh / Flores, internal cylinders)"
 _FRICTION_UNITS = {"coefficient": "", "static_coefficient": "", "v0": "_m_s", "v1": "_m_s",
@@ -82,7 +88,11 @@ def _preload(study: Study) -> dict:
         return {"method": None, "reason": why}
     sol = study.preload
     alpha = np.asarray(sol.alpha)
+    over = [{"actuator": e.actuator, "unit": e.unit, "limit": e.limit, "peak": e.peak,
+             "t_peak_s": e.t_peak, "excess": e.excess, "spans_s": [list(v) for v in e.spans], "samples": e.samples}
+            for e in sol.effort_excess]
     return {"method": sol.method, "f_min_N": sol.f_min, "feasible": sol.all_feasible,
+            "effort_over_limit": over, "efforts_in_simulation": CLIPPED if over else "within the limits",
             "infeasible_samples": int(np.sum(~sol.feasible)), "samples": len(sol.t),
             "alpha_min_Nm": float(alpha.min()), "alpha_max_Nm": float(alpha.max()),
             "smallest_margin_N": float(np.min(sol.margin)), "torque_peak_Nm": float(np.max(np.abs(sol.tau))),
@@ -194,9 +204,48 @@ def _ideal_at(sim, ideal):
     return replace(ideal, t=sim.t, qdd=qdd)
 
 
-def scene_summary(scene: Scene | Problem) -> str:
-    """What `rrr4 check` prints: the bodies, joints, effects, equations and path of a scene."""
+def preload_lines(sol: PreloadSolution, problem: Problem) -> list[str]:
+    """Whether the preload holds along the path, and where and by how much it fails: each
+    actuator's peak need against its limit (:attr:`PreloadSolution.effort_excess`), the other
+    failures, what the simulation does there, and the map that shows where it would hold."""
+    head = f"preload along the path: {sol.method}, f_min = {sol.f_min:g} N, {len(sol.t)} samples: "
+    if sol.all_feasible:
+        k, i = np.unravel_index(int(np.argmax(np.abs(sol.tau))), sol.tau.shape)
+        unit = "N m" if problem.joint(problem.model.actuated_joints[i]).type == "revolute" else "N"
+        return [head + f"holds at every sample; peak effort {abs(sol.tau[k, i]):.4g} {unit} at actuator "
+                f"{problem.model.actuator_names[i]}, t = {sol.t[k]:.4g} s (limit {sol.torque_limit[i]:g} {unit})"]
+    lines = [head + f"CANNOT HOLD at {int(np.sum(~sol.feasible))} of {len(sol.t)} samples"]
+    lines += [f"  {e.describe()}" for e in sol.effort_excess]
+    lines += [f"  {line.strip()}" for line in sol.report(max_lines=8, actuators=False).splitlines()[2:]]
+    where = f"rrr4 map {problem.scene.source}" if problem.scene.source else "rrr4 map SCENE"
+    lines.append(f"  {CLIPPED}: lower actuation.preload.min_force, raise the limits or slow the path; `{where}` "
+                 "shows where in the workspace the preload holds and at what torque")
+    return lines
+
+
+def scene_check(scene: Scene | Problem) -> tuple[str, PreloadSolution | None]:
+    """What `rrr4 check` prints (:func:`scene_summary`), and the scene's preload evaluated
+    along the whole path with its method (None when the controller does not preload)."""
     problem = Problem.from_scene(scene)
+    sol = None
+    if problem.has_preload and problem.scene.actuation.mode == "torque":
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", PreloadWarning)  # reported below, in full
+            sol = solve_preload(problem, branch="auto")  # the study's call: exact on the controller's branch
+    text = _scene_text(problem)
+    if sol is not None:
+        text += "\n" + "\n".join(preload_lines(sol, problem))
+    return text, sol
+
+
+def scene_summary(scene: Scene | Problem) -> str:
+    """What `rrr4 check` prints: the bodies, joints, effects, equations and path of a scene,
+    and whether its preload holds along the path."""
+    return scene_check(scene)[0]
+
+
+def _scene_text(problem: Problem) -> str:
+    """The bodies, joints, effects, equations and path of a problem's scene."""
     scene, model = problem.scene, problem.model
     lines = [f"scene {scene.name}: {scene.description}".rstrip(": "), ""]
     lines.append(f"bodies ({len(model.body_names)}, {model.nq} coordinates):")

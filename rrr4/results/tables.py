@@ -87,6 +87,8 @@ def report_markdown(summary: dict) -> str:
     row("platform error RMS [um]", lambda m: _fmt(m["platform_error_rms_m"], 1e6))
     row("platform error max [um]", lambda m: _fmt(m["platform_error_max_m"], 1e6))
     row("torque RMS [N m]", lambda m: _fmt(m["torque_rms_Nm"]))
+    row("largest share of time at an effort limit", lambda m: _fmt(max(m.get("effort_at_limit_fraction", {}).values(),
+                                                                       default=None)))
     row("energy audit residual", lambda m: _fmt(m["energy_audit_residual"], 1.0, 3))
     row("simulated time [s]", lambda m: _fmt(m["simulated_time_s"]))
     row("integrator, step [s]", lambda m: f"{m['integrator']}, {m['step_s']:g}")
@@ -103,6 +105,12 @@ def report_markdown(summary: dict) -> str:
         pre_line = (f"Preload: method `{pre['method']}`, f_min = {pre['f_min_N']:g} N, feasible at "
                     f"{pre['samples'] - pre['infeasible_samples']}/{pre['samples']} path samples, alpha in "
                     f"[{pre['alpha_min_Nm']:.4g}, {pre['alpha_max_Nm']:.4g}] N m.")
+        for e in pre.get("effort_over_limit") or ():
+            pre_line += (f" **The preload cannot hold:** actuator {e['actuator']} needs {e['peak']:.4g} {e['unit']} at "
+                         f"t = {e['t_peak_s']:.4g} s against its limit {e['limit']:g} {e['unit']} (over it at "
+                         f"{e['samples']} samples).")
+        if pre.get("effort_over_limit"):
+            pre_line += f" In the simulations {pre['efforts_in_simulation']}."
     else:
         pre_line = f"No preload arm: {pre['reason']}."
     lines = [f"# Study of `{summary['scene']}`", "", summary["description"], "", pre_line, "", *_contact(summary),

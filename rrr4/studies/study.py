@@ -53,6 +53,7 @@ from ..preload import solve_preload
 from ..preload.solve import PreloadWarning
 from ..problem import Problem
 from ..results.study import Study, StudyArm
+from ..results.summary import preload_lines
 from ..scene import MAX_SAMPLES, Scene
 from ..simulation import simulate
 from ..trajectory import sample_path
@@ -119,8 +120,9 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
             warnings.simplefilter("always", PreloadWarning)
             preload = solve_preload(problem, pre.method, branch="auto")  # exact: the controller's one branch
         preload_warning = "\n".join(str(w.message) for w in caught if issubclass(w.category, PreloadWarning))
-        if preload_warning:
-            say(f"preload is infeasible at {int(np.sum(~preload.feasible))} samples; simulated anyway")
+        if not preload.all_feasible:  # loud: where, which actuator, by how much, and what the simulation does
+            for line in preload_lines(preload, problem):
+                say(line)
 
     def arm(name, sc, step=h, controller="python"):
         say(f"simulate {name.replace('_', ' ')}: {t_end:g} s, step {step:g} s"
