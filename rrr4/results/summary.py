@@ -83,7 +83,8 @@ def _preload(study: Study) -> dict:
     pre = study.scene.actuation.preload
     if study.preload is None:
         redundant = study.problem.redundancy >= 1
-        why = ("min_force = 0 N: the minimum-norm torques are optimal" if redundant
+        why = ("no task body: the drivers set the motion" if study.problem.model.task is None
+               else "min_force = 0 N: the minimum-norm torques are optimal" if redundant
                else "no actuation redundancy: the inverse dynamics has a single solution")
         return {"method": None, "reason": why}
     sol = study.preload
@@ -124,14 +125,16 @@ def study_summary(study: Study) -> dict:
     problem = study.problem
     sc, model = problem.scene, problem.model
     out = {"scene": sc.name, "description": sc.description, "scene_file": Path(sc.source).name if sc.source else None,
-           "chains": sc.mechanism.n_chains if problem.closed_form else None,
+           **({"chains": sc.mechanism.n_chains} if problem.closed_form else {}),
            "bodies": list(model.body_names), "actuators": list(model.actuator_names),
            "clearance_joints": list(sc.clearance_joints),
            "contact": contact_numbers(problem, _v_min(study)),
-           "gains": {"kp_Nm_per_rad": sc.actuation.kp, "kd_Nms_per_rad": sc.actuation.kd},
            "initial_journals": sc.initial.journals,
-           "preload": _preload(study),
-           "controller": _controller(study), **{k: None for k in PRELOAD_ARMS}}
+           "preload": _preload(study)}
+    if sc.actuation.mode == "torque" and model.n_actuators:  # a controller ran: its gains, and how each arm ran it
+        out.update(gains={"kp_Nm_per_rad": sc.actuation.kp, "kd_Nms_per_rad": sc.actuation.kd},
+                   controller=_controller(study))
+    out.update({k: None for k in PRELOAD_ARMS})
     for name, arm in study.arms.items():
         out[name] = arm_metrics(arm.simulation, arm.wall_time)
     if "ideal" in study.arms:
@@ -296,6 +299,9 @@ def _scene_text(problem: Problem) -> str:
         rate = f"sampled at {a.control_rate:g} Hz" if a.control_rate else "continuous"
         lines.append(f"  actuation: controller = feed-forward + {pre}{comp} + PD (kp = {a.kp:g} N m/rad, kd = "
                      f"{a.kd:g} N m s/rad), |tau| <= {max(scene.torque_limit):g} N m, {rate}")
+    elif not model.n_actuators:
+        lines.append("  actuation: none (no actuators" + ("; the drivers set the motion)" if scene.graph.drivers
+                                                          else ")"))
     elif a.mode == "free":
         lines.append("  actuation: free (zero actuator torque)")
     else:

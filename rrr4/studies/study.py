@@ -109,7 +109,8 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
         raise SceneError(f"t_end: {t_end:g} s is not allowed at step {h:g} s (the study keeps every step: at most "
                          f"{MAX_SAMPLES:g} steps)")
     t_path = sample_path(scene.path).t
-    say(f"inverse dynamics of the ideal mechanism at {len(t_path)} path samples")
+    if problem.model.task is not None:
+        say(f"inverse dynamics of the ideal mechanism at {len(t_path)} path samples")
     tau_min_norm = _min_norm_torques(problem, t_path)
 
     preload, preload_warning = None, ""
