@@ -13,9 +13,15 @@ from .scene.vocabulary import OBJECTIVES
 
 
 def _check(args) -> int:
+    """Exit 0: the scene is valid and its preload holds along the path; 1: valid, but the
+    preload cannot hold (printed where and by how much); 2: invalid (one line)."""
     from .mechanism import load_scene
-    from .results.summary import scene_summary
-    print(scene_summary(load_scene(args.scene)))
+    from .results.summary import scene_check
+    text, preload = scene_check(load_scene(args.scene))
+    print(text)
+    if preload is not None and not preload.all_feasible:
+        _say("rrr4 check: the scene is valid, but its preload cannot hold along the path (see above)")
+        return 1
     return 0
 
 
@@ -161,7 +167,8 @@ def build_parser() -> argparse.ArgumentParser:
                     "the reference scene) with revolute joint clearance: kinematics, preload, contact dynamics and "
                     "C code generation.")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    c = sub.add_parser("check", help="validate a scene and print what it would simulate")
+    c = sub.add_parser("check", help="validate a scene, print what it would simulate and evaluate its preload along "
+                                      "the path (exit 1 when the preload cannot hold, 2 when the scene is invalid)")
     c.add_argument("scene", help="scene YAML file, e.g. problems/paper_circle.yaml")
     c.set_defaults(func=_check)
     g = sub.add_parser("codegen", help="write self-contained C of the controller (IK, Jacobian, preload, "

@@ -2,6 +2,7 @@
 reference 4-RRR against the n-RRR form, Jacobians against finite differences, and bad graphs."""
 
 import copy
+import dataclasses
 import subprocess
 import sys
 import warnings
@@ -259,7 +260,100 @@ def test_study_of_a_driven_scene_compares_clearance_with_the_ideal_twin(tmp_path
     assert c["acceleration_deviation_rms_m_s2"]["slider"] > 0 == ideal["acceleration_deviation_rms_m_s2"]["slider"]
     assert summary["step_convergence"]["steps_s"] == [2e-6, 1e-6]
     header = (tmp_path / "out" / "timeseries.csv").read_text().splitlines()[0]
-    assert "with_clearance_slider_ax_m_s2" in header and "ideal_crank_drive_effort" in header
+    assert "with_clearance_slider_ax_m_s2" in header and "ideal_crank_drive_effort_Nm" in header
+
+
+def test_a_driven_study_carries_no_leftover_of_the_preload_study(tmp_path):
+    """A metric that does not apply is absent (never 0 or NaN): no gains, controller, platform
+    error or torques without a task and actuators; the prismatic joint P has no journal, so
+    it is not among the contact metrics; driver efforts carry their unit; no inverse dynamics
+    along a path that does not exist is announced."""
+    from rrr4.results import write_results
+    from rrr4.studies.study import run_study
+    lines = []
+    study = run_study(rrr4.load_scene(SLIDER), t_end=0.002, step=2e-6, log=lines.append)
+    summary, _ = write_results(study, tmp_path / "out", animate=False)
+    assert not any("inverse dynamics" in line for line in lines)
+    assert not {"gains", "controller", "chains"} & set(summary)
+    assert summary["preload"]["reason"] == "no task body: the drivers set the motion"
+    for arm in ("with_clearance", "ideal", "half_step"):
+        m = summary[arm]
+        assert not {"platform_error_rms_m", "platform_error_max_m", "torque_rms_Nm", "torque_peak_Nm",
+                    "effort_at_limit_fraction", "driver_effort_peak", "driver_effort_rms"} & set(m)
+        for key in ("contact_loss_events", "free_flight_fraction", "peak_contact_force_N", "min_contact_force_N"):
+            assert set(m[key]) == {"A", "B"}  # O is driven; P is prismatic
+        assert set(m["driver_effort_peak_Nm"]) == {"crank_drive"} and m["driver_effort_peak_Nm"]["crank_drive"] > 0
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "peak effort of driver crank_drive [N m]" in report
+
+
+ROTOR = """
+name: balanced_rotor
+description: A balanced rotor turning in a bearing housing held by a torque arm
+mechanism:
+  kind: graph
+  ground: {points: {O: [0.0, 0.0], G: [0.1, 0.1]}}
+  bodies:
+    - {name: rotor, mass: 1.0, inertia: 1.0e-3, points: {O: [0.0, 0.0]}, pose: [0.0, 0.0, 0.0]}
+    - {name: housing, mass: 0.5, inertia: 1.0e-3, points: {O: [0.0, 0.0], T: [0.1, 0.0]}, pose: [0.0, 0.0, 0.0]}
+    - {name: arm, mass: 0.1, inertia: 1.0e-4, points: {T: [0.0, -0.05], G: [0.0, 0.05]}, pose: [0.1, 0.05, 0.0]}
+  joints:
+    - {name: spindle, type: revolute, bodies: [ground, rotor], points: [O, O]}
+    - name: bearing
+      type: revolute
+      bodies: [rotor, housing]
+      points: [O, O]
+      clearance: {journal: rotor, journal_radius: 0.01, radial_clearance: 1.0e-4}
+    - {name: T, type: revolute, bodies: [housing, arm], points: [T, T]}
+    - {name: G, type: revolute, bodies: [arm, ground], points: [G, G]}
+  drivers:
+    - {name: motor, joint: spindle, initial_deg: 90.0, speed_rpm: 600.0}
+  task: none
+effects:
+  contact: {law: lankarani-nikravesh, restitution: 0.5, stiffness: auto}
+  gravity: [0.0, -9.81]
+initial: {journals: centred}
+path: {type: none, duration: 0.01, sample_rate: 10000}
+integrator: {method: rk4, step: 1.0e-5}
+"""
+
+
+@pytest.mark.parametrize("gravity", [[0.0, -9.81], [0.0, 0.0]])
+def test_run_writes_a_study_where_no_centre_of_mass_moves_in_the_ideal_twin(tmp_path, gravity):
+    """A balanced rotor in a bearing housing: in the ideal twin no centre of mass moves. Under
+    gravity the housing drops into its clearance and rattles, so the acceleration figure shows
+    what moves with clearance; without gravity nothing moves at all, and the figure is left
+    out. Either way `rrr4 run` writes its results (it ended in ZeroDivisionError)."""
+    from rrr4.cli import main
+    data = yaml.safe_load(ROTOR)
+    data["effects"]["gravity"] = gravity
+    path = tmp_path / "rotor.yaml"
+    path.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out)]) == 0
+    summary = yaml.safe_load((out / "summary.json").read_text())
+    dev = summary["with_clearance"]["acceleration_deviation_max_m_s2"]
+    assert max(summary["ideal"]["body_acceleration_peak_m_s2"].values()) < 1e-9
+    if gravity[1]:
+        assert dev["housing"] > 1.0 and (out / "accelerations.png").exists()
+    else:
+        assert max(dev.values()) < 1e-9 and not (out / "accelerations.png").exists()
+    assert (out / "report.md").exists() and (out / "contact_force.png").exists()
+
+
+def test_driven_figures_start_at_the_drivers_initial_angle(tmp_path):
+    """The x axis of a driven scene's figures is the driver's angle from initial_deg: a short
+    run spans [initial, initial + travel], a run of 3 or more revolutions the two after the first."""
+    from rrr4.results.figures.study import driver_window
+    from rrr4.studies.study import run_study
+    scene = parse_scene(yaml.safe_load(ROTOR))
+    study = run_study(scene, t_end=0.01)
+    x_of, label, (lo, hi) = driver_window(study)
+    x = x_of(study.arms["ideal"].simulation)
+    assert label == "motor angle [deg]" and x[0] == pytest.approx(90.0) and lo == pytest.approx(90.0)
+    assert hi == pytest.approx(x[-1]) == pytest.approx(90.0 + 360.0 * 600 / 60 * 0.01)
+    long = dataclasses.replace(study, t_end=0.3)  # 3 revolutions at 600 rpm
+    assert driver_window(long)[2] == pytest.approx((450.0, 1170.0))
 
 
 FIVE_BAR = ROOT / "problems" / "redundant_five_bar.yaml"

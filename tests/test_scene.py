@@ -126,3 +126,61 @@ def test_load_scene_reads_file(tmp_path, paper_data):
     p = tmp_path / "s.yaml"
     p.write_text(yaml.safe_dump(paper_data))
     assert load_scene(p).name == "paper_circle"
+
+
+@pytest.mark.parametrize("section,law,key,value", [
+    ("contact", "hertz", "restitution", 0.9),             # Hertz has no dissipation: c_r would be ignored
+    ("contact", "kelvin-voigt", "restitution", 0.9),      # its dashpot takes damping, not c_r
+    ("contact", "lankarani-nikravesh", "damping", 50.0),  # damping is the Kelvin-Voigt dashpot's
+    ("friction", "none", "coefficient", 0.1),
+    ("friction", "coulomb", "v0", 1e-4),                  # Coulomb has no regularisation
+    ("friction", "smooth", "v1", 2e-4),
+    ("friction", "ambrosio", "static_coefficient", 0.2),
+    ("friction", "stribeck", "v1", 2e-4),
+])
+def test_a_key_the_law_does_not_use_is_refused_naming_the_law_and_its_keys(paper_data, section, law, key, value):
+    from rrr4.scene.vocabulary import CONTACT_LAW_KEYS, FRICTION_LAW_KEYS
+    takes = (CONTACT_LAW_KEYS if section == "contact" else FRICTION_LAW_KEYS)[law]
+    given = {"law": law, key: value}
+    if section == "friction" and law != "none":
+        given.setdefault("coefficient", 0.1)
+    paper_data["effects"][section] = given
+    with pytest.raises(SceneError) as err:
+        parse_scene(paper_data)
+    msg = str(err.value)
+    assert "\n" not in msg and msg.startswith(f"effects.{section}.{key}: not used by law '{law}'")
+    assert f"(it takes: {', '.join(('law', *takes))})" in msg
+    # the same key under a law that uses it is read
+    paper_data["effects"][section] = {"law": next(k for k, v in (CONTACT_LAW_KEYS if section == "contact"
+                                                                 else FRICTION_LAW_KEYS).items() if key in v),
+                                      key: value, **({"coefficient": 0.1} if section == "friction" else {})}
+    parse_scene(paper_data)
+
+
+def test_every_shipped_scene_gives_only_keys_its_laws_use():
+    """The committed scenes load under the per-law key check (they were written before it)."""
+    from tests.conftest import ROOT
+    scenes = [p for p in (ROOT / "problems").rglob("*.yaml") if "sweeps" not in p.parts]
+    assert len(scenes) >= 15
+    for p in scenes:
+        load_scene(p)
+
+
+def test_check_prints_every_derived_contact_number(paper_scene):
+    """stiffness: auto is computed from the materials and radii (Lankarani-Nikravesh), the
+    hysteresis factor from c_r, and v_min and the friction law's parameters are the ones the
+    equations take: rrr4 check prints each of them."""
+    from rrr4 import build
+    from rrr4.contact import V_MIN, stiffness_internal_cylinder
+    from rrr4.results.summary import contact_numbers, scene_summary
+    problem = build(paper_scene)
+    k = stiffness_internal_cylinder(0.005, 0.0051, 207e9, 0.3, 207e9, 0.3)
+    n = contact_numbers(problem)
+    assert n["stiffness_N_per_m^n"] == {j: pytest.approx(k) for j in paper_scene.clearance_joints}
+    assert n["hysteresis_factor"] == pytest.approx(0.75 * (1 - 0.9**2)) and n["v_min_m_s"] == V_MIN
+    assert n["friction"] == {"law": "ambrosio", "coefficient": 0.1, "v0_m_s": 1e-4, "v1_m_s": 2e-4}
+    # the equations take the same numbers (the per-joint stiffness is their first input per joint)
+    assert problem.contact_parameters[0] == pytest.approx(k)
+    text = scene_summary(problem)
+    assert f"{k:.4g} N/m^1.5" in text and "chi = 0.1425" in text and f"v_min = {V_MIN:g} m/s" in text
+    assert "v0 = 0.0001 m/s, v1 = 0.0002 m/s" in text

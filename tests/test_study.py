@@ -100,6 +100,19 @@ def test_results_hold_figures_csv_and_report(paper_summary, paper_study):
     assert f"{summary['with_preload']['platform_error_rms_m'] * 1e6:.4g}" in report
 
 
+def test_summary_and_report_give_the_contact_numbers_the_simulations_used(paper_summary, paper_study):
+    """stiffness: auto, the hysteresis factor, v_min and the friction parameters are written
+    (not only the law's name), as the equations took them."""
+    summary, out = paper_summary
+    c = summary["contact"]
+    problem = paper_study.problem
+    assert c["stiffness_N_per_m^n"] == {j: problem.joint_stiffness(j) for j in JOINTS}
+    assert c["v_min_m_s"] == paper_study.arms["with_preload"].simulation.stats["v_min"]
+    assert c["friction"] == {"law": "ambrosio", "coefficient": 0.1, "v0_m_s": 1e-4, "v1_m_s": 2e-4}
+    report = (out / "report.md").read_text()
+    assert f"{problem.joint_stiffness('B1'):.4g} N/m^1.5" in report and "chi = 0.1425" in report
+
+
 def test_rewriting_a_result_directory_replaces_it_and_leaves_no_temporaries(paper_study, tmp_path):
     out = tmp_path / "r"
     write_results(paper_study, out, animate=False)
@@ -205,3 +218,60 @@ def test_ideal_scene_has_no_contact_and_reports_pin_reactions(tmp_path):
     reactions = np.linalg.norm(study.arms["with_preload"].simulation.reaction, axis=2)
     assert reactions.shape[1] == 8
     assert reactions.min() >= 0.95 * summary["preload"]["f_min_N"]
+
+
+def _limit6(tmp_path) -> Path:
+    """A user's 4-RRR: the reference scene in a vertical plane with a 6 N m limit, where the
+    preload needs more than the limit (actuator A4, by up to ~47 %)."""
+    import yaml
+    data = yaml.safe_load((ROOT / "problems" / "paper_circle.yaml").read_text())
+    data["name"] = "limit6"
+    data["effects"]["gravity"] = [0.0, -9.81]
+    data["actuation"]["torque_limit"] = 6.0
+    p = tmp_path / "limit6.yaml"
+    p.write_text(yaml.safe_dump(data))
+    return p
+
+
+def test_check_says_where_and_by_how_much_the_preload_cannot_hold(tmp_path, capsys):
+    """rrr4 check evaluates the scene's preload along the whole path: it names the actuator,
+    the real peak effort it needs (not the first value over the limit) and when, exits 1, and
+    points to rrr4 map."""
+    from rrr4 import solve_preload
+    path = _limit6(tmp_path)
+    assert main(["check", str(path)]) == 1
+    out, err = capsys.readouterr()
+    with pytest.warns(UserWarning):
+        sol = solve_preload(load_scene(path))
+    need = np.abs(sol.tau[:, 3])
+    over = np.flatnonzero(need > 6.0 * (1 + 1e-6))
+    assert need.max() > 6.0 * 1.3 and need[over[0]] < need.max()  # the edge of the limit is not the answer
+    k = int(np.argmax(need))
+    assert (f"actuator A4 needs {need.max():.4g} N m at t = {sol.t[k]:.4g} s against its limit 6 N m" in out)
+    assert "CANNOT HOLD" in out and f"rrr4 map {path}" in out and "clips every effort at its limit" in out
+    assert "preload cannot hold" in err and len(err.strip().splitlines()) == 1
+    # the reference scene's preload holds: exit 0, and the peak is said
+    assert main(["check", str(ROOT / "problems" / "paper_circle.yaml")]) == 0
+    assert "holds at every sample; peak effort 4.013 N m" in capsys.readouterr().out
+
+
+def test_run_reports_an_infeasible_preload_and_never_commands_beyond_the_limits(tmp_path):
+    """The study says which actuator, when and by how much (log, summary.json, report.md), and
+    the simulations clip at the limits, loudly: the saturation is in every preloaded arm."""
+    lines = []
+    study = run_study(load_scene(_limit6(tmp_path)), t_end=0.01, log=lines.append)
+    summary, _ = write_results(study, tmp_path / "out", animate=False)
+    excess = {e["actuator"]: e for e in summary["preload"]["effort_over_limit"]}
+    assert set(excess) == {"A3", "A4"}
+    assert excess["A4"]["peak"] == pytest.approx(np.abs(study.preload.tau[:, 3]).max())
+    assert excess["A4"]["limit"] == 6.0 and excess["A4"]["spans_s"][0][0] == 0.0
+    assert "clips every effort" in summary["preload"]["efforts_in_simulation"]
+    assert any(line.strip().startswith("actuator A4 needs 8.83") for line in lines)
+    for arm in ("with_preload", "with_preload_compensated", "without_preload"):
+        m = summary[arm]
+        assert m["torque_peak_Nm"] <= 6.0 * (1 + 1e-12)
+    # the feed-forward needs more than 6 N m at A4 from t = 0: the preloaded arms sit at the limit
+    assert summary["with_preload"]["effort_at_limit_fraction"]["A4"] > 0.9
+    assert summary["without_preload"]["effort_at_limit_fraction"]["A4"] == 0.0
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "The preload cannot hold:** actuator A4 needs 8.838 N m" in report

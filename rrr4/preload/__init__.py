@@ -10,9 +10,9 @@ from .exact import exact_preload_function
 from .laws import law_settings, parametric_preload_law, preload_law, why_not_pointwise
 from .qp import qp_preload_function
 from .signs import choose_signs, preload_sign
-from .solution import Infeasibility, PreloadSolution
+from .solution import EffortExcess, Infeasibility, PreloadSolution
 from .solve import PreloadInfeasibleError, PreloadWarning, solve_preload
 
 __all__ = ["exact_preload_function", "qp_preload_function", "solve_preload", "PreloadSolution", "Infeasibility",
-           "PreloadWarning", "PreloadInfeasibleError", "preload_law", "parametric_preload_law", "law_settings",
-           "why_not_pointwise", "choose_signs", "preload_sign"]
+           "EffortExcess", "PreloadWarning", "PreloadInfeasibleError", "preload_law", "parametric_preload_law",
+           "law_settings", "why_not_pointwise", "choose_signs", "preload_sign"]

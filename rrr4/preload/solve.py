@@ -35,7 +35,7 @@ from .nlp import solve_trajectory_nlp
 from .qp import FEASIBILITY_TOL as QP_FEASIBILITY_TOL
 from .qp import QP_OPTIONS, qp_preloads
 from .signs import choose_signs
-from .solution import Infeasibility, PreloadSolution
+from .solution import Infeasibility, PreloadSolution, effort_excess
 
 __all__ = ["solve_preload", "PreloadWarning", "PreloadInfeasibleError", "FEASIBILITY_TOL"]
 
@@ -169,10 +169,12 @@ def solve_preload(scene: Scene | Problem, method: str | None = None, *, qp_solve
             issues.append(Infeasibility(tk, "pose", "inverse dynamics or solver returned non-finite values"))
         for j in np.flatnonzero(~force_ok[k]):
             issues.append(Infeasibility(tk, names[j], f"|r| = {norms[k, j]:.4g} N < f_min = {f_min:g} N "
-                                                      f"(no preload within the torque limits reaches it)"))
+                                                      f"(no preload within the torque limits reaches it)",
+                                        f_min - norms[k, j]))
         for i in np.flatnonzero(~torque_ok[k]):
             issues.append(Infeasibility(tk, f"actuator {model.actuator_names[i]}",
-                                        f"|tau| = {abs(tau[k, i]):.4g} {units[i]} > limit {limits[i]:g} {units[i]}"))
+                                        f"|tau| = {abs(tau[k, i]):.4g} {units[i]} > limit {limits[i]:g} {units[i]}",
+                                        abs(tau[k, i]) - limits[i]))
         if not issues or issues[-1].t != tk:
             reason = ("the fixed-sign axial force constraints cannot all hold within the torque limits"
                       if method == "qp" else f"solver did not converge ({stats.get('return_status')})")
@@ -182,7 +184,8 @@ def solve_preload(scene: Scene | Problem, method: str | None = None, *, qp_solve
         method=method, t=samples.t, pose=samples.pose, pose_d=samples.pose_d, pose_dd=samples.pose_dd,
         tau=tau, alpha=alpha[:, 0] if m == 1 else alpha, reactions=reactions, feasible=feasible, margin=margin,
         tau_particular=tau_p, null_space=tau_n[:, :, 0] if m == 1 else tau_n, f_min=f_min,
-        torque_limit=tuple(limits.tolist()), joint_names=names, infeasible=tuple(issues), statistics=stats)
+        torque_limit=tuple(limits.tolist()), joint_names=names, infeasible=tuple(issues), statistics=stats,
+        effort_excess=effort_excess(samples.t, tau, limits, ~torque_ok, model.actuator_names, units))
     if issues:
         if strict:
             raise PreloadInfeasibleError(sol.report())

@@ -56,18 +56,24 @@ def arm_metrics(sim: Simulation, wall_time: float) -> dict:
     joint: |reaction|); platform_error_rms_m / _max_m (position distance to
     the commanded path); torque_rms_Nm (over time and actuators), torque_peak_Nm;
     energy_audit_residual; wall_time_s; simulated_time_s; integrator, step_s, steps.
+    A metric that does not apply is absent: the contact metrics list the clearance and the
+    passive ideal revolute joints (a prismatic joint has no journal), the platform error needs
+    a task body, the torques actuators.
     """
-    names = [j.name for j in sim.scene.joints]
+    model = Problem.from_scene(sim.scene).model
     idx = {j: k for k, j in enumerate(sim.clearance_joints)}
     ideal = {j: k for k, j in enumerate(sim.ideal_passive_joints)}
+    names = [j.name for j in sim.scene.joints if j.name in idx or j.name in ideal]
     times = loss_times(sim)
 
     def per_joint(clearance_value, ideal_value):
-        return {j: (clearance_value(idx[j]) if j in idx else ideal_value(ideal[j]) if j in ideal else 0.0)
-                for j in names}
+        return {j: (clearance_value(idx[j]) if j in idx else ideal_value(ideal[j])) for j in names}
 
     reaction = np.linalg.norm(sim.reaction, axis=2) if sim.reaction.size else np.zeros((len(sim.t), 0))
     flat = scalar_metrics(sim)
+    task = {k: flat[k] for k in ("platform_error_rms_m", "platform_error_max_m")} if model.task is not None else {}
+    efforts = ({"torque_rms_Nm": flat["torque_rms_Nm"], "torque_peak_Nm": float(np.max(np.abs(sim.tau))),
+                **_at_limit(sim)} if model.n_actuators else {})
     return {
         "contact_loss_events": {j: int(sim.contact_loss_events.get(j, 0)) for j in names},
         "last_contact_loss_s": max((float(v[-1]) for v in times.values() if v.size), default=None),
@@ -77,10 +83,8 @@ def arm_metrics(sim: Simulation, wall_time: float) -> dict:
                                           lambda k: float(np.max(reaction[:, k]))),
         "min_contact_force_N": per_joint(lambda k: float(np.min(sim.normal_force[:, k])),
                                          lambda k: float(np.min(reaction[:, k]))),
-        "platform_error_rms_m": flat["platform_error_rms_m"],
-        "platform_error_max_m": flat["platform_error_max_m"],
-        "torque_rms_Nm": flat["torque_rms_Nm"],
-        "torque_peak_Nm": float(np.max(np.abs(sim.tau), initial=0.0)),
+        **task,
+        **efforts,
         "energy_audit_residual": float(sim.energy_audit_residual),
         "wall_time_s": float(wall_time),
         "simulated_time_s": float(sim.t[-1] - sim.t[0]),
@@ -88,6 +92,17 @@ def arm_metrics(sim: Simulation, wall_time: float) -> dict:
         "step_s": float(sim.stats["step"]),
         "steps": int(sim.stats["steps"]),
     }
+
+
+def _at_limit(sim: Simulation) -> dict:
+    """effort_at_limit_fraction: actuator -> share of output samples where the controller's
+    effort sits at its limit (clipped), for a torque-driven simulation with actuators."""
+    model = Problem.from_scene(sim.scene).model
+    if sim.scene.actuation.mode != "torque":
+        return {}
+    limits = np.asarray(sim.scene.torque_limit, float)
+    at = np.abs(sim.tau) >= limits * (1 - 1e-9)
+    return {"effort_at_limit_fraction": {a: float(np.mean(at[:, i])) for i, a in enumerate(model.actuator_names)}}
 
 
 def contact_onsets(sim: Simulation) -> dict:
@@ -103,7 +118,8 @@ def driven_metrics(sim: Simulation, ideal: Simulation, t_from: float, revolution
     impacts_per_revolution: joint -> contact onsets per driver revolution;
     body_acceleration_peak_m_s2: body -> max |a| of the centre of mass;
     acceleration_deviation_rms_m_s2 / _max_: body -> RMS / max |a - a_ideal|;
-    driver_effort_peak: driver -> max |effort| [N m or N]; driver_effort_rms."""
+    driver_effort_peak_Nm / _rms_Nm: revolute driver -> max / RMS |effort| [N m], and
+    driver_effort_peak_N / _rms_N for prismatic drivers [N] (each only where such drivers exist)."""
     model = Problem.from_scene(sim.scene).model
     keep = sim.t >= t_from
     span = max(float(sim.t[keep][-1] - sim.t[keep][0]), 1e-300) if keep.sum() > 1 else 1e-300
@@ -111,14 +127,17 @@ def driven_metrics(sim: Simulation, ideal: Simulation, t_from: float, revolution
     acc = {b: sim.qdd[:, model.coordinates(b)][:, :2] for b in model.body_names}
     acc_ideal = {b: ideal.qdd[:, model.coordinates(b)][:, :2] for b in model.body_names}
     dev = {b: np.linalg.norm(acc[b] - acc_ideal[b], axis=1)[keep] for b in model.body_names}
-    drivers = model.driver_names
+    efforts: dict = {}
+    for k, d in enumerate(sim.scene.graph.drivers):
+        unit = "Nm" if sim.scene.graph.joint(d.joint).type == "revolute" else "N"
+        e = sim.driver_effort[keep, k]
+        efforts.setdefault(f"driver_effort_peak_{unit}", {})[d.name] = float(np.max(np.abs(e)))
+        efforts.setdefault(f"driver_effort_rms_{unit}", {})[d.name] = float(np.sqrt(np.mean(e**2)))
     return {
         "after_s": float(t_from),
         "impacts_per_revolution": {j: float(np.sum(v >= t_from) * revolution / span) for j, v in onsets.items()},
         "body_acceleration_peak_m_s2": {b: float(np.max(np.linalg.norm(a[keep], axis=1))) for b, a in acc.items()},
         "acceleration_deviation_rms_m_s2": {b: float(np.sqrt(np.mean(v**2))) for b, v in dev.items()},
         "acceleration_deviation_max_m_s2": {b: float(np.max(v)) for b, v in dev.items()},
-        "driver_effort_peak": {d: float(np.max(np.abs(sim.driver_effort[keep, k]))) for k, d in enumerate(drivers)},
-        "driver_effort_rms": {d: float(np.sqrt(np.mean(sim.driver_effort[keep, k] ** 2)))
-                              for k, d in enumerate(drivers)},
+        **efforts,
     }

@@ -5,32 +5,95 @@ checks)."""
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
+from ..contact import V_MIN, hysteresis_factor
 from ..functions import graph_size
 from ..mechanism.workspace import path_kinematics
+from ..preload import PreloadSolution, PreloadWarning, solve_preload
 from ..problem import Problem
 from ..scene import Scene
+from ..scene.vocabulary import CONTACT_LAW_KEYS, FRICTION_LAW_KEYS
 from ..trajectory import sample_path
 from .metrics import arm_metrics, driven_metrics
 from .study import PRELOAD_ARMS, Study
 
-__all__ = ["scene_summary", "study_summary", "target_checks"]
+__all__ = ["scene_summary", "scene_check", "study_summary", "target_checks", "contact_numbers", "preload_lines",
+           "CLIPPED"]
+
+# what the simulation does with efforts beyond the limits (one sentence for check, run, summary.json)
+CLIPPED = ("the controller clips every effort at its limit, so there the journals are not held with f_min")
+
+STIFFNESS_FROM_MATERIALS = "materials and radii (Lankarani-Nikravesh / Flores, internal cylinders)"
+_FRICTION_UNITS = {"coefficient": "", "static_coefficient": "", "v0": "_m_s", "v1": "_m_s",
+                   "stribeck_velocity": "_m_s"}
+
+
+def contact_numbers(problem: Problem, v_min: float = V_MIN) -> dict | None:
+    """Every number the scene's contact and friction laws use, the derived ones included
+    (JSON-ready, units in the keys; None without a clearance joint): the law and its keys,
+    the hysteresis factor chi(c_r) and the floor v_min [m/s] of the approach velocity (laws
+    with hysteresis damping), the stiffness K [N/m^n] of every clearance joint and where it
+    comes from, and the friction law with the keys it uses."""
+    joints = problem.clearance_joints
+    if not joints:
+        return None
+    c, f = problem.scene.effects.contact, problem.scene.effects.friction
+    uses = CONTACT_LAW_KEYS[c.law]
+    out: dict = {"law": c.law, "exponent": c.exponent}
+    if "restitution" in uses:
+        out.update(restitution=c.restitution, hysteresis_factor=hysteresis_factor(c.law, c.restitution),
+                   v_min_m_s=v_min)
+    if "damping" in uses:
+        out["damping_Ns_per_m"] = c.damping
+    out["stiffness_from"] = "scene" if c.stiffness is not None else STIFFNESS_FROM_MATERIALS
+    out["stiffness_N_per_m^n"] = {j: problem.joint_stiffness(j) for j in joints}
+    out["friction"] = {"law": f.law, **{k + _FRICTION_UNITS[k]: getattr(f, k) for k in FRICTION_LAW_KEYS[f.law]}}
+    return out
+
+
+def contact_lines(numbers: dict | None) -> list[str]:
+    """The lines of :func:`contact_numbers` that `rrr4 check` prints and report.md shows."""
+    if numbers is None:
+        return ["contact: none (all joints ideal, no contact or friction terms)"]
+    n = numbers
+    law = [f"contact: {n['law']}, exponent {n['exponent']:g}"]
+    if "restitution" in n:
+        law.append(f"c_r = {n['restitution']:g} (hysteresis factor chi = {n['hysteresis_factor']:.4g}), approach "
+                   f"velocity floored at v_min = {n['v_min_m_s']:g} m/s")
+    if "damping_Ns_per_m" in n:
+        law.append(f"damping {n['damping_Ns_per_m']:g} N s/m")
+    groups: dict[float, list[str]] = {}
+    for j, k in n["stiffness_N_per_m^n"].items():
+        groups.setdefault(k, []).append(j)
+    stiff = "; ".join(f"{' '.join(js)}: {k:.4g} N/m^{n['exponent']:g}" for k, js in groups.items())
+    fr = n["friction"]
+    units = {"v0_m_s": ("v0", "m/s"), "v1_m_s": ("v1", "m/s"), "stribeck_velocity_m_s": ("v_s", "m/s"),
+             "coefficient": ("mu", ""), "static_coefficient": ("mu_s", "")}
+    terms = [f"{units[k][0]} = {v:g}{' ' + units[k][1] if units[k][1] else ''}" for k, v in fr.items() if k != "law"]
+    friction = (f"friction: {fr['law']}, " + ", ".join(terms)) if terms else "friction: none (no friction terms)"
+    return [", ".join(law), f"  stiffness from {n['stiffness_from']}: {stiff}", friction]
 
 
 def _preload(study: Study) -> dict:
     pre = study.scene.actuation.preload
     if study.preload is None:
         redundant = study.problem.redundancy >= 1
-        why = ("min_force = 0 N: the minimum-norm torques are optimal" if redundant
+        why = ("no task body: the drivers set the motion" if study.problem.model.task is None
+               else "min_force = 0 N: the minimum-norm torques are optimal" if redundant
                else "no actuation redundancy: the inverse dynamics has a single solution")
         return {"method": None, "reason": why}
     sol = study.preload
     alpha = np.asarray(sol.alpha)
+    over = [{"actuator": e.actuator, "unit": e.unit, "limit": e.limit, "peak": e.peak,
+             "t_peak_s": e.t_peak, "excess": e.excess, "spans_s": [list(v) for v in e.spans], "samples": e.samples}
+            for e in sol.effort_excess]
     return {"method": sol.method, "f_min_N": sol.f_min, "feasible": sol.all_feasible,
+            "effort_over_limit": over, "efforts_in_simulation": CLIPPED if over else "within the limits",
             "infeasible_samples": int(np.sum(~sol.feasible)), "samples": len(sol.t),
             "alpha_min_Nm": float(alpha.min()), "alpha_max_Nm": float(alpha.max()),
             "smallest_margin_N": float(np.min(sol.margin)), "torque_peak_Nm": float(np.max(np.abs(sol.tau))),
@@ -62,15 +125,16 @@ def study_summary(study: Study) -> dict:
     problem = study.problem
     sc, model = problem.scene, problem.model
     out = {"scene": sc.name, "description": sc.description, "scene_file": Path(sc.source).name if sc.source else None,
-           "chains": sc.mechanism.n_chains if problem.closed_form else None,
+           **({"chains": sc.mechanism.n_chains} if problem.closed_form else {}),
            "bodies": list(model.body_names), "actuators": list(model.actuator_names),
            "clearance_joints": list(sc.clearance_joints),
-           "contact_law": sc.effects.contact.law if sc.clearance_joints else None,
-           "friction_law": sc.effects.friction.law if sc.clearance_joints else None,
-           "gains": {"kp_Nm_per_rad": sc.actuation.kp, "kd_Nms_per_rad": sc.actuation.kd},
+           "contact": contact_numbers(problem, _v_min(study)),
            "initial_journals": sc.initial.journals,
-           "preload": _preload(study),
-           "controller": _controller(study), **{k: None for k in PRELOAD_ARMS}}
+           "preload": _preload(study)}
+    if sc.actuation.mode == "torque" and model.n_actuators:  # a controller ran: its gains, and how each arm ran it
+        out.update(gains={"kp_Nm_per_rad": sc.actuation.kp, "kd_Nms_per_rad": sc.actuation.kd},
+                   controller=_controller(study))
+    out.update({k: None for k in PRELOAD_ARMS})
     for name, arm in study.arms.items():
         out[name] = arm_metrics(arm.simulation, arm.wall_time)
     if "ideal" in study.arms:
@@ -79,6 +143,11 @@ def study_summary(study: Study) -> dict:
         out.update(_driven(study, out))
     out["targets"] = target_checks(out)
     return out
+
+
+def _v_min(study: Study) -> float:
+    """The approach-velocity floor [m/s] the study's simulations used."""
+    return next((a.simulation.stats.get("v_min", V_MIN) for a in study.arms.values()), V_MIN)
 
 
 def _controller(study: Study) -> dict:
@@ -138,9 +207,48 @@ def _ideal_at(sim, ideal):
     return replace(ideal, t=sim.t, qdd=qdd)
 
 
-def scene_summary(scene: Scene | Problem) -> str:
-    """What `rrr4 check` prints: the bodies, joints, effects, equations and path of a scene."""
+def preload_lines(sol: PreloadSolution, problem: Problem) -> list[str]:
+    """Whether the preload holds along the path, and where and by how much it fails: each
+    actuator's peak need against its limit (:attr:`PreloadSolution.effort_excess`), the other
+    failures, what the simulation does there, and the map that shows where it would hold."""
+    head = f"preload along the path: {sol.method}, f_min = {sol.f_min:g} N, {len(sol.t)} samples: "
+    if sol.all_feasible:
+        k, i = np.unravel_index(int(np.argmax(np.abs(sol.tau))), sol.tau.shape)
+        unit = "N m" if problem.joint(problem.model.actuated_joints[i]).type == "revolute" else "N"
+        return [head + f"holds at every sample; peak effort {abs(sol.tau[k, i]):.4g} {unit} at actuator "
+                f"{problem.model.actuator_names[i]}, t = {sol.t[k]:.4g} s (limit {sol.torque_limit[i]:g} {unit})"]
+    lines = [head + f"CANNOT HOLD at {int(np.sum(~sol.feasible))} of {len(sol.t)} samples"]
+    lines += [f"  {e.describe()}" for e in sol.effort_excess]
+    lines += [f"  {line.strip()}" for line in sol.report(max_lines=8, actuators=False).splitlines()[2:]]
+    where = f"rrr4 map {problem.scene.source}" if problem.scene.source else "rrr4 map SCENE"
+    lines.append(f"  {CLIPPED}: lower actuation.preload.min_force, raise the limits or slow the path; `{where}` "
+                 "shows where in the workspace the preload holds and at what torque")
+    return lines
+
+
+def scene_check(scene: Scene | Problem) -> tuple[str, PreloadSolution | None]:
+    """What `rrr4 check` prints (:func:`scene_summary`), and the scene's preload evaluated
+    along the whole path with its method (None when the controller does not preload)."""
     problem = Problem.from_scene(scene)
+    sol = None
+    if problem.has_preload and problem.scene.actuation.mode == "torque":
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", PreloadWarning)  # reported below, in full
+            sol = solve_preload(problem, branch="auto")  # the study's call: exact on the controller's branch
+    text = _scene_text(problem)
+    if sol is not None:
+        text += "\n" + "\n".join(preload_lines(sol, problem))
+    return text, sol
+
+
+def scene_summary(scene: Scene | Problem) -> str:
+    """What `rrr4 check` prints: the bodies, joints, effects, equations and path of a scene,
+    and whether its preload holds along the path."""
+    return scene_check(scene)[0]
+
+
+def _scene_text(problem: Problem) -> str:
+    """The bodies, joints, effects, equations and path of a problem's scene."""
     scene, model = problem.scene, problem.model
     lines = [f"scene {scene.name}: {scene.description}".rstrip(": "), ""]
     lines.append(f"bodies ({len(model.body_names)}, {model.nq} coordinates):")
@@ -180,16 +288,7 @@ def scene_summary(scene: Scene | Problem) -> str:
     lines.append("")
     lines.append("effects simulated:")
     e = scene.effects
-    if cl:
-        k = "from materials" if e.contact.stiffness is None else f"{e.contact.stiffness:.4g}"
-        lines.append(f"  contact: {e.contact.law}, c_r = {e.contact.restitution:g}, "
-                     f"exponent {e.contact.exponent:g}, stiffness {k}")
-        if e.friction.law == "none":
-            lines.append("  friction: none (no friction terms)")
-        else:
-            lines.append(f"  friction: {e.friction.law}, mu = {e.friction.coefficient:g}")
-    else:
-        lines.append("  contact: none (all joints ideal, no contact or friction terms)")
+    lines += [f"  {line}" for line in contact_lines(contact_numbers(problem))]
     g = e.gravity
     lines.append(f"  gravity: {'none' if g == (0.0, 0.0) else f'({g[0]:g}, {g[1]:g}) m/s^2'}")
     a = scene.actuation
@@ -200,6 +299,9 @@ def scene_summary(scene: Scene | Problem) -> str:
         rate = f"sampled at {a.control_rate:g} Hz" if a.control_rate else "continuous"
         lines.append(f"  actuation: controller = feed-forward + {pre}{comp} + PD (kp = {a.kp:g} N m/rad, kd = "
                      f"{a.kd:g} N m s/rad), |tau| <= {max(scene.torque_limit):g} N m, {rate}")
+    elif not model.n_actuators:
+        lines.append("  actuation: none (no actuators" + ("; the drivers set the motion)" if scene.graph.drivers
+                                                          else ")"))
     elif a.mode == "free":
         lines.append("  actuation: free (zero actuator torque)")
     else:

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from .study import PRELOAD_ARMS, Study
+from .summary import contact_lines
 
 __all__ = ["write_timeseries_csv", "report_markdown"]
 
@@ -20,7 +21,8 @@ def write_timeseries_csv(study: Study, path: Path, rate: float | None = None) ->
     tau_<actuator>_Nm (or _N for a prismatic actuator), and per clearance joint Fn_<J>_N,
     penetration_<J>_m, ex_<J>_m, ey_<J>_m.
     A driven scene (no task; arms ``with_clearance_`` / ``ideal_``) has instead, per body B,
-    B_x_m, B_y_m, B_theta_rad, B_ax_m_s2, B_ay_m_s2 and per driver D, D_effort (N m or N).
+    B_x_m, B_y_m, B_theta_rad, B_ax_m_s2, B_ay_m_s2 and per driver D, D_effort_Nm (or _N on a
+    prismatic joint).
     """
     problem = study.problem
     model = problem.model
@@ -42,15 +44,14 @@ def write_timeseries_csv(study: Study, path: Path, rate: float | None = None) ->
                 for k, key in enumerate(("x_m", "y_m", "theta_rad")):
                     cols[f"{name}_{b}_{key}"] = q[:, k]
                 cols[f"{name}_{b}_ax_m_s2"], cols[f"{name}_{b}_ay_m_s2"] = qdd[:, 0], qdd[:, 1]
-            for k, d in enumerate(model.driver_names):
-                cols[f"{name}_{d}_effort"] = sim.driver_effort[rows, k]
+            for k, d in enumerate(study.scene.graph.drivers):
+                cols[f"{name}_{d.name}_effort_{_unit(problem, d.joint)}"] = sim.driver_effort[rows, k]
         else:
             for k, key in enumerate(("x_m", "y_m", "theta_rad")):
                 cols[f"{name}_{key}"] = sim.pose[rows, k]
             cols[f"{name}_error_m"] = sim.platform_error[rows]
         for i, a in enumerate(model.actuator_names):
-            unit = "Nm" if problem.joint(model.actuated_joints[i]).type == "revolute" else "N"
-            cols[f"{name}_tau_{a}_{unit}"] = sim.tau[rows, i]
+            cols[f"{name}_tau_{a}_{_unit(problem, model.actuated_joints[i])}"] = sim.tau[rows, i]
         for k, j in enumerate(sim.clearance_joints):
             cols[f"{name}_Fn_{j}_N"] = sim.normal_force[rows, k]
             cols[f"{name}_penetration_{j}_m"] = sim.penetration[rows, k]
@@ -61,6 +62,11 @@ def write_timeseries_csv(study: Study, path: Path, rate: float | None = None) ->
         w.writerow(cols)
         w.writerows(np.column_stack(list(cols.values())).tolist())
     return path
+
+
+def _unit(problem, joint: str) -> str:
+    """The unit of an effort on `joint` in a key: Nm on a revolute joint, N on a prismatic one."""
+    return "Nm" if problem.joint(joint).type == "revolute" else "N"
 
 
 def _fmt(v, scale=1.0, digits=4):
@@ -86,6 +92,8 @@ def report_markdown(summary: dict) -> str:
     row("platform error RMS [um]", lambda m: _fmt(m["platform_error_rms_m"], 1e6))
     row("platform error max [um]", lambda m: _fmt(m["platform_error_max_m"], 1e6))
     row("torque RMS [N m]", lambda m: _fmt(m["torque_rms_Nm"]))
+    row("largest share of time at an effort limit", lambda m: _fmt(max(m.get("effort_at_limit_fraction", {}).values(),
+                                                                       default=None)))
     row("energy audit residual", lambda m: _fmt(m["energy_audit_residual"], 1.0, 3))
     row("simulated time [s]", lambda m: _fmt(m["simulated_time_s"]))
     row("integrator, step [s]", lambda m: f"{m['integrator']}, {m['step_s']:g}")
@@ -102,9 +110,16 @@ def report_markdown(summary: dict) -> str:
         pre_line = (f"Preload: method `{pre['method']}`, f_min = {pre['f_min_N']:g} N, feasible at "
                     f"{pre['samples'] - pre['infeasible_samples']}/{pre['samples']} path samples, alpha in "
                     f"[{pre['alpha_min_Nm']:.4g}, {pre['alpha_max_Nm']:.4g}] N m.")
+        for e in pre.get("effort_over_limit") or ():
+            pre_line += (f" **The preload cannot hold:** actuator {e['actuator']} needs {e['peak']:.4g} {e['unit']} at "
+                         f"t = {e['t_peak_s']:.4g} s against its limit {e['limit']:g} {e['unit']} (over it at "
+                         f"{e['samples']} samples).")
+        if pre.get("effort_over_limit"):
+            pre_line += f" In the simulations {pre['efforts_in_simulation']}."
     else:
         pre_line = f"No preload arm: {pre['reason']}."
-    lines = [f"# Study of `{summary['scene']}`", "", summary["description"], "", pre_line, "", *rows, *per]
+    lines = [f"# Study of `{summary['scene']}`", "", summary["description"], "", pre_line, "", *_contact(summary),
+             *rows, *per]
     tg = summary.get("targets") or {}
     if tg:
         lines += ["", "Targets: zero losses with preload over the whole run: "
@@ -120,6 +135,11 @@ def report_markdown(summary: dict) -> str:
               + (" (each clearance journal rests on its bearing wall under the ideal reaction at t = 0; "
                  "with no load, as without preload at rest, it stays centred)." if journals == "seated" else ".")]
     return "\n".join(lines) + "\n"
+
+
+def _contact(summary: dict) -> list[str]:
+    """The contact and friction numbers the simulations used, as a list, then a blank line."""
+    return [f"- {line.strip()}" for line in contact_lines(summary.get("contact"))] + [""]
 
 
 def _driven_report(summary: dict) -> str:
@@ -143,8 +163,9 @@ def _driven_report(summary: dict) -> str:
         row(f"peak acceleration of {b} [m/s^2]", lambda m, b=b: _fmt(m["body_acceleration_peak_m_s2"][b]))
         row(f"RMS acceleration deviation of {b} from ideal [m/s^2]",
             lambda m, b=b: _fmt(m["acceleration_deviation_rms_m_s2"][b]))
-    for d in arms[0][1]["driver_effort_peak"]:
-        row(f"peak effort of driver {d}", lambda m, d=d: _fmt(m["driver_effort_peak"][d]))
+    for key, unit in (("driver_effort_peak_Nm", "N m"), ("driver_effort_peak_N", "N")):
+        for d in arms[0][1].get(key, {}):
+            row(f"peak effort of driver {d} [{unit}]", lambda m, d=d, key=key: _fmt(m[key][d]))
     row("energy audit residual", lambda m: _fmt(m["energy_audit_residual"], 1.0, 3))
     row("wall time [s]", lambda m: _fmt(m["wall_time_s"], 1.0, 3))
     diff = (summary.get("step_convergence") or {}).get("trajectory_difference_m", {})
@@ -155,5 +176,6 @@ def _driven_report(summary: dict) -> str:
              f"revolution takes {summary['revolution_s']:.4g} s, and rates and deviations are taken after "
              f"t = {after:.4g} s (the start transient). The half-step column repeats the clearance run at half "
              "the step: where it agrees, the number has converged in the step; impact-resolved quantities of a "
-             "rattling joint (peak forces, the timing of single impacts) are sensitive to it.", "", *rows, "", agree]
+             "rattling joint (peak forces, the timing of single impacts) are sensitive to it.", "",
+             *_contact(summary), *rows, "", agree]
     return "\n".join(lines) + "\n"

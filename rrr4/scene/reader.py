@@ -42,6 +42,8 @@ from .schema import (
 from .time_table import read_time_table
 from .vocabulary import (
     ACTUATION_MODES,
+    CONTACT_LAW_KEYS,
+    FRICTION_LAW_KEYS,
     GROUND,
     JOINT_TYPES,
     JOURNAL_STARTS,
@@ -356,9 +358,21 @@ def _floating_bodies(bodies: list[str], joints, task: str | None) -> list[str]:
     return [b for b in bodies if b not in reached]
 
 
+def _only_law_keys(sec: Section, law: str, keys_of: dict) -> None:
+    """Refuse a key of `sec` that some law of `keys_of` uses but `law` does not (it would be
+    accepted and ignored)."""
+    takes = keys_of[law]
+    others = {k for keys in keys_of.values() for k in keys} - set(takes)
+    for k in sec.data:
+        if k in others:
+            raise SceneError(f"{sec.key(k)}: not used by law '{law}' (it takes: {', '.join(('law', *takes))}); "
+                             "remove it or choose a law that uses it")
+
+
 def _effects(sec: Section) -> Effects:
     c = sec.section("contact")
     law = c.choice("law", choices("contact law"), "lankarani-nikravesh")
+    _only_law_keys(c, law, CONTACT_LAW_KEYS)
     cr = c.number("restitution", 0.9, lo=0.0, hi=1.0, lo_open=True)
     exponent = c.number("exponent", 1.0 if law == "kelvin-voigt" else 1.5, positive=True)
     k = c.raw("stiffness", "auto")
@@ -370,6 +384,7 @@ def _effects(sec: Section) -> Effects:
     c.done()
     f = sec.section("friction")
     flaw = f.choice("law", choices("friction law"), "none")
+    _only_law_keys(f, flaw, FRICTION_LAW_KEYS)
     mu = f.number("coefficient", 0.0 if flaw == "none" else None, nonneg=True)
     mus = f.number("static_coefficient", mu, nonneg=True)
     v0 = f.number("v0", 1e-4, positive=True)

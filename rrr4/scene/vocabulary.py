@@ -9,8 +9,9 @@ registry agree. Imports nothing.
 from __future__ import annotations
 
 __all__ = ["MECHANISM_KINDS", "JOINT_TYPES", "PATH_TYPES", "TIME_LAWS", "ACTUATION_MODES", "CONTACT_LAWS",
-           "FRICTION_LAWS", "INTEGRATORS", "ERROR_CONTROLLED", "NEWTON", "COORDINATES", "PRELOAD_METHODS",
-           "COMPENSATIONS", "QP_SOLVERS", "JOURNAL_STARTS", "OBJECTIVES", "MATERIALS", "GROUND", "choices", "registry"]
+           "FRICTION_LAWS", "CONTACT_LAW_KEYS", "FRICTION_LAW_KEYS", "INTEGRATORS", "ERROR_CONTROLLED", "NEWTON",
+           "COORDINATES", "PRELOAD_METHODS", "COMPENSATIONS", "QP_SOLVERS", "JOURNAL_STARTS", "OBJECTIVES", "MATERIALS",
+           "GROUND", "choices", "registry"]
 
 GROUND = "ground"  # the fixed frame's name in a graph
 MECHANISM_KINDS = ("n-rrr", "graph")
@@ -20,6 +21,21 @@ TIME_LAWS = ("quintic", "cycloidal", "linear", "table")  # table: path.time_tabl
 ACTUATION_MODES = ("torque", "prescribed", "free")  # free: zero actuator torque
 CONTACT_LAWS = ("hertz", "kelvin-voigt", "hunt-crossley", "lankarani-nikravesh", "flores", "gonthier")
 FRICTION_LAWS = ("coulomb", "ambrosio", "smooth", "stribeck")  # a scene may also say 'none'
+# the keys of effects.contact / effects.friction each law uses besides 'law' (a scene giving
+# another law's key is refused: the law would ignore it)
+CONTACT_LAW_KEYS = {
+    "hertz": ("exponent", "stiffness"),
+    "kelvin-voigt": ("exponent", "stiffness", "damping"),
+    **{law: ("restitution", "exponent", "stiffness") for law in ("hunt-crossley", "lankarani-nikravesh", "flores",
+                                                                "gonthier")},
+}
+FRICTION_LAW_KEYS = {
+    "none": (),
+    "coulomb": ("coefficient",),
+    "ambrosio": ("coefficient", "v0", "v1"),
+    "smooth": ("coefficient", "v0"),
+    "stribeck": ("coefficient", "static_coefficient", "v0", "stribeck_velocity"),
+}
 INTEGRATORS = ("bathe", "newmark", "generalized-alpha", "rk4", "erk", "rosenbrock", "cvodes", "idas", "rk45",
                "radau")
 ERROR_CONTROLLED = ("bathe", "newmark", "generalized-alpha")  # the methods integrator.tolerance applies to

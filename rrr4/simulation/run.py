@@ -221,7 +221,7 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
         raise SimulationError(f"integrator.step: {h:g} s lets the state blow up (non-finite by t = "
                               f"{t_out[k]:.6g} s) with {method.name}; use a smaller step")
     stats = {"method": method.name, "step": h, "steps": spf * n_frames, "frames": len(t_out) - 1, "wall_time": wall,
-             "input_time": u.seconds, "jit": method.jit,
+             "input_time": u.seconds, "jit": method.jit, "v_min": eqs.v_min,
              "graph": {f.name(): graph_size(f) for f in (eqs.acceleration, system.ode)},
              "controller": (controller if loop.control is not None else "none"),
              "coordinates": "tree" if tree else "reference-point",

@@ -53,6 +53,7 @@ from ..preload import solve_preload
 from ..preload.solve import PreloadWarning
 from ..problem import Problem
 from ..results.study import Study, StudyArm
+from ..results.summary import preload_lines
 from ..scene import MAX_SAMPLES, Scene
 from ..simulation import simulate
 from ..trajectory import sample_path
@@ -108,7 +109,8 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
         raise SceneError(f"t_end: {t_end:g} s is not allowed at step {h:g} s (the study keeps every step: at most "
                          f"{MAX_SAMPLES:g} steps)")
     t_path = sample_path(scene.path).t
-    say(f"inverse dynamics of the ideal mechanism at {len(t_path)} path samples")
+    if problem.model.task is not None:
+        say(f"inverse dynamics of the ideal mechanism at {len(t_path)} path samples")
     tau_min_norm = _min_norm_torques(problem, t_path)
 
     preload, preload_warning = None, ""
@@ -119,8 +121,9 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
             warnings.simplefilter("always", PreloadWarning)
             preload = solve_preload(problem, pre.method, branch="auto")  # exact: the controller's one branch
         preload_warning = "\n".join(str(w.message) for w in caught if issubclass(w.category, PreloadWarning))
-        if preload_warning:
-            say(f"preload is infeasible at {int(np.sum(~preload.feasible))} samples; simulated anyway")
+        if not preload.all_feasible:  # loud: where, which actuator, by how much, and what the simulation does
+            for line in preload_lines(preload, problem):
+                say(line)
 
     def arm(name, sc, step=h, controller="python"):
         say(f"simulate {name.replace('_', ' ')}: {t_end:g} s, step {step:g} s"

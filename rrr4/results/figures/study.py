@@ -16,8 +16,8 @@ import numpy as np
 from ..study import Study
 from .base import STYLE, save_figure
 
-__all__ = ["orbits", "contact_forces", "platform_error", "torques", "preload_alpha", "body_accelerations",
-           "driver_efforts", "all_figures"]
+__all__ = ["driver_window", "orbits", "contact_forces", "platform_error", "torques", "preload_alpha",
+           "body_accelerations", "driver_efforts", "all_figures"]
 
 DPI = 110
 
@@ -87,7 +87,7 @@ def contact_forces(study: Study, path: Path) -> Path | None:
     if not joints:
         return None
     if "ideal" in study.arms:
-        x_of, x_label, x_lim = _driver_window(study)
+        x_of, x_label, x_lim = driver_window(study)
     else:
         x_of, x_label, x_lim = (lambda sim: sim.t), "t [s]", (0.0, study.t_end)
     fig, axes = _grid(len(joints), 3.6 if len(joints) > 1 else 8.0, 2.4 if len(joints) > 1 else 3.6)
@@ -186,27 +186,33 @@ def preload_alpha(study: Study, path: Path) -> Path | None:
     return save_figure(fig, path, dpi=DPI)
 
 
-def _driver_window(study: Study) -> tuple:
-    """(x values for a simulation, x label, x limits): the first driver's angle [deg] over two
-    revolutions after the first (the start transient), or time when there is no revolute driver."""
+def driver_window(study: Study) -> tuple:
+    """(x values for a simulation, x label, x limits): the first driver's angle [deg] (its
+    travel from ``initial_deg``, in the direction it turns) over two revolutions after the
+    first (the start transient), or over the run when it is shorter than three; time when
+    there is no revolute driver."""
     d = study.scene.graph.drivers[0] if study.scene.graph.drivers else None
     if d is None or study.scene.graph.joint(d.joint).type != "revolute" or d.speed == 0:
         return (lambda sim: sim.t), "t [s]", (0.0, study.t_end)
-    start = 360.0 if 3 * 2 * np.pi / abs(d.speed) <= study.t_end else 0.0
-    return (lambda sim: np.degrees(d.initial + abs(d.speed) * sim.t)), f"{d.name} angle [deg]", (start, start + 720.0)
+    start = np.degrees(d.initial)
+    travel = np.degrees(abs(d.speed) * study.t_end)
+    lo, hi = (start + 360.0, start + 1080.0) if travel >= 3 * 360.0 else (start, start + min(travel, 720.0))
+    return (lambda sim: start + np.degrees(abs(d.speed) * sim.t)), f"{d.name} angle [deg]", (lo, hi)
 
 
 def body_accelerations(study: Study, path: Path) -> Path | None:
     """Driven scenes: centre-of-mass acceleration components [m/s^2] of every body, with
     clearance and ideal, over two driver revolutions after the start transient (components
-    that stay zero in the ideal run are left out)."""
+    that stay zero in every arm are left out; None when no centre of mass accelerates)."""
     if "ideal" not in study.arms:
         return None
     model = study.problem.model
-    ideal = study.arms["ideal"].simulation
-    x_of, x_label, x_lim = _driver_window(study)
+    x_of, x_label, x_lim = driver_window(study)
     panels = [(b, c) for b in model.body_names for c in (0, 1)
-              if np.max(np.abs(ideal.qdd[:, model.coordinates(b)][:, c])) > 1e-9]
+              if any(np.max(np.abs(a.simulation.qdd[:, model.coordinates(b)][:, c])) > 1e-9
+                     for a in study.arms.values())]
+    if not panels:
+        return None
     fig, axes = _grid(len(panels), 4.0, 2.6)
     for ax, (b, c) in zip(axes, panels, strict=False):
         for arm_name, arm in study.arms.items():
