@@ -16,8 +16,9 @@ z <- g(t, y, z) after each step (contact onset/loss). A method only implements
   output over the frame's steps), folds the frames of one output interval into one unit
   (optionally JIT-compiled) and rolls the units with ``mapaccum``, keeping only each
   output's public state,
-- runs the output intervals in about :data:`CALLS` calls (so that long runs show a progress
-  bar; a call per 50 frames cost a third of the reference scene's stepping), each with its
+- runs the output intervals in about :data:`CALLS` calls of at most :data:`MAX_CHUNK` intervals
+  (so that long runs show a progress bar and what a call builds stays small; a call per 50
+  frames cost a third of the reference scene's stepping), each with its
   frame inputs and kept states passed through CasADi's buffer interface (:func:`evaluate`),
   not converted to and from DM,
 - keeps the built (and compiled) frame Function on the system (per method settings, step
@@ -38,7 +39,10 @@ from ..errors import Rrr4Error
 from ..functions import evaluate
 
 CALLS = 20  # calls from Python that a run's stepping is split into (progress-bar updates)
-MAX_CHUNK = 2000  # output intervals per call at most (a call holds each one's full state)
+# output intervals per call at most: CasADi's mapaccum over k intervals takes memory that grows
+# with k while it is built (measured: 14 MB at k = 100, 160 MB at 1000) and keeps part of it as
+# long as the system lives, so a long run would pay for its length; 64 costs no measurable time
+MAX_CHUNK = 64
 
 
 class FrameInputs:
