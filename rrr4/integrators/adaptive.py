@@ -45,14 +45,28 @@ class AdaptiveIntegrator(Integrator):
         """(y at t_b, counters of this frame: steps, rejected, rhs, jacobians)."""
 
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int | None = None,
-            progress: bool = False, every: int = 1) -> Run:
+            progress: bool = False, every: int = 1, sink=None) -> Run:
         """States at the end of every `every`-th frame, (n_frames / every, system.kept), and the solver's
-        counters; frame k spans [u[k, 0], u[k, 1]]."""
+        counters; frame k spans [u[k, 0], u[k, 1]]; sink: see :meth:`Integrator.run` (it gets
+        each output as it is made). The discrete state, and with it the running peaks, is
+        updated at each frame end: the solver's inner steps are its own."""
         self.prepare(system, h)
         u_frames = frame_inputs(u_frames)
         ny = system.ny
         x = np.asarray(x0, float)
-        out, totals = [], {"steps": 0, "rejected_steps": 0, "rhs_evaluations": 0, "jacobians": 0}
+        n_out = u_frames.shape[0] // every
+        out = np.full((n_out, system.kept), np.nan) if sink is None else None
+        made = 0  # outputs made
+
+        def put(state):
+            nonlocal made
+            if sink is None:
+                out[made] = state
+            else:
+                sink(made, state[None, :])
+            made += 1
+
+        totals = {"steps": 0, "rejected_steps": 0, "rhs_evaluations": 0, "jacobians": 0}
         frames = range(u_frames.shape[0])
         if progress:
             from tqdm import tqdm
@@ -66,15 +80,14 @@ class AdaptiveIntegrator(Integrator):
                 for key in totals:
                     totals[key] += int(counts.get(key, 0))
                 if not np.all(np.isfinite(y1)):
-                    out.append(np.full(system.kept, np.nan))
                     break
-                z1 = np.array(system.discrete(t_b, y1, z)).ravel()
+                z1 = np.array(system.update(t_b, y1, z, u)).ravel()
                 x = np.r_[t_b, y1, z1]
                 if k % every == every - 1:  # keep the outputs only
-                    out.append(x[:system.kept])
+                    put(np.r_[tuple(x[s] for s in system.kept_entries)])
         finally:
             if progress:
                 frames.close()
-        while len(out) < u_frames.shape[0] // every:
-            out.append(np.full(system.kept, np.nan))
-        return Run(np.vstack(out), {**totals, "rtol": self.rtol, "atol": self.atol})
+        if sink is not None and made < n_out:  # a blown-up run: NaN from there on
+            sink(made, np.full((n_out - made, system.kept), np.nan))
+        return Run(out, {**totals, "rtol": self.rtol, "atol": self.atol})

@@ -2,7 +2,9 @@
 CasADi, never as a Python loop calling CasADi per step.
 
 A :class:`System` is an ODE with a discrete state: y' = f(t, y, z, u) between steps and
-z <- g(t, y, z) after each step (contact onset/loss). A method only implements
+z <- g(t, y, z) after each step (contact onset/loss), which also carries the running maxima
+of the system's `peaks` over every step (so that a peak between two outputs is not missed).
+A method only implements
 :meth:`FixedStepIntegrator.advance` (one step of y). The base class
 
 - builds ``step``: x = [t, y, z], u -> x_next (one step plus the discrete update),
@@ -16,10 +18,12 @@ z <- g(t, y, z) after each step (contact onset/loss). A method only implements
   output over the frame's steps), folds the frames of one output interval into one unit
   (optionally JIT-compiled) and rolls the units with ``mapaccum``, keeping only each
   output's public state,
-- runs the output intervals in about :data:`CALLS` calls (so that long runs show a progress
-  bar; a call per 50 frames cost a third of the reference scene's stepping), each with its
+- runs the output intervals in about :data:`CALLS` calls of at most :data:`MAX_CHUNK` intervals
+  (so that long runs show a progress bar and what a call builds stays small; a call per 50
+  frames cost a third of the reference scene's stepping), each with its
   frame inputs and kept states passed through CasADi's buffer interface (:func:`evaluate`),
-  not converted to and from DM,
+  not converted to and from DM, into one array of the outputs or, given a ``sink``, to it a
+  call at a time (what the run holds then does not grow with its outputs),
 - keeps the built (and compiled) frame Function on the system (per method settings, step
   and steps per frame), so a second run of the same scene builds nothing, and dropping the
   system frees them.
@@ -38,7 +42,10 @@ from ..errors import Rrr4Error
 from ..functions import evaluate
 
 CALLS = 20  # calls from Python that a run's stepping is split into (progress-bar updates)
-MAX_CHUNK = 2000  # output intervals per call at most (a call holds each one's full state)
+# output intervals per call at most: CasADi's mapaccum over k intervals takes memory that grows
+# with k while it is built (measured: 14 MB at k = 100, 160 MB at 1000) and keeps part of it as
+# long as the system lives, so a long run would pay for its length; 64 costs no measurable time
+MAX_CHUNK = 64
 
 
 class FrameInputs:
@@ -85,8 +92,9 @@ def frame_inputs(u_frames) -> FrameInputs | np.ndarray:
 @dataclass(frozen=True)
 class Run:
     """What an integrator's run returns: states (n_outputs, System.kept) at the end of each
-    output frame, and its statistics (e.g. Newton iterations, accepted and rejected steps)."""
-    states: np.ndarray
+    output frame (None when a sink took them), and its statistics (e.g. Newton iterations,
+    accepted and rejected steps)."""
+    states: np.ndarray | None
     stats: dict
 
 
@@ -99,7 +107,11 @@ class System:
     control (optional): y, z, u_frame -> u, a sampled controller with zero-order hold. It
     runs once at the start of every frame on the state there (z may carry its settings), and
     its output (which keeps the frame's [t_a, t_b] first) is the ODE's u over the whole frame;
-    the frame inputs u_frame then carry the controller's references."""
+    the frame inputs u_frame then carry the controller's references.
+
+    peaks (optional): t, y, z, u -> values (m,) whose running maxima over every step are the
+    last m entries of z (a minimum is the maximum of its negative); `discrete` leaves them as
+    they are and :meth:`update` raises them."""
     ode: ca.Function
     discrete: ca.Function
     control: ca.Function | None = None
@@ -107,10 +119,11 @@ class System:
     # the leading entries of z whose change over a step is an event (a contact opening or
     # closing); None: all of z. The rest (e.g. constant parameters) never changes.
     n_events: int | None = None
+    peaks: ca.Function | None = None
     # (method, settings, h, steps per frame, frames per output) -> the built (and compiled)
-    # unit of work; (that key, units per call, entries kept) -> the call that rolls it; and
-    # the implicit methods' Newton solvers: the system owns them, so they live exactly as
-    # long as it does
+    # unit of work; (that key, units per call, entries kept) -> the call that rolls it; the
+    # implicit methods' Newton solvers; and "update" (see :meth:`update`): the system owns
+    # them, so they live exactly as long as it does
     frames: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -127,10 +140,46 @@ class System:
         return self.nz if self.n_events is None else self.n_events
 
     @property
+    def n_peaks(self) -> int:
+        """How many running maxima end z (see peaks)."""
+        return 0 if self.peaks is None else self.peaks.size1_out(0)
+
+    @property
     def kept(self) -> int:
-        """The entries of a state that a run returns at each output: t, y and the leading
-        `events` entries of z (the rest never changes: it is the initial state's)."""
-        return 1 + self.ny + self.events
+        """How many entries of a state a run returns at each output (:attr:`kept_entries`)."""
+        return 1 + self.ny + self.events + self.n_peaks
+
+    @property
+    def kept_entries(self) -> tuple[slice, slice]:
+        """Where they are in a state [t, y, z, ...]: t, y and the leading `events` entries of
+        z, then the running maxima at the end of z. The rest of z never changes: it is the
+        initial state's."""
+        end = 1 + self.ny + self.nz
+        return slice(0, 1 + self.ny + self.events), slice(end - self.n_peaks, end)
+
+    def update(self, t, y, z, u):
+        """z after a step that ends at (t, y) with u held over it (numeric or symbolic): the
+        discrete update, then the running maxima raised to the peaks at the new state."""
+        if self.peaks is None:
+            return self.discrete(t, y, z)
+        if "update" not in self.frames:  # one graph: the peaks share the contact geometry with the update
+            ts, ys, zs, us = (ca.SX.sym(name, self.ode.sparsity_in(i)) for i, name in enumerate("tyzu"))
+            z1 = self.discrete(ts, ys, zs)
+            a = self.nz - self.n_peaks
+            z1 = ca.vertcat(z1[:a], ca.fmax(z1[a:], self.peaks(ts, ys, z1, us)))
+            self.frames["update"] = ca.Function("update", [ts, ys, zs, us], ca.cse([z1]), ["t", "y", "z", "u"],
+                                                ["z_next"])
+        return self.frames["update"](t, y, z, u)
+
+    def started(self, x0, u_frame) -> np.ndarray:
+        """The initial state [t, y, z] of x0 = [t, y, z without its running maxima]: the maxima
+        start at the peaks there (u_frame: the first frame's input), so that a run's include
+        its start."""
+        x0 = np.r_[np.asarray(x0, float), np.zeros(self.n_peaks)]
+        if self.peaks is not None:
+            y, z = x0[1:1 + self.ny], x0[1 + self.ny:]
+            x0[self.kept_entries[1]] = np.array(self.peaks(x0[0], y, z, self.held(y, z, u_frame))).ravel()
+        return x0
 
     @property
     def nu(self) -> int:
@@ -165,10 +214,12 @@ class Integrator(ABC):
 
     @abstractmethod
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int | None = None,
-            progress: bool = False, every: int = 1) -> Run:
+            progress: bool = False, every: int = 1, sink=None) -> Run:
         """States at the end of every `every`-th frame, (n_frames / every, system.kept), and
         the run's statistics; frame k spans [u[k, 0], u[k, 1]], h [s] is the step (or a
-        first-step hint of an adaptive method)."""
+        first-step hint of an adaptive method). sink(k, states): given, it receives the
+        states of outputs k, k + 1, ... ((m, system.kept), valid during the call) as the run
+        makes them, and Run.states is None."""
 
 
 class FixedStepIntegrator(Integrator):
@@ -200,7 +251,7 @@ class FixedStepIntegrator(Integrator):
         x, u = ca.SX.sym("x", 1 + ny + nz), ca.SX.sym("u", system.nu)
         t, y, z = x[0], x[1:1 + ny], x[1 + ny:]
         y1 = self.advance(system.ode, t, y, z, u, h)
-        z1 = system.discrete(t + h, y1, z)
+        z1 = system.update(t + h, y1, z, u)
         return ca.Function("step", [x, u], ca.cse([ca.vertcat(t + h, y1, z1)]), ["x", "u"], ["x_next"])
 
     def refined_step_function(self, system: System, h: float) -> ca.Function:
@@ -235,20 +286,23 @@ class FixedStepIntegrator(Integrator):
         return ca.Function("frame", [x, u], [x1], ["x", "u"], ["x_next"])
 
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int | None = None,
-            progress: bool = False, every: int = 1) -> Run:
+            progress: bool = False, every: int = 1, sink=None) -> Run:
         """States at the end of every `every`-th frame, (n_frames / every, system.kept), and
         statistics; u_frames (n_frames, nu), an array or :class:`FrameInputs`; n_frames a
-        multiple of `every`."""
-        return Run(self.roll(system, x0, u_frames, h, steps_per_frame, chunk, progress, keep=system.kept,
-                             every=every)[0], {})
+        multiple of `every`; sink: see :meth:`Integrator.run`."""
+        return Run(self.roll(system, x0, u_frames, h, steps_per_frame, chunk, progress, every=every,
+                             sink=sink)[0], {})
 
     def roll(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int | None = None,
-             progress: bool = False, keep: int | None = None, every: int = 1) -> tuple[np.ndarray, np.ndarray]:
-        """(the first `keep` entries of the state at the end of every `every`-th frame, the last
-        full state): what a run keeps grows with the outputs, never with the frames, the steps
-        or a method's own state (Newton factors). Converting results out of CasADi costs about
-        as much per number as a right-hand side per instruction, so the rest stays inside.
-        chunk: frames per call from Python (None: the run in about CALLS calls)."""
+             progress: bool = False, every: int = 1, sink=None) -> tuple[np.ndarray | None, np.ndarray]:
+        """(the kept entries (:attr:`System.kept_entries`) of the state at the end of every
+        `every`-th frame, or None
+        when `sink` took them a call at a time, see :meth:`Integrator.run`; the last full
+        state): what a run keeps grows with the outputs (with a sink, not even that), never
+        with the frames, the steps or a method's own state (Newton factors). Converting
+        results out of CasADi costs about as much per number as a right-hand side per
+        instruction, so the rest stays inside. chunk: frames per call from Python (None: the
+        run in about CALLS calls)."""
         u_frames = frame_inputs(u_frames)
         n_frames = u_frames.shape[0]
         if n_frames % every:
@@ -270,8 +324,8 @@ class FixedStepIntegrator(Integrator):
         n_units = n_frames // every
         chunk = max(1, chunk // every) if chunk else min(max(1, -(-n_units // CALLS)), MAX_CHUNK)  # intervals per call
         x = np.asarray(x0, float)
-        keep = x.size if keep is None else keep
-        out = np.empty((n_units, keep))
+        keep = system.kept
+        out = np.empty((n_units, keep)) if sink is None else None
         bar = None
         if progress:
             from tqdm import tqdm
@@ -282,12 +336,17 @@ class FixedStepIntegrator(Integrator):
                 if (key, k, keep) not in system.frames:  # the kept rows at each output and the last full state
                     xm, um = ca.MX.sym("x", x.size), ca.MX.sym("u", u_frames.shape[1], k * every)
                     xs = unit.mapaccum("outputs", k)(xm, um)
-                    system.frames[key, k, keep] = ca.Function("chunk", [xm, um], [xs[:keep, :], xs[:, -1]])
+                    head, peaks = system.kept_entries
+                    system.frames[key, k, keep] = ca.Function("chunk", [xm, um], [
+                        ca.vertcat(xs[head, :], xs[peaks, :]), xs[:, -1]])
                 # (k * every, nu) rows in C order are the (nu, k * every) input in CasADi's column
                 # order, and the (keep, k) output is out's rows k0..k0+k: no conversion to DM
                 last = np.empty(x.size)
+                kept = out[k0:k0 + k] if sink is None else np.empty((k, keep))
                 evaluate(system.frames[key, k, keep], [x, np.ascontiguousarray(u_frames[k0 * every:(k0 + k) * every],
-                                                                             float)], [out[k0:k0 + k], last])
+                                                                             float)], [kept, last])
+                if sink is not None:
+                    sink(k0, kept)
                 x = last
                 if bar is not None:
                     bar.update(k * every)

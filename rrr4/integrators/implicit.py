@@ -352,7 +352,7 @@ class ImplicitIntegrator(FixedStepIntegrator):
             return yk, newton.rate(converged, ts, yk, z, u, vk, r_v, c_v, pk)
 
         y1, mem1, rates = self.advance_implicit(stage, system.ode, t, y, z, u, h, mem, nq)
-        z1 = system.discrete(t + h, y1, z)
+        z1 = system.update(t + h, y1, z, u)
         ne = system.events
         contact_changed = ca.norm_inf(z1[:ne] - z[:ne]) > 0 if ne else ca.MX(0)
         renew1 = ca.fmax(flags["renew_next"], contact_changed)
@@ -393,7 +393,7 @@ class ImplicitIntegrator(FixedStepIntegrator):
         return out if self.tolerance is None else np.r_[out, initial_adaptive()]
 
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int | None = None,
-            progress: bool = False, every: int = 1) -> Run:
+            progress: bool = False, every: int = 1, sink=None) -> Run:
         """As :meth:`FixedStepIntegrator.run`, with the Newton counters in the statistics."""
         x0 = np.asarray(x0, float)
         u_frames = frame_inputs(u_frames)
@@ -401,7 +401,7 @@ class ImplicitIntegrator(FixedStepIntegrator):
         nq = second_order_split(system)
         nm = self.memory_size(nq)
         states, last = self.roll(system, np.r_[x0, self.initial_extra(system, x0, u0)], u_frames, h,
-                                 steps_per_frame, chunk, progress, keep=system.kept, every=every)
+                                 steps_per_frame, chunk, progress, every=every, sink=sink)
         counts = dict(zip(COUNTERS, (int(round(c)) for c in last[x0.size + nm:x0.size + nm + len(COUNTERS)]),
                           strict=True))
         n_steps = steps_per_frame * u_frames.shape[0]

@@ -6,6 +6,12 @@ Contact state per output sample: a clearance joint is in contact while its penet
 delta > 0 (Flores). With one output sample per integrator step (as the study runs) this is
 the state the simulation's own contact-loss counter sees, so loss events can be located in
 time. Ideal joints never lose contact; their "contact force" is the pin reaction.
+
+Peaks and minima of the contact forces, the penetration and the efforts are those of the
+motion, not of its samples: the simulation tracks them at every integrator step
+(``Simulation.extremes``), so a sweep that keeps outputs at 1 kHz and a run that keeps every
+step report the same numbers. Ideal joints' reactions and the prescribed mode's efforts are
+taken over the output samples.
 """
 
 from __future__ import annotations
@@ -34,15 +40,17 @@ def loss_times(sim: Simulation) -> dict:
 def scalar_metrics(sim: Simulation) -> dict:
     """One number per metric of :data:`SCALAR_METRICS` (units in the names):
     contact_loss_events (all joints, whole run, from the simulation's per-step counter);
-    platform_error_rms_m / _max_m (position distance to the commanded path);
-    min_contact_force_N / peak_contact_force_N (over every clearance joint and sample; NaN
-    without one); torque_rms_Nm (over time and actuators; 0 without actuators)."""
-    e, fn = sim.platform_error, sim.normal_force
+    platform_error_rms_m / _max_m (position distance to the commanded path, over the
+    samples); min_contact_force_N / peak_contact_force_N (over every clearance joint and
+    integrator step; NaN without one); torque_rms_Nm (over time and actuators; 0 without
+    actuators)."""
+    e, ext = sim.platform_error, sim.extremes
+    nc = len(sim.clearance_joints)
     return {"contact_loss_events": int(sum(sim.contact_loss_events.values())),
             "platform_error_rms_m": float(np.sqrt(np.mean(e**2))),
             "platform_error_max_m": float(np.max(e)),
-            "min_contact_force_N": float(fn.min()) if fn.size else float("nan"),
-            "peak_contact_force_N": float(fn.max()) if fn.size else float("nan"),
+            "min_contact_force_N": float(ext["normal_force_min"].min()) if nc else float("nan"),
+            "peak_contact_force_N": float(ext["normal_force_max"].max()) if nc else float("nan"),
             "torque_rms_Nm": float(np.sqrt(np.mean(sim.tau**2))) if sim.tau.size else 0.0}
 
 
@@ -52,9 +60,10 @@ def arm_metrics(sim: Simulation, wall_time: float) -> dict:
     contact_loss_events: joint -> count from the simulation's per-step counter (whole run);
     last_contact_loss_s (None without losses);
     free_flight_fraction: joint -> share of samples with delta <= 0; max_penetration_m;
-    peak_contact_force_N / min_contact_force_N: joint -> max / min normal force (ideal
-    joint: |reaction|); platform_error_rms_m / _max_m (position distance to
-    the commanded path); torque_rms_Nm (over time and actuators), torque_peak_Nm;
+    peak_contact_force_N / min_contact_force_N: joint -> max / min normal force over every
+    integrator step (ideal joint: |reaction|, over the samples); platform_error_rms_m /
+    _max_m (position distance to the commanded path); torque_rms_Nm (over time and
+    actuators), torque_peak_Nm (over every step in torque mode);
     energy_audit_residual; wall_time_s; simulated_time_s; integrator, step_s, steps.
     A metric that does not apply is absent: the contact metrics list the clearance and the
     passive ideal revolute joints (a prismatic joint has no journal), the platform error needs
@@ -70,18 +79,19 @@ def arm_metrics(sim: Simulation, wall_time: float) -> dict:
         return {j: (clearance_value(idx[j]) if j in idx else ideal_value(ideal[j])) for j in names}
 
     reaction = np.linalg.norm(sim.reaction, axis=2) if sim.reaction.size else np.zeros((len(sim.t), 0))
-    flat = scalar_metrics(sim)
+    flat, ext = scalar_metrics(sim), sim.extremes
+    tau_peak = ext["tau_abs_max"] if "tau_abs_max" in ext else np.abs(sim.tau)
     task = {k: flat[k] for k in ("platform_error_rms_m", "platform_error_max_m")} if model.task is not None else {}
-    efforts = ({"torque_rms_Nm": flat["torque_rms_Nm"], "torque_peak_Nm": float(np.max(np.abs(sim.tau))),
+    efforts = ({"torque_rms_Nm": flat["torque_rms_Nm"], "torque_peak_Nm": float(np.max(tau_peak, initial=0.0)),
                 **_at_limit(sim)} if model.n_actuators else {})
     return {
         "contact_loss_events": {j: int(sim.contact_loss_events.get(j, 0)) for j in names},
         "last_contact_loss_s": max((float(v[-1]) for v in times.values() if v.size), default=None),
         "free_flight_fraction": per_joint(lambda k: float(np.mean(sim.penetration[:, k] <= 0)), lambda k: 0.0),
-        "max_penetration_m": float(np.max(sim.penetration, initial=0.0)),
-        "peak_contact_force_N": per_joint(lambda k: float(np.max(sim.normal_force[:, k])),
+        "max_penetration_m": float(np.max(ext["penetration_max"], initial=0.0)),
+        "peak_contact_force_N": per_joint(lambda k: float(ext["normal_force_max"][k]),
                                           lambda k: float(np.max(reaction[:, k]))),
-        "min_contact_force_N": per_joint(lambda k: float(np.min(sim.normal_force[:, k])),
+        "min_contact_force_N": per_joint(lambda k: float(ext["normal_force_min"][k]),
                                          lambda k: float(np.min(reaction[:, k]))),
         **task,
         **efforts,

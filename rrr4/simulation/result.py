@@ -26,8 +26,12 @@ class Simulation:
     on the second); driver_effort (N, n_drivers) [N m or N]; contact_loss_events: passive
     joint -> count of contact -> free-flight transitions (0 for ideal joints); energy: dict of (N,) arrays [J] (see
     :mod:`rrr4.dynamics.energy`); energy_audit_residual = max |W_in - dE - D| / largest
-    energy term; stats: solver statistics (method, step, steps, graph sizes; wall_time [s]: the
-    stepping, without making its frame inputs, input_time [s]).
+    energy term; extremes: over every integrator step (and the start), whatever the output
+    rate: normal_force_max, normal_force_min, penetration_max (nc,) [N, N, m] per clearance
+    joint and, in torque mode, tau_abs_max (n,) [N m or N] per actuator (see
+    :func:`rrr4.simulation.system.extremes`); stats: solver statistics (method, step, steps,
+    graph sizes; wall_time [s]: the stepping, without making its frame inputs, input_time
+    [s], or its outputs, output_time [s]).
     :meth:`body` gives the (N, 3) pose of any body.
     """
     scene: Scene
@@ -51,6 +55,7 @@ class Simulation:
     contact_loss_events: dict
     energy: dict
     energy_audit_residual: float
+    extremes: dict
     stats: dict = field(default_factory=dict)
 
     def body(self, name: str) -> np.ndarray:

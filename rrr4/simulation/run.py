@@ -1,7 +1,8 @@
 """`rrr4.simulate`: the front door of contact-dynamics simulation.
 
 The problem decides the equations (``Problem.equations``); this module feeds them with
-references, picks the integrator, rolls it inside compiled CasADi and collects the results.
+references, picks the integrator and rolls it inside compiled CasADi, its outputs written at
+their rate as it runs (:mod:`.outputs`).
 
 Torque mode: the efforts are the problem's controller's (:mod:`rrr4.control`: feed-forward,
 preload, compensation, PD), run continuously inside the right-hand side or sampled at
@@ -32,7 +33,6 @@ from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from ..checks import argument, describe, unknown_value
 from ..control import CONTROLLERS, graph_references, path_rows, reference_function, tabulated
-from ..dynamics.energy import energy_audit_residual, energy_terms
 from ..errors import SceneError, SimulationError
 from ..files import c_compiler
 from ..functions import graph_size, mapped
@@ -40,6 +40,7 @@ from ..integrators import METHODS, FrameInputs, Integrator
 from ..problem import Problem
 from ..scene import MAX_SAMPLES, IntegratorSettings, Scene
 from .initial import initial_state
+from .outputs import Outputs
 from .result import Simulation
 from .system import REFERENCES, Loop, in_tree, loop_of, measured, system_of
 
@@ -206,22 +207,22 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
         return _controller_efforts(ctrl, loop, model, t, q, qd, tabulated_at(t))
 
     tree = in_tree(problem, eqs)
-    x0 = initial_state(problem, eqs, efforts, tree, loop.settings)
     system = system_of(problem, eqs, loop, refs, tree, overrides.get("inputs") or "contact")
+    x0 = system.started(initial_state(problem, eqs, efforts, tree, loop.settings), u[:1][0])
+    outputs = Outputs(problem, eqs, system, tree, t_out, x0, efforts, _prescribed(problem, eqs, refs, refs_at))
     wall = time.perf_counter()
-    run = method.run(system, x0, u, h, spf, progress=bool(overrides.get("progress", False)), every=every)
-    wall = time.perf_counter() - wall - u.seconds  # the stepping, without making its inputs
-    X = np.vstack([x0[:system.kept], run.states])  # [t, y, the discrete state's events]
-    if tree:  # back to reference-point coordinates: [t, q, qd, the rest]
-        m = eqs.tree_acceleration.size1_in(0)  # tree coordinates
-        qs = mapped(eqs.tree_state, p=X[:, 1:1 + m].T, pd=X[:, 1 + m:1 + 2 * m].T)
-        X = np.column_stack([X[:, 0], qs["q"].T, qs["qd"].T, X[:, 1 + 2 * m:]])
-    if not np.all(np.isfinite(X)):
-        k = int(np.argmax(~np.all(np.isfinite(X), axis=1)))
+    run = method.run(system, x0, u, h, spf, progress=bool(overrides.get("progress", False)), every=every,
+                     sink=outputs)
+    outputs.flush()
+    wall = time.perf_counter() - wall - u.seconds - outputs.seconds  # the stepping alone
+    if outputs.bad is not None:
         raise SimulationError(f"integrator.step: {h:g} s lets the state blow up (non-finite by t = "
-                              f"{t_out[k]:.6g} s) with {method.name}; use a smaller step")
+                              f"{t_out[outputs.bad]:.6g} s) with {method.name}; use a smaller step")
+    failure = run.stats.get("failure")
+    if failure is not None:  # the state stayed at the last accepted step: name the joint there
+        raise SimulationError(_failure_message(failure, method.name, eqs, outputs))
     stats = {"method": method.name, "step": h, "steps": spf * n_frames, "frames": len(t_out) - 1, "wall_time": wall,
-             "input_time": u.seconds, "jit": method.jit, "v_min": eqs.v_min,
+             "input_time": u.seconds, "output_time": outputs.seconds, "jit": method.jit, "v_min": eqs.v_min,
              "graph": {f.name(): graph_size(f) for f in (eqs.acceleration, system.ode)},
              "controller": (controller if loop.control is not None else "none"),
              "coordinates": "tree" if tree else "reference-point",
@@ -230,7 +231,18 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
                                                             and eqs.mode == "torque" else "none"),
              "compensation": ctrl.scene.actuation.compensation if eqs.mode == "torque" else "none"}
     stats.update(run.stats)
-    return _result(problem, eqs, X, t_out, run.stats.get("failure"), method.name, refs, refs_at, efforts, stats)
+    return outputs.simulation(stats)
+
+
+def _prescribed(problem: Problem, eqs, refs, refs_at):
+    """t -> (theta_ref, theta_d_ref, theta_dd_ref) (m, n each) at the times t (m,) of the
+    prescribed mode with a task: the closed-form references Function `refs`, or the
+    tabulated ones `refs_at`; None in the other modes."""
+    if eqs.mode != "prescribed" or problem.model.task is None:
+        return None
+    if refs is not None:
+        return lambda t: tuple(np.array(v).T for v in refs.map(len(t))(t[None, :])[1:])
+    return lambda t: tuple(refs_at(t)[key] for key in ("th", "thd", "thdd"))
 
 
 def _references(problem: Problem, ctrl: Problem, eqs, loop: Loop, given, t_end: float, n_frames: int, t_grid):
@@ -274,62 +286,12 @@ def _frame_inputs(problem: Problem, loop: Loop, refs_at, n_frames: int, t_grid) 
     return FrameInputs(n_frames, rows(0, 1).shape[1], rows)
 
 
-def _result(problem: Problem, eqs, X: np.ndarray, t_out: np.ndarray, failure, method: str, refs, refs_at, efforts,
-            stats: dict) -> Simulation:
-    """The Simulation of the states X (N, [t, q, qd, W_in, D_damping, D_friction, z]) at the
-    output times: every output of the equations evaluated at them."""
-    model, nq, nc, n = problem.model, eqs.nq, len(eqs.clearance_joints), eqs.n_actuators
-    q, qd = X[:, 1:1 + nq], X[:, 1 + nq:1 + 2 * nq]
-    W, Dd, Df = X[:, 1 + 2 * nq], X[:, 2 + 2 * nq], X[:, 3 + 2 * nq]
-    z = X[:, 4 + 2 * nq:]
-    if failure is not None:  # the state stayed at the last accepted step: name the joint there
-        pen = np.array(eqs.acceleration(q=q[-1], qd=qd[-1], delta_dot0=z[-1, :nc], in_contact=z[-1, nc:2 * nc],
-                                        t=t_out[-1])["penetration"]).ravel() if nc else np.zeros(0)
-        raise SimulationError(_failure_message(failure, method, eqs.clearance_joints, pen))
-    N = len(t_out)
-    pose_ref = path_rows(problem.path, t_out)[:, :3] if model.task is not None else np.zeros((N, 3))
-    effort = np.zeros((N, n))
-    th = th_d = th_dd = np.zeros((N, n))
-    if eqs.mode == "torque":
-        effort = efforts(t_out, q, qd)
-    elif eqs.mode == "prescribed" and model.task is not None:
-        if refs is not None:
-            th, th_d, th_dd = (np.array(v).T for v in refs.map(N)(t_out[None, :])[1:])
-        else:
-            at = refs_at(t_out)
-            th, th_d, th_dd = at["th"], at["thd"], at["thdd"]
-    out = mapped(eqs.acceleration, q=q.T, qd=qd.T, effort=effort.T, theta_ref=th.T, theta_d_ref=th_d.T,
-                 theta_dd_ref=th_dd.T, delta_dot0=z[:, :nc].T, in_contact=z[:, nc:2 * nc].T, t=t_out[None, :])
-    k = len(eqs.passive_ideal_joints)
-
-    def per_joint(a, rows):
-        return np.array(a).reshape(rows, N, -1).transpose(1, 2, 0) if rows == 2 else np.array(a).T
-
-    pose = (mapped(model.task_pose_function, **{model.task_pose_function.name_in(0): q.T})[
-        model.task_pose_function.name_out(0)].T if model.task else np.zeros((N, 3)))
-    losses = {j: 0 for j in model.passive_joints}
-    losses.update({j: int(round(v)) for j, v in zip(eqs.clearance_joints, z[-1, 2 * nc:3 * nc], strict=True)})
-    energy = energy_terms(eqs.energy, q, qd, W, Dd, Df)
-    return Simulation(
-        scene=problem.scene, clearance_joints=eqs.clearance_joints, ideal_passive_joints=eqs.passive_ideal_joints,
-        terms=eqs.terms, t=t_out, q=q, qd=qd, qdd=np.array(out["qdd"]).T, pose=pose, pose_ref=pose_ref,
-        platform_error=np.linalg.norm(pose[:, :2] - pose_ref[:, :2], axis=1),
-        tau=np.array(out["tau"]).T,
-        contact_force=per_joint(out["contact_force"], 2) if nc else np.zeros((N, 0, 2)),
-        normal_force=per_joint(out["normal_force"], 1) if nc else np.zeros((N, 0)),
-        eccentricity=per_joint(out["eccentricity"], 2) if nc else np.zeros((N, 0, 2)),
-        penetration=per_joint(out["penetration"], 1) if nc else np.zeros((N, 0)),
-        reaction=per_joint(out["reaction"], 2) if k else np.zeros((N, 0, 2)),
-        driver_effort=np.array(out["driver_effort"]).T.reshape(N, -1),
-        contact_loss_events=losses, energy=energy, energy_audit_residual=energy_audit_residual(energy),
-        stats=stats)
-
-
-def _failure_message(failure: dict, method: str, joints, penetration) -> str:
+def _failure_message(failure: dict, method: str, eqs, outputs: Outputs) -> str:
     """One line for an error-controlled run that could not go on: the time, the last step and
     the clearance joint pressed deepest there (where such failures start: stiff contact)."""
-    where = ""
+    where, joints = "", eqs.clearance_joints
     if len(joints):
+        penetration = outputs.arrays["penetration"][-1]
         j = int(np.argmax(penetration))
         where = (f" at joint {joints[j]} (penetration {penetration[j]:.3g} m)" if penetration[j] > 0 else
                  " with no journal in contact")

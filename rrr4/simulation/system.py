@@ -15,6 +15,7 @@ import functools
 from dataclasses import dataclass
 
 import casadi as ca
+import numpy as np
 
 from ..codegen import generated_controller
 from ..control import (
@@ -33,7 +34,7 @@ from ..problem import Problem
 from ..scene import PathSpec
 from ..trajectory import trajectory_function
 
-__all__ = ["Loop", "loop_of", "system_of", "problem_system", "measured", "in_tree", "REFERENCES"]
+__all__ = ["Loop", "loop_of", "system_of", "problem_system", "measured", "in_tree", "extremes", "REFERENCES"]
 
 
 def hermite(s, h, a, b, da, db):
@@ -84,9 +85,10 @@ def system_of(problem: Problem, eqs: Equations, loop: Loop, refs: ca.Function | 
     p, pd instead of q, qd: see :mod:`rrr4.mechanism.tree`) with discrete z = [delta_dot0,
     in_contact, losses] (nc each) followed by the equations' parameters (contact numbers,
     masses and geometry, see ``Problem.equation_parameters``) and the controller's settings
-    (both constant: the discrete update keeps them), and the frame inputs of `loop` (see
-    :class:`Loop`). The numbers are state, not constants, so every problem that differs only
-    in them steps with the same compiled code.
+    (both constant: the discrete update keeps them), then the running maxima of the peaks
+    (see :func:`extremes`), and the frame inputs of `loop` (see :class:`Loop`). The numbers
+    are state, not constants, so every problem that differs only in them steps with the same
+    compiled code.
     refs: the prescribed mode's closed-form references (or None). Built once per structure:
     cached on the Problem of the equations' structure key (``inputs``: 'contact' -> the plant's,
     'geometry' -> the geometry's), keyed by the equations' options, the loop (its kind, what its
@@ -104,11 +106,14 @@ def _build_system(eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bo
     n, nc = eqs.n_actuators, len(eqs.clearance_joints)
     nq = par.tree_acceleration.size1_in(0) if tree else eqs.nq  # the coordinates stepped
     ns = len(loop.settings)
-    t, y, z = ca.SX.sym("t"), ca.SX.sym("y", 2 * nq + 3), ca.SX.sym("z", 3 * nc + len(eqs.parameters) + ns)
+    n_peaks = 3 * nc + (n if eqs.mode == "torque" else 0)
+    t, y = ca.SX.sym("t"), ca.SX.sym("y", 2 * nq + 3)
+    z = ca.SX.sym("z", 3 * nc + len(eqs.parameters) + ns + n_peaks)
     width = {"exact": 0, "sampled": 10 * n, "held": n}[loop.kind]
     u = ca.SX.sym("u", 2 + width)
     dd0, inc, losses = z[:nc], z[nc:2 * nc], z[2 * nc:3 * nc]
-    parameters, settings = z[3 * nc:3 * nc + len(eqs.parameters)], z[3 * nc + len(eqs.parameters):]
+    parameters = z[3 * nc:3 * nc + len(eqs.parameters)]
+    settings, peaks = z[3 * nc + len(eqs.parameters):z.shape[0] - n_peaks], z[z.shape[0] - n_peaks:]
 
     def configuration(y, parameters):
         """(q, qd) of the state y: its first entries, or from the tree coordinates."""
@@ -145,8 +150,15 @@ def _build_system(eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bo
         ydot = ca.vertcat(qd, out["qdd"], out["power_in"], out["power_damping"], out["power_friction"])
     ode = ca.Function("ode", [t, y, z, u], [ydot], ["t", "y", "z", "u"], ["y_dot"])
     dd0n, incn, loss = par.contact_update(q, qd, dd0, inc, parameters)
-    disc = ca.Function("discrete", [t, y, z], [ca.vertcat(dd0n, incn, losses + loss, parameters, settings)],
+    disc = ca.Function("discrete", [t, y, z], [ca.vertcat(dd0n, incn, losses + loss, parameters, settings, peaks)],
                        ["t", "y", "z"], ["z_next"])
+    # the peaks, at every step's end: normal forces (their maxima and minima), penetrations,
+    # and in torque mode the efforts' magnitudes; what they need of the equations only (no
+    # constraint solve: the contact laws and the efforts)
+    contact = par.acceleration(q=q, qd=qd, **refs_in)
+    fn, pen = contact["normal_force"], contact["penetration"]
+    values = ca.vertcat(fn, -fn, pen, *([ca.fabs(effort)] if eqs.mode == "torque" else []))
+    peak_values = ca.Function("peaks", [t, y, z, u], [values], ["t", "y", "z", "u"], ["peaks"])
     control = None
     if loop.kind == "held":
         k = loop.control.size1_in(0)  # pose derivatives (3 each) or actuator references (n each): 3 blocks
@@ -154,10 +166,25 @@ def _build_system(eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bo
         pm = zm[3 * nc:3 * nc + len(eqs.parameters)]
         meas = measured(model, *configuration(ym, pm), par, pm)
         args = [uf[2 + i * k:2 + (i + 1) * k] for i in range(3)]
-        eff = loop.control(*args, *meas, zm[z.shape[0] - ns:])
+        eff = loop.control(*args, *meas, zm[z.shape[0] - n_peaks - ns:z.shape[0] - n_peaks])
         eff = eff[0] if isinstance(eff, (list, tuple)) else eff
         control = ca.Function("control", [ym, zm, uf], [ca.vertcat(uf[:2], eff)], ["y", "z", "u_frame"], ["u"])
-    return System(ode, disc, control, loop.sources, n_events=3 * nc)
+    return System(ode, disc, control, loop.sources, n_events=3 * nc,
+                  peaks=peak_values if n_peaks else None)
+
+
+def extremes(eqs: Equations, maxima) -> dict:
+    """The extremes over every step of a run, named, from the running maxima (m,) of its last
+    state (see :func:`system_of`): normal_force_max, normal_force_min, penetration_max (nc,
+    each) [N, N, m] per clearance joint and, in torque mode, tau_abs_max (n,) [N m or N]
+    per actuator."""
+    nc = len(eqs.clearance_joints)
+    maxima = np.asarray(maxima, float)
+    out = {"normal_force_max": maxima[:nc], "normal_force_min": -maxima[nc:2 * nc],
+           "penetration_max": maxima[2 * nc:3 * nc]}
+    if eqs.mode == "torque":
+        out["tau_abs_max"] = maxima[3 * nc:]
+    return out
 
 
 def loop_of(problem: Problem, eqs: Equations, controller: str, references: str, given) -> Loop:
