@@ -120,6 +120,29 @@ def test_reference_motion_is_no_slower_than_the_straight_line_optimum(reference_
     assert reference_motion.statistics["line_duration_s"] >= reference_motion.duration
 
 
+def test_transmission_margin_holds_at_every_node_and_binds(paper_scene):
+    # a turning move whose unconstrained optimum dips to |sin| 0.847 in chain 3: with the scene's
+    # margin raised to 0.85 every node keeps it, the margin binds, and the motion gets slower
+    from dataclasses import replace
+    start, target = [0.04, 0.071, 0.677], [0.085, 0.048, -0.471]
+    free = optimal_motion(paper_scene, target, start=start, nodes=20, contact=False)
+    assert free.transmission.min() < 0.85
+    strict = replace(paper_scene, path=replace(paper_scene.path, min_transmission=0.85))
+    r = optimal_motion(strict, target, start=start, nodes=20, contact=False)
+    assert r.transmission.min() >= 0.85 * (1 - 1e-8)
+    assert any(k.startswith("transmission") for k in r.binding_counts())
+    assert r.duration > free.duration
+
+
+def test_solver_failure_names_the_worst_constraint_and_node(paper_scene, monkeypatch):
+    from rrr4.optimal import point_to_point
+    monkeypatch.setitem(point_to_point.IPOPT_OPTIONS, "ipopt.max_iter", 3)
+    with pytest.raises(InfeasibleError, match=r"solver stopped with Maximum_Iterations_Exceeded \(largest violation "
+                                              r"[0-9.e+-]+, [a-z_ ()A-Z0-9]+ at (node|interval|end) \d+\)$") as e:
+        optimal_motion(paper_scene, [0.02, 0.0, 0.0], nodes=10, sign=1)
+    assert "\n" not in str(e.value)
+
+
 def test_unreachable_target_is_one_line_naming_the_chain(paper_scene):
     with pytest.raises(KinematicsError, match=r"target: pose \[0\.22, 0\.0, 0\.0\] is out of reach of chain 1") as e:
         optimal_motion(paper_scene, [0.22, 0.0, 0.0], nodes=10)

@@ -222,23 +222,30 @@ def optimal_motion(scene, target, objective: str = "time", *, duration: float | 
 
 @functools.cache
 def _nrrr_node(problem: Problem) -> ca.Function:
-    """SX Function 'motion_node': pose, pose_d, pose_dd (3), alpha (m) -> tau (n), the
-    reactions' components along the joints' null-space directions (nj), the reactions (2, nj)."""
-    pose, pose_d, pose_dd = (ca.SX.sym(s, 3) for s in ("pose", "pose_d", "pose_dd"))
-    tau_p, tau_n, r_p, r_n = problem.inverse_dynamics()(pose, pose_d, pose_dd)
-    m = tau_n.shape[1]
+    """SX Function 'motion_node': pose, pose_d (3), the accelerations after and before the
+    node pose_dd, pose_dd_before (3), alpha (m) -> for each: tau (n), the reactions'
+    components along the joints' null-space directions (nj), the reactions (2, nj). One
+    Function for both sides, so their common terms (all that depends on the pose) are shared."""
+    pose, pose_d, acc, acc_before = (ca.SX.sym(s, 3) for s in ("pose", "pose_d", "pose_dd", "pose_dd_before"))
+    f = problem.inverse_dynamics()
+    m = problem.model.redundancy
     alpha = ca.SX.sym("alpha", m)
-    nj = r_p.shape[1]
-    tau = tau_p + (tau_n @ alpha if m else 0)
-    r = r_p + sum((r_n[:, k * nj:(k + 1) * nj] * alpha[k] for k in range(m)), ca.SX.zeros(2, nj))
-    if m:
-        d = r_n[:, :nj]  # the first null-space direction, as contact_directions
-        d = d / ca.repmat(ca.sqrt(ca.sum1(d**2) + 1e-300), 2, 1)
-        axial = ca.sum1(d * r).T
-    else:
-        axial = ca.SX(0, 1)
-    return ca.Function("motion_node", [pose, pose_d, pose_dd, alpha], [tau, axial, r],
-                       ["pose", "pose_d", "pose_dd", "alpha"], ["tau", "axial", "r"])
+    out = []
+    for a in (acc, acc_before):
+        tau_p, tau_n, r_p, r_n = f(pose, pose_d, a)
+        nj = r_p.shape[1]
+        tau = tau_p + (tau_n @ alpha if m else 0)
+        r = r_p + sum((r_n[:, k * nj:(k + 1) * nj] * alpha[k] for k in range(m)), ca.SX.zeros(2, nj))
+        if m:
+            d = r_n[:, :nj]  # the first null-space direction, as contact_directions
+            d = d / ca.repmat(ca.sqrt(ca.sum1(d**2) + 1e-300), 2, 1)
+            axial = ca.sum1(d * r).T
+        else:
+            axial = ca.SX(0, 1)
+        out += [tau, axial, r]
+    return ca.Function("motion_node", [pose, pose_d, acc, acc_before, alpha], out,
+                       ["pose", "pose_d", "pose_dd", "pose_dd_before", "alpha"],
+                       ["tau", "axial", "r", "tau_before", "axial_before", "r_before"], {"cse": True})
 
 
 @functools.cache
@@ -313,19 +320,21 @@ class _NRRR:
     def unknowns(self, opti, N):
         return {"alpha": opti.variable(self.m, N + 1) if self.m else ca.MX(0, N + 1)}
 
-    def nodes(self, opti, v, pose, pose_d, sides):
+    def nodes(self, rows, v, pose, pose_d, sides):
         """Efforts and contact components at the nodes for each side's accelerations."""
         N1 = pose.shape[1]
         F = self.node.map(N1)
         alpha = v["alpha"]
         if self.m < self.m_all:
             alpha = ca.MX.zeros(self.m_all, N1)
-        out = [F(pose, pose_d, acc, alpha) for acc in sides]
+        out = F(pose, pose_d, *sides, alpha)
+        out = (out[:3], out[3:])
         sin_tr, cos_arg, bound2 = self.geometry.map(N1)(pose)
         p = self.path
-        opti.subject_to(ca.vec(ca.diag(ca.DM(self.sigma)) @ sin_tr) >= p.min_transmission)
-        opti.subject_to(opti.bounded(-1, ca.vec(cos_arg), 1))
-        opti.subject_to(bound2.T / p.max_condition_number**2 <= 1)
+        chains = [f"chain {i + 1}" for i in range(self.n)]
+        rows.add(ca.diag(ca.DM(self.sigma)) @ sin_tr, p.min_transmission, None, [f"transmission {c}" for c in chains])
+        rows.add(cos_arg, -1.0, 1.0, [f"workspace (IK) {c}" for c in chains])
+        rows.add(bound2 / p.max_condition_number**2, None, 1.0, ["condition number"])
         return [o[0] for o in out], [o[1] for o in out]
 
     def initial(self, opti, v, warm):
@@ -339,10 +348,8 @@ class _NRRR:
         alpha = np.zeros((self.m_all, N1))
         if self.m:
             alpha[:self.m] = np.atleast_2d(sol.value(v["alpha"]))
-        out = []
-        for acc in sides:
-            tau, ax, r = (np.array(x) for x in self.node.map(N1)(pose, pose_d, acc, alpha))
-            out.append((tau.T, r.reshape(2, N1, -1).transpose(1, 2, 0), ax.T))
+        res = [np.array(x) for x in self.node.map(N1)(pose, pose_d, *sides, alpha)]
+        out = [(tau.T, r.reshape(2, N1, -1).transpose(1, 2, 0), ax.T) for tau, ax, r in (res[:3], res[3:])]
         J = np.array(self.mech.jacobian_function.map(N1)(pose)[0]).T.reshape(N1, 3, self.n).transpose(0, 2, 1)
         sin_tr, _, bound2 = (np.array(x).T for x in self.geometry.map(N1)(pose))
         return out, alpha.T, condition_number(J), np.abs(sin_tr), np.sqrt(bound2.ravel())
@@ -395,12 +402,14 @@ class _Graph:
             v[f"u{s}"] = opti.variable(self.n, N1)
         return v
 
-    def nodes(self, opti, v, pose, pose_d, sides):
-        N1 = pose.shape[1]
-        opti.subject_to(ca.vec(self.kinematics.map(N1)(v["q"], v["qd"], pose, pose_d)) == 0)
+    def nodes(self, rows, v, pose, pose_d, sides):
+        N1, nq = pose.shape[1], self.nq
+        rows.add(self.kinematics.map(N1)(v["q"], v["qd"], pose, pose_d), 0.0, 0.0,
+                 [f"position closure row {i}" for i in range(nq)] + [f"velocity closure row {i}" for i in range(nq)])
         for s, acc in enumerate(sides):
-            opti.subject_to(ca.vec(self.dynamics.map(N1)(v["q"], v["qd"], v[f"qdd{s}"], acc, v[f"lambda{s}"],
-                                                         v[f"u{s}"])) == 0)
+            rows.add(self.dynamics.map(N1)(v["q"], v["qd"], v[f"qdd{s}"], acc, v[f"lambda{s}"], v[f"u{s}"]), 0.0, 0.0,
+                     [f"acceleration closure row {i}" for i in range(nq)] + [f"equation of motion row {i}"
+                                                                             for i in range(nq)])
         return [v["u0"], v["u1"]], [ca.MX(0, N1), ca.MX(0, N1)]
 
     def initial(self, opti, v, warm):
@@ -476,27 +485,33 @@ def _solve(problem, form, start, target, objective, duration, N, contact, null_s
     X = opti.variable(6, N + 1)
     U = opti.variable(3, N)
     pose, pose_d = X[:3, :], X[3:, :]
+    rows = _Rows(opti)
     if objective == "time":
         T = opti.variable()
         opti.subject_to(T >= 1e-6)
+        rows.labels.append("duration > 0")
         opti.set_initial(T, warm["T"])
     else:
         T = duration
     h = T / N
-    opti.subject_to(ca.vec(pose[:, 1:] - pose[:, :-1] - h * pose_d[:, :-1] - h**2 / 2 * U) == 0)
-    opti.subject_to(ca.vec(pose_d[:, 1:] - pose_d[:, :-1] - h * U) == 0)
-    opti.subject_to(X[:, 0] == np.r_[start, np.zeros(3)])
-    opti.subject_to(X[:, N] == np.r_[target, np.zeros(3)])
+    rows.add(pose[:, 1:] - pose[:, :-1] - h * pose_d[:, :-1] - h**2 / 2 * U, 0.0, 0.0,
+             ["continuity x", "continuity y", "continuity theta"], "interval")
+    rows.add(pose_d[:, 1:] - pose_d[:, :-1] - h * U, 0.0, 0.0,
+             ["continuity x_d", "continuity y_d", "continuity theta_d"], "interval")
+    rows.add(X[:, [0, N]] - np.column_stack([np.r_[start, np.zeros(3)], np.r_[target, np.zeros(3)]]), 0.0, 0.0,
+             ["rest x", "rest y", "rest theta", "rest x_d", "rest y_d", "rest theta_d"], "end")
     # each node with the acceleration of the interval after it, and of the one before it
     sides = (ca.horzcat(U, U[:, -1]), ca.horzcat(U[:, 0], U))
     v = form.unknowns(opti, N)
-    taus, axials = form.nodes(opti, v, pose, pose_d, sides)
+    taus, axials = form.nodes(rows, v, pose, pose_d, sides)
     L = np.asarray(problem.torque_limit, float)
     for tau in taus:
-        opti.subject_to(opti.bounded(-1, ca.vec(ca.diag(ca.DM(1 / L)) @ tau), 1))
+        rows.add(ca.diag(ca.DM(1 / L)) @ tau, -1.0, 1.0, [f"limit of actuator {a}"
+                                                          for a in problem.model.actuator_names])
     if contact:
         for ax in axials:
-            opti.subject_to(ca.vec(sign * ax) / f_min >= 1)
+            rows.add(sign * ax / f_min, 1.0, None, [f"contact condition at joint {j}"
+                                                    for j in problem.model.preload_joints])
     W = ca.DM(np.asarray(problem.scene.actuation.preload.weights, float)
               if problem.model.redundancy else np.ones(len(L)))
     right, left = (ca.sum1(ca.diag(W) @ tau**2) for tau in taus)
@@ -530,7 +545,7 @@ def _solve(problem, form, start, target, objective, duration, N, contact, null_s
              "line_duration_s": warm["line_duration"], "warm_start_note": warm["note"],
              "max_violation": float(viol.max(initial=0.0)), "worst_constraint": ""}
     if viol.size and viol[w] > 0:
-        stats["worst_constraint"] = _describe_row(opti, w)
+        stats["worst_constraint"] = rows.labels[w] if w < len(rows.labels) else f"constraint row {w}"
     tau, r = right_v[0], right_v[1]
     axial = np.minimum(sign * right_v[2], sign * left_v[2]) if contact else np.zeros((N + 1, 0))
     binding = _binding(problem, (right_v[0], left_v[0]), axial if contact else None, f_min, sin_tr, bound)
@@ -542,13 +557,25 @@ def _solve(problem, form, start, target, objective, duration, N, contact, null_s
         actuator_names=problem.model.actuator_names, joint_names=problem.model.preload_joints, statistics=stats)
 
 
-def _describe_row(opti, row: int) -> str:
-    """The constraint row `row` as Opti describes it (its first line)."""
-    try:
-        text = opti.debug.g_describe(row)
-    except RuntimeError:
-        text = f"constraint row {row}"
-    return f"row {row}: {text.splitlines()[0][:160]}"
+class _Rows:
+    """Opti's constraints with a label per scalar row, in Opti's order (for the worst violation)."""
+
+    def __init__(self, opti):
+        self.opti, self.labels = opti, []
+
+    def add(self, expr, lo, hi, names, where: str = "node"):
+        """lo <= expr <= hi (None: unbounded) for expr (k, cols): row r of k at column `where` c."""
+        k, cols = expr.shape
+        e = ca.vec(expr)
+        if lo is not None and lo == hi:
+            self.opti.subject_to(e == lo)
+        elif hi is None:
+            self.opti.subject_to(e >= lo)
+        elif lo is None:
+            self.opti.subject_to(e <= hi)
+        else:
+            self.opti.subject_to(self.opti.bounded(lo, e, hi))
+        self.labels += [f"{names[r % k]} at {where} {r // k}" for r in range(k * cols)]
 
 
 def _binding(problem, taus, axial, f_min, sin_tr, bound) -> tuple[str, ...]:
