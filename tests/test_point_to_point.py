@@ -1,14 +1,16 @@
 """Point-to-point motions (rrr4.optimal.optimal_motion): closed forms on the X-Y-theta table,
 the reference 4-RRR with the contact condition, and bad input in one line."""
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+import rrr4
 from rrr4 import load_scene
 from rrr4.errors import InfeasibleError, KinematicsError, SceneError
-from rrr4.optimal import optimal_motion, optimal_time_law
+from rrr4.optimal import optimal_motion, optimal_time_law, point_to_point
 
 ROOT = Path(__file__).resolve().parents[1]
 XYT = ROOT / "problems" / "xyt_table.yaml"
@@ -93,7 +95,6 @@ def test_reference_motion_keeps_every_joint_in_contact_within_the_limits(referen
 
 
 def test_reference_motion_efforts_are_the_inverse_dynamics_of_its_motion(reference_motion, paper_scene):
-    import rrr4
     r = reference_motion
     problem = rrr4.build(paper_scene)
     # the states follow the exact integration of the interval accelerations
@@ -112,7 +113,6 @@ def test_reference_motion_efforts_are_the_inverse_dynamics_of_its_motion(referen
 def test_reference_motion_is_no_slower_than_the_straight_line_optimum(reference_motion, paper_scene):
     # the straight line with its optimal time law is one of the motions part 2 may choose: the free
     # path can only be faster (the line's law on a finer grid: its duration converges from below)
-    from dataclasses import replace
     line = replace(paper_scene, path=replace(paper_scene.path, type="line", start=(0.0, 0.0, 0.0),
                                              end=(0.02, 0.0, 0.0)))
     law = optimal_time_law(line, points=100)
@@ -120,10 +120,18 @@ def test_reference_motion_is_no_slower_than_the_straight_line_optimum(reference_
     assert reference_motion.statistics["line_duration_s"] >= reference_motion.duration
 
 
+def test_reference_least_effort_motion_keeps_contact_at_the_given_duration(paper_scene, reference_motion):
+    r = optimal_motion(paper_scene, [0.02, 0.0, 0.0], "effort", duration=0.2, nodes=10)
+    assert r.statistics["success"] and r.duration == 0.2 and r.t[-1] == pytest.approx(0.2)
+    assert r.axial.min() >= 10.0 * (1 - 1e-7) and np.max(np.abs(r.efforts)) <= 5.0 * (1 + 1e-7)
+    # slower than the fastest motion, so no actuator is at its limit: the contact condition binds
+    assert r.duration > reference_motion.duration
+    assert all(k.startswith("contact") for k in r.binding_counts()) and r.binding_counts()
+
+
 def test_transmission_margin_holds_at_every_node_and_binds(paper_scene):
     # a turning move whose unconstrained optimum dips to |sin| 0.847 in chain 3: with the scene's
     # margin raised to 0.85 every node keeps it, the margin binds, and the motion gets slower
-    from dataclasses import replace
     start, target = [0.04, 0.071, 0.677], [0.085, 0.048, -0.471]
     free = optimal_motion(paper_scene, target, start=start, nodes=20, contact=False)
     assert free.transmission.min() < 0.85
@@ -135,7 +143,6 @@ def test_transmission_margin_holds_at_every_node_and_binds(paper_scene):
 
 
 def test_solver_failure_names_the_worst_constraint_and_node(paper_scene, monkeypatch):
-    from rrr4.optimal import point_to_point
     monkeypatch.setitem(point_to_point.IPOPT_OPTIONS, "ipopt.max_iter", 3)
     with pytest.raises(InfeasibleError, match=r"solver stopped with Maximum_Iterations_Exceeded \(largest violation "
                                               r"[0-9.e+-]+, [a-z_ ()A-Z0-9]+ at (node|interval|end) \d+\)$") as e:
@@ -188,7 +195,6 @@ def test_graph_form_gives_a_motion_the_closed_form_accepts(paper_scene):
     # the reference 4-RRR written as a graph (body coordinates, multipliers and efforts as unknowns):
     # its optimal motion without the contact condition is realisable by the closed-form n-RRR within
     # the limits (the efforts are in the closed form's family), at least as fast as the closed form's
-    import rrr4
     g = optimal_motion(load_scene(GRAPH), [0.02, 0.0, 0.0], nodes=20, contact=False)
     n = optimal_motion(paper_scene, [0.02, 0.0, 0.0], nodes=20, contact=False)
     fam = rrr4.build(paper_scene).effort_family(g.pose, g.pose_d, g.pose_dd)

@@ -44,7 +44,6 @@ warm-started from the straight line between the poses with its optimal time law
 
 from __future__ import annotations
 
-import functools
 import time
 from dataclasses import dataclass, field, replace
 
@@ -64,11 +63,12 @@ __all__ = ["OptimalMotion", "optimal_motion", "MOTION_OBJECTIVES"]
 
 MOTION_OBJECTIVES = ("time", "effort")
 MAX_NODES = 2000
-# limited-memory Hessian: the exact one through the mapped closed-form dynamics costs about twice
-# the solve time on the reference scene (more iterations, each much cheaper)
 IPOPT_OPTIONS = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-9,
-                 "ipopt.constr_viol_tol": 1e-9, "ipopt.max_iter": 1000, "ipopt.mu_strategy": "adaptive",
-                 "ipopt.hessian_approximation": "limited-memory"}
+                 "ipopt.constr_viol_tol": 1e-9, "ipopt.max_iter": 1000, "ipopt.mu_strategy": "adaptive"}
+# per objective: for 'time' a limited-memory Hessian (the exact one through the mapped closed-form
+# dynamics made the reference solve about 1.5x slower: fewer iterations, each far dearer); for
+# 'effort' the exact one (the quadratic objective needs it: 18 iterations against 100+)
+HESSIAN = {"time": "limited-memory", "effort": "exact"}
 
 
 @dataclass(frozen=True)
@@ -220,12 +220,16 @@ def optimal_motion(scene, target, objective: str = "time", *, duration: float | 
 # ---------------------------------------------------------------------------------- n-RRR
 
 
-@functools.cache
 def _nrrr_node(problem: Problem) -> ca.Function:
     """SX Function 'motion_node': pose, pose_d (3), the accelerations after and before the
     node pose_dd, pose_dd_before (3), alpha (m) -> for each: tau (n), the reactions'
     components along the joints' null-space directions (nj), the reactions (2, nj). One
-    Function for both sides, so their common terms (all that depends on the pose) are shared."""
+    Function for both sides, so their common terms (all that depends on the pose) are shared.
+    Built once per problem."""
+    return problem.memo(("point_to_point", "node"), lambda: _build_node(problem))
+
+
+def _build_node(problem: Problem) -> ca.Function:
     pose, pose_d, acc, acc_before = (ca.SX.sym(s, 3) for s in ("pose", "pose_d", "pose_dd", "pose_dd_before"))
     f = problem.inverse_dynamics()
     m = problem.model.redundancy
@@ -248,10 +252,13 @@ def _nrrr_node(problem: Problem) -> ca.Function:
                        ["tau", "axial", "r", "tau_before", "axial_before", "r_before"], {"cse": True})
 
 
-@functools.cache
 def _nrrr_geometry(problem: Problem) -> ca.Function:
     """SX Function 'singularity': pose -> transmission sin (n), IK cos argument (n),
-    tr(G) tr(G^-1) with G = J^T J (the squared bound of the condition number)."""
+    tr(G) tr(G^-1) with G = J^T J (the squared bound of the condition number). Built once per problem."""
+    return problem.memo(("point_to_point", "singularity"), lambda: _build_geometry(problem))
+
+
+def _build_geometry(problem: Problem) -> ca.Function:
     mech = problem.mechanism
     pose = ca.SX.sym("pose", 3)
     J, _, _, sin_tr = mech.jacobian_function(pose)
@@ -520,7 +527,7 @@ def _solve(problem, form, start, target, objective, duration, N, contact, null_s
     opti.set_initial(X, np.vstack([warm["pose"].T, warm["pose_d"].T]))
     opti.set_initial(U, warm["pose_dd"].T)
     form.initial(opti, v, warm)
-    opti.solver("ipopt", {k: v_ for k, v_ in IPOPT_OPTIONS.items()})
+    opti.solver("ipopt", {**IPOPT_OPTIONS, "ipopt.hessian_approximation": HESSIAN[objective]})
     build = time.perf_counter() - t0
     t1 = time.perf_counter()
     try:
