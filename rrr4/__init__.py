@@ -6,8 +6,9 @@ once (:func:`load_scene`); :func:`build` makes the :class:`Problem` every algori
 """
 
 from .codegen import codegen
-from .errors import KinematicsError, Rrr4Error, SceneError, SimulationError
+from .errors import InfeasibleError, KinematicsError, Rrr4Error, SceneError, SimulationError
 from .mechanism import Mechanism, Model, check_scene, load_scene
+from .optimal import optimal_motion, optimal_time_law
 from .preload import PreloadSolution, solve_preload
 from .problem import Problem, build
 from .scene import Scene
@@ -16,5 +17,5 @@ from .studies import sweep
 
 __all__ = ["load_scene", "check_scene", "build", "Problem", "Model", "Scene", "SceneError", "SimulationError",
            "KinematicsError", "Rrr4Error", "Mechanism", "codegen", "simulate", "Simulation", "solve_preload",
-           "PreloadSolution", "sweep"]
+           "PreloadSolution", "sweep", "optimal_time_law", "optimal_motion", "InfeasibleError"]
 __version__ = "0.1.0"

@@ -71,15 +71,16 @@ def _optimize(args) -> int:
     out = Path(args.out) if args.out else Path("results") / f"{scene.name}_optimal"
     check_writable(out)
     check_target(out, MARKER)
-    opt = optimize(scene, args.objective, points=args.points, duration=args.duration, replay=not args.no_replay,
-                   progress=True, log=lambda m: tqdm.write(f"rrr4 optimize: {m}"))
+    opt = optimize(scene, args.objective, points=args.points, duration=args.duration, target=args.to,
+                   nodes=args.nodes, replay=not args.no_replay, progress=True,
+                   log=lambda m: tqdm.write(f"rrr4 optimize: {m}"))
     summary, files = write_optimization(opt, out, animate=not args.no_replay, progress=True)
     print(f"wrote {len(files)} files to {out}/")
     law = summary["law"]
+    grid = f"{law['points']} points" if "points" in law else f"{law['nodes']} nodes"
     print(f"optimal duration: {law['duration_s']:.6g} s ({law['objective']}, "
           f"{'with the contact condition' if law['contact_condition'] else 'actuator limits'}, "
-          f"{law['points']} points, {law['statistics']['iterations']} iterations, "
-          f"{law['statistics']['solve_time_s']:.3g} s solve)")
+          f"{grid}, {law['statistics']['iterations']} iterations, {law['statistics']['solve_time_s']:.3g} s solve)")
     if summary.get("contact_cost_ratio"):
         print(f"with the actuator limits only: {summary['optimal_duration_limits_only_s']:.6g} s; keeping contact "
               f"costs x{summary['contact_cost_ratio']:.3f} in cycle time")
@@ -197,6 +198,10 @@ def build_parser() -> argparse.ArgumentParser:
                     help="time (default), effort (at --duration) or time+effort")
     op.add_argument("--duration", type=float, default=None, help="duration [s] for --objective effort")
     op.add_argument("--points", type=int, default=1000, help="grid intervals along the path (default 1000)")
+    op.add_argument("--to", nargs=3, type=float, metavar=("X", "Y", "PHI"),
+                    help="a point-to-point motion instead: rest to rest from the path's start to the task pose "
+                         "X [m], Y [m], PHI [rad], the path free")
+    op.add_argument("--nodes", type=int, default=40, help="intervals of a --to motion (default 40)")
     op.add_argument("--no-replay", action="store_true", help="solve only; do not replay the law")
     op.add_argument("--out", help="directory (default results/<scene name>_optimal/); replaced atomically")
     op.set_defaults(func=_optimize)

@@ -262,3 +262,16 @@ def test_generated_c_follows_the_optimal_time_law(law, paper, tmp_path):
             assert np.allclose(np.array(c), np.array(p), rtol=1e-12, atol=1e-12)
     at_grid = np.array([np.array(lib(tk)[0]).ravel() for tk in law.t[::7]])
     assert np.abs(at_grid - law.pose[::7]).max() < 1e-12
+
+
+def test_optimize_a_point_to_point_motion_writes_its_path(paper, tmp_path):
+    from rrr4.results.optimal import write_optimization
+    from rrr4.studies.optimize import motion_scene, optimize
+    opt = optimize(paper, target=(0.02, 0.0, 0.0), nodes=10, replay=False)
+    assert opt.curves is None and opt.limits_only.duration < opt.law.duration
+    summary, files = write_optimization(opt, tmp_path / "p2p", animate=False)
+    assert {"task_path.png", "efforts.png", "contact_margin.png", "motion.csv", "motion_limits_only.csv"} <= set(files)
+    assert summary["contact_cost_ratio"] > 1.0
+    follow = motion_scene(paper.scene, opt.law)   # the replay's path: a spline through the nodes, at their times
+    pose = np.array(trajectory_function(follow.path).map(len(opt.law.t))(opt.law.t[None, :])[0]).T
+    assert np.abs(pose - opt.law.pose).max() < 1e-12

@@ -238,7 +238,7 @@ class Mechanism:
         q = np.array(solve(q0, theta)).ravel()
         res = np.abs(np.array(check(q, theta)).ravel())
         if not (np.all(np.isfinite(q)) and res.max() <= tol):
-            raise KinematicsError(f"forward kinematics did not converge for theta {list(np.round(theta, 6))} "
+            raise KinematicsError(f"forward kinematics did not converge for theta {np.round(theta, 6).tolist()} "
                                   f"(residual {res.max():.3g} > {tol:g}); try another guess")
         pose = np.array(self.model.task_pose_function(q)).ravel()
         pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
@@ -348,7 +348,7 @@ class NRRRMechanism(Mechanism):
         cos_arg = np.array(cos_arg).ravel()
         bad = np.flatnonzero(~(np.abs(cos_arg) <= 1.0))
         if bad.size:
-            raise KinematicsError(f"pose {list(np.round(pose, 6))} is out of reach of chain {bad[0] + 1} "
+            raise KinematicsError(f"pose {np.round(pose, 6).tolist()} is out of reach of chain {bad[0] + 1} "
                                   f"(cos argument {cos_arg[bad[0]]:.12g}, allowed [-1, 1])")
         return np.array(theta).ravel()
 
@@ -389,7 +389,7 @@ class NRRRMechanism(Mechanism):
         pose = np.array(self.fk_function(np.asarray(guess, float), theta)).ravel()
         res = np.array(self.loop_residual_function(pose, theta)).ravel()
         if not np.all(np.isfinite(pose)) or np.max(np.abs(res)) > tol:
-            raise KinematicsError(f"forward kinematics did not converge for theta {list(np.round(theta, 6))} "
+            raise KinematicsError(f"forward kinematics did not converge for theta {np.round(theta, 6).tolist()} "
                                   f"(loop residual {np.max(np.abs(res)):.3g} m > {tol:g} m); try another guess")
         pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
         return pose

@@ -50,10 +50,8 @@ def save_motion(study, path: Path, rate: float | None = None) -> Path | None:
         return None
     text = Path(scene.source).read_text()
     parsed = parse_scene(load_yaml(text, scene.source), name=Path(scene.source).stem, source=scene.source)
-    # the file's scene, but for the time law (an optimal one replayed: pose_ref holds the motion)
-    timed = replace(parsed.path, time_law=scene.path.time_law, time_table=scene.path.time_table,
-                    duration=scene.path.duration)
-    if replace(parsed, path=timed) != scene:
+    # the file's scene, but for the path (an optimal law or motion replayed: pose_ref holds it)
+    if replace(parsed, path=scene.path) != scene:
         return None     # the file changed since the study read it
     base = next(iter(study.arms.values())).simulation
     rate = scene.path.sample_rate if rate is None else rate

@@ -11,15 +11,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..files import atomic_directory
-from ..optimal import OptimalTimeLaw
+from ..files import atomic_directory, write_atomic
+from ..optimal import OptimalMotion, OptimalTimeLaw
 from ..problem import Problem
 from .figures.optimal import optimal_figures
 from .output import write_results
 from .study import Study
 from .summary import study_summary
 
-__all__ = ["Optimization", "optimization_summary", "write_optimization", "MARKER"]
+__all__ = ["Optimization", "optimization_summary", "write_optimization", "motion_csv", "MARKER"]
 
 MARKER = "optimization.json"
 
@@ -27,14 +27,16 @@ MARKER = "optimization.json"
 @dataclass(frozen=True)
 class Optimization:
     """law: the optimum with the contact condition (where the scene preloads; else with the
-    actuator limits only); limits_only: the optimum with the actuator limits only (None where
-    `law` is that already); curves: :func:`rrr4.optimal.limits.limit_curves`; replay: the
+    actuator limits only): a time law along the path, or a point-to-point motion; limits_only:
+    the optimum with the actuator limits only (None where
+    `law` is that already); curves: :func:`rrr4.optimal.limits.limit_curves` (None for a
+    motion: its path is free); replay: the
     study of the scene following `law` (None if not replayed); headroom: the f_min search
     (tried f_min values and the replay's contact losses at each; None if not needed)."""
     problem: Problem
-    law: OptimalTimeLaw
-    limits_only: OptimalTimeLaw | None
-    curves: dict
+    law: OptimalTimeLaw | OptimalMotion
+    limits_only: OptimalTimeLaw | OptimalMotion | None
+    curves: dict | None
     replay: Study | None = None
     headroom: dict | None = None
     statistics: dict = field(default_factory=dict)
@@ -60,6 +62,19 @@ def optimization_summary(opt: Optimization) -> dict:
     return out
 
 
+def motion_csv(motion) -> str:
+    """CSV text of an optimal motion's nodes: t [s], the task pose and its rates, the efforts
+    and the null-space efforts."""
+    cols = {"t": motion.t[:, None]}
+    for name, a in (("", motion.pose), ("_d", motion.pose_d), ("_dd", motion.pose_dd)):
+        cols.update({f"{c}{name}": a[:, [i]] for i, c in enumerate(("x", "y", "phi"))})
+    cols.update({f"effort_{n}": motion.efforts[:, [i]] for i, n in enumerate(motion.actuator_names)})
+    cols.update({f"alpha_{k + 1}": motion.alpha[:, [k]] for k in range(motion.alpha.shape[1])})
+    data = np.hstack(list(cols.values()))
+    lines = [",".join(cols)] + [",".join(f"{v:.17g}" for v in row) for row in data]
+    return "\n".join(lines) + "\n"
+
+
 def _json(v):
     if isinstance(v, dict):
         return {str(k): _json(x) for k, x in v.items()}
@@ -80,9 +95,12 @@ def write_optimization(opt: Optimization, out, animate: bool = True, progress: b
     names: list[str] = []
 
     def fill(tmp: Path) -> None:
-        files = [opt.law.save_table(tmp / "time_law.csv")]
-        if opt.limits_only is not None:
-            files.append(opt.limits_only.save_table(tmp / "time_law_limits_only.csv"))
+        files = []
+        for law, stem in ((opt.law, ""), (opt.limits_only, "_limits_only")):
+            if isinstance(law, OptimalTimeLaw):
+                files.append(law.save_table(tmp / f"time_law{stem}.csv"))
+            elif law is not None:
+                files.append(write_atomic(tmp / f"motion{stem}.csv", motion_csv(law)))
         files += optimal_figures(opt, tmp)
         (tmp / MARKER).write_text(json.dumps(summary, indent=2) + "\n")
         files.append(tmp / MARKER)

@@ -21,7 +21,7 @@ import time
 from dataclasses import replace
 
 from ..errors import InfeasibleError
-from ..optimal import optimal_time_law
+from ..optimal import optimal_motion, optimal_time_law
 from ..optimal.limits import limit_curves
 from ..problem import Problem
 from ..results.metrics import scalar_metrics
@@ -29,22 +29,27 @@ from ..results.optimal import Optimization
 from ..simulation import simulate
 from .study import arm_scene, run_study, study_controller
 
-__all__ = ["optimize", "HEADROOM_FACTORS"]
+__all__ = ["optimize", "motion_scene", "HEADROOM_FACTORS"]
 
 HEADROOM_FACTORS = (1.25, 1.5, 2.0, 3.0, 5.0, 10.0)
 
 
 def optimize(scene, objective: str = "time", *, points: int = 1000, duration: float | None = None,
-             effort_weight: float = 1.0, replay: bool = True, progress: bool = False, log=None) -> Optimization:
+             effort_weight: float = 1.0, target=None, nodes: int = 40, replay: bool = True, progress: bool = False,
+             log=None) -> Optimization:
     """The optimal time law of `scene`'s path and its replay (see the module docstring).
 
     scene: a Scene, a Problem or a scene file's path; objective: 'time', 'effort' (at
-    `duration` [s]) or 'time+effort' (effort_weight); points: grid intervals; replay: run
-    the study on the law; log: callable taking one line per stage."""
+    `duration` [s]) or 'time+effort' (effort_weight); points: grid intervals; target: a task
+    pose [m, m, rad] to reach rest to rest from the path's start with the path free
+    (:func:`rrr4.optimal.optimal_motion`, `nodes` intervals) instead of following the path;
+    replay: run the study on the law; log: callable taking one line per stage."""
     say = log or (lambda _msg: None)
     problem = Problem.from_scene(scene)
     contact = problem.has_preload
     t0 = time.perf_counter()
+    if target is not None:
+        return _point_to_point(problem, objective, target, nodes, duration, contact, replay, progress, log, say, t0)
     what = "with the contact condition" if contact else "with the actuator limits"
     say(f"optimal time law ({objective}) {what}, {points} grid intervals")
     law = optimal_time_law(problem, objective, points=points, contact=contact, duration=duration,
@@ -67,6 +72,35 @@ def optimize(scene, objective: str = "time", *, points: int = 1000, duration: fl
             headroom = _headroom(problem, law, sum(arm.simulation.contact_loss_events.values()), objective, points,
                                  duration, effort_weight, say)
     return Optimization(problem, law, free, curves, study, headroom, stats)
+
+
+def _point_to_point(problem, objective, target, nodes, duration, contact, replay, progress, log, say, t0):
+    """Part 2 of the loop: the optimal motion to `target`, with and without the contact
+    condition, replayed along a clamped spline through its nodes (:func:`motion_scene`)."""
+    what = "with the contact condition" if contact else "with the actuator limits"
+    say(f"optimal motion ({objective}) to {list(target)} {what}, {nodes} intervals")
+    motion = optimal_motion(problem, target, objective, duration=duration, nodes=nodes, contact=contact)
+    free = None
+    if contact:
+        say("the same with the actuator limits only")
+        free = optimal_motion(problem, target, objective, duration=duration, nodes=nodes, contact=False)
+    stats = {"optimization_wall_time_s": time.perf_counter() - t0}
+    study = None
+    if replay:
+        follow = motion_scene(problem.scene, motion)
+        say(f"replay: the study of the scene following the optimal motion ({motion.duration:.4g} s)")
+        study = run_study(follow, t_end=_replay_end(follow, motion.duration), progress=progress, log=log)
+    return Optimization(problem, motion, free, None, study, None, stats)
+
+
+def motion_scene(scene, motion):
+    """`scene` with its path replaced by the motion: a clamped cubic spline through the nodes'
+    poses (uniform knots, so the linear time law puts node k at its time t_k), at rest at both
+    ends. Between nodes the spline is smoother than the motion's constant accelerations; it
+    converges to the motion with the nodes."""
+    path = replace(scene.path, type="waypoints", points=tuple(tuple(float(v) for v in p) for p in motion.pose),
+                   duration=float(motion.duration), time_law="linear", time_table=())
+    return replace(scene, path=path)
 
 
 def _replay_end(scene, duration: float) -> float:
