@@ -275,3 +275,11 @@ def test_optimize_a_point_to_point_motion_writes_its_path(paper, tmp_path):
     follow = motion_scene(paper.scene, opt.law)   # the replay's path: a spline through the nodes, at their times
     pose = np.array(trajectory_function(follow.path).map(len(opt.law.t))(opt.law.t[None, :])[0]).T
     assert np.abs(pose - opt.law.pose).max() < 1e-12
+
+
+def test_a_path_through_a_singularity_or_out_of_reach_ends_in_one_line(paper):
+    scene = paper.scene
+    far = replace(scene, path=replace(scene.path, type="line", start=(0.0, 0.0, 0.0), end=(0.3, 0.0, 0.0)))
+    with pytest.raises(InfeasibleError, match=r"path infeasible at s = 0\.\d+ .*(out of reach|near-singular)") as e:
+        optimal_time_law(far, points=50)
+    assert "\n" not in str(e.value)

@@ -40,10 +40,12 @@ from ..checks import argument, unknown_value
 from ..dynamics.family import EffortFamily
 from ..errors import InfeasibleError, SceneError
 from ..files import write_atomic
+from ..mechanism.workspace import near_singular, path_kinematics
 from ..preload.qp import qp_preload_function
 from ..problem import Problem
 from ..scene import time_table_text
 from ..scene.vocabulary import OBJECTIVES
+from ..trajectory import PathSamples
 from .family import PathFamily, path_family
 
 __all__ = ["OptimalTimeLaw", "optimal_time_law", "OBJECTIVES", "MAX_POINTS", "contact_directions"]
@@ -184,6 +186,7 @@ def optimal_time_law(scene, objective: str = "time", *, points: int = 1000, cont
         raise SceneError(f"contact: True is not allowed for this scene (the contact condition needs actuation "
                          f"redundancy and f_min > 0; redundancy {m}, f_min {f_min:g} N): pass contact=False")
     fam = path_family(problem, np.linspace(0.0, 1.0, N + 1))
+    _check_path(problem, fam)
     if sign is not None and sign not in (1, -1):
         raise SceneError(f"sign: {sign!r} is not allowed (+1 or -1)")
     signs = (sign,) if sign is not None else ((1, -1) if contact else (1,))
@@ -209,6 +212,25 @@ def optimal_time_law(scene, objective: str = "time", *, points: int = 1000, cont
     best.statistics.update(duration_by_sign={f"{k:+d}": v for k, v in by_sign.items()},
                            at_rest_infeasible={f"{k:+d}": v for k, v in failures.items()})
     return best
+
+
+def _check_path(problem: Problem, fam: PathFamily) -> None:
+    """InfeasibleError at the first grid point where the path leaves the workspace, comes
+    within the scene's singularity margins, or makes the family non-finite."""
+    pk = path_kinematics(problem.mechanism, PathSamples(fam.s, fam.pose, fam.pose_s, fam.pose_ss))
+    why = near_singular(problem.path, pk)
+    if pk.cos_arg is not None:
+        out = np.any(~(np.abs(pk.cos_arg) <= 1.0), axis=1)
+        why = np.where(out, "out of reach (the IK of a chain is undefined)", why)
+    finite = np.ones(len(fam.s), bool)
+    for v in (fam.tau_a, fam.tau_b, fam.tau_g, fam.tau_n, fam.r_a, fam.r_b, fam.r_g, fam.r_n):
+        finite &= np.all(np.isfinite(v.reshape(len(fam.s), -1)), axis=1)
+    why = np.where(finite | (why != ""), why, "the inverse dynamics are not finite (a singular pose)")
+    bad = np.flatnonzero(why != "")
+    if bad.size:
+        k = int(bad[0])
+        raise InfeasibleError(f"path infeasible at s = {fam.s[k]:.4g} (pose {np.round(fam.pose[k], 6).tolist()}): "
+                              f"{why[k]}")
 
 
 class _Setup:
