@@ -35,6 +35,7 @@ from pathlib import Path
 
 import casadi as ca
 import numpy as np
+from scipy import sparse
 
 from ..checks import argument, unknown_value
 from ..dynamics.family import EffortFamily
@@ -55,6 +56,13 @@ MAX_POINTS = 100_000
 BINDING_TOL = 1e-5
 IPOPT_OPTIONS = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-10,
                  "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 500, "ipopt.mu_strategy": "adaptive"}
+
+
+def sparse_to_casadi(A) -> ca.DM:
+    """A scipy sparse matrix as a CasADi DM with the same sparsity (explicit zeros kept)."""
+    A = sparse.csc_matrix(A)
+    A.sum_duplicates()
+    return ca.DM(ca.Sparsity(A.shape[0], A.shape[1], A.indptr.tolist(), A.indices.tolist()), A.data)
 
 
 def contact_directions(r_n: np.ndarray) -> np.ndarray:
@@ -293,76 +301,88 @@ class _Setup:
 
     # ------------------------------------------------------------------ the program
 
+    def _rows(self, coefs, scale):
+        """Sparse rows (both sides of every point) of affine functions of (a, b, alpha):
+        coefs = (c_a, c_b, c_g (N+1,), c_n (N+1, m)) per function; returns (A (2 (N+1) F, nx)
+        in scipy CSR with the rows point-major: point k, side, function; g0) for A x + g0."""
+        fam, m = self.fam, self.m
+        N1 = len(fam.s)
+        N, nv, F = N1 - 1, 2 + m, len(coefs)
+        k = np.arange(N1)
+        rows, cols, vals, g0 = [], [], [], np.zeros((N1, 2, F))
+        for side, (lo, hi) in enumerate(((np.minimum(k, N - 1), np.minimum(k, N - 1) + 1),     # the segment after
+                                          (np.maximum(k, 1) - 1, np.maximum(k, 1)))):          # the segment before
+            for f, ((c_a, c_b, c_g, c_n), sc) in enumerate(zip(coefs, scale, strict=True)):
+                r = (k * 2 + side) * F + f
+                w = sc * c_a * N / 2.0  # a = (b_hi - b_lo) / (2 ds), ds = 1 / N
+                rows += [r, r, r]
+                cols += [hi * nv, lo * nv, k * nv]
+                vals += [w, -w, sc * c_b]
+                for i in range(m):
+                    rows.append(r)
+                    cols.append(k * nv + 2 + i)
+                    vals.append(sc * c_n[:, i])
+                g0[:, side, f] = sc * c_g
+        A = sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                              shape=(2 * N1 * F, N1 * nv))
+        return A, g0.ravel()
+
     def solve(self, sign: int) -> OptimalTimeLaw:
         fam, N1, m = self.fam, len(self.fam.s), self.m
         N = N1 - 1
         ds = 1.0 / N
+        nv = 2 + m
         t0 = time.perf_counter()
-        X = ca.SX.sym("x", 2 + m, N1)  # per point: b, c, alpha (grid-major: a banded KKT system)
-        b, c = X[0, :].T, X[1, :].T
-        alpha = [X[2 + i, :].T for i in range(m)]
-        a_seg = (b[1:] - b[:-1]) / (2 * ds)
-        # each point is reached with the acceleration of the segment before it and left with
-        # that of the segment after it: the constraints hold on both sides, with one alpha
-        sides = (ca.vertcat(a_seg, a_seg[-1]), ca.vertcat(a_seg[0], a_seg))
-        dt = 2 * ds / (c[:-1] + c[1:])  # segment durations
-
-        def affine(a, ca_, cb, cg, cn):
-            e = ca.DM(ca_) * a + ca.DM(cb) * b + ca.DM(cg)
-            for i in range(m):
-                e += ca.DM(cn[:, i]) * alpha[i]
-            return e
-
         n_act = fam.tau_a.shape[1]
-        taus = [[affine(a, fam.tau_a[:, i], fam.tau_b[:, i], fam.tau_g[:, i], fam.tau_n[:, i, :]) for i in
-                 range(n_act)] for a in sides]
-        g, lbg, ubg, labels = [], [], [], []
-        for side in taus:
-            for i, tau in enumerate(side):
-                g.append(tau / self.limits[i])
-                lbg.append(-np.ones(N1))
-                ubg.append(np.ones(N1))
-                labels.append(f"actuator {self.names[i]}")
+        # linear rows: each point is reached with the acceleration of the segment before it and
+        # left with that of the segment after it: the constraints hold on both sides, one alpha
+        efforts = [(fam.tau_a[:, i], fam.tau_b[:, i], fam.tau_g[:, i], fam.tau_n[:, i, :m]) for i in range(n_act)]
+        coefs, scale, labels = list(efforts), list(1.0 / self.limits), [f"actuator {n}" for n in self.names]
+        lo_f, hi_f = [-1.0] * n_act, [1.0] * n_act
         if self.contact:
-            for a in sides:
-                for j in range(fam.r_g.shape[1]):
-                    d = self.d[:, j, :]
-                    coef = [np.einsum("kc,kc->k", d, v[:, j, :]) for v in (fam.r_a, fam.r_b, fam.r_g)]
-                    cn = np.einsum("kc,kcm->km", d, fam.r_n[:, j, :, :m])
-                    g.append(sign * affine(a, *coef, cn) / self.f_min)
-                    lbg.append(np.ones(N1))
-                    ubg.append(np.full(N1, np.inf))
-                    labels.append(f"contact {self.joints[j]}")
-        g.append(c**2 - b)
-        lbg.append(np.full(N1, -np.inf))
-        ubg.append(np.zeros(N1))
-        labels.append("relaxation")
+            for j in range(fam.r_g.shape[1]):
+                d = self.d[:, j, :]
+                coefs.append(tuple(np.einsum("kc,kc->k", d, v[:, j, :]) for v in (fam.r_a, fam.r_b, fam.r_g))
+                             + (np.einsum("kc,kcm->km", d, fam.r_n[:, j, :, :m]),))
+                scale.append(sign / self.f_min)
+                labels.append(f"contact {self.joints[j]}")
+                lo_f.append(1.0)
+                hi_f.append(np.inf)
+        A, g0 = self._rows(coefs, scale)
+        F = len(coefs)
+        lo = np.tile(np.array(lo_f), 2 * N1) - g0
+        hi = np.tile(np.array(hi_f), 2 * N1) - g0
+        X = ca.MX.sym("x", nv * N1)  # per point: b, c, alpha (grid-major: a banded KKT system)
+        b, c = X[0::nv], X[1::nv]
+        G = [ca.mtimes(ca.DM(sparse_to_casadi(A)), X)]
+        G.append(c**2 - b)  # the relaxation c <= sqrt(b)
+        lo, hi = np.r_[lo, np.full(N1, -np.inf)], np.r_[hi, np.zeros(N1)]
         amax = self.bounds["max_task_acceleration"]
         k2 = 2  # the task point's x, y
+        a_seg = (b[1:] - b[:-1]) / (2 * ds)
         if amax is not None:
             ps, pss = ca.DM(fam.pose_s[:, :k2]), ca.DM(fam.pose_ss[:, :k2])
-            for a in sides:
-                acc = [ps[:, i] * a + pss[:, i] * b for i in range(k2)]
-                g.append(sum(v**2 for v in acc) / amax**2)
-                lbg.append(np.full(N1, -np.inf))
-                ubg.append(np.ones(N1))
-                labels.append("task acceleration")
+            for a in (ca.vertcat(a_seg, a_seg[-1]), ca.vertcat(a_seg[0], a_seg)):
+                G.append(sum((ps[:, i] * a + pss[:, i] * b) ** 2 for i in range(k2)) / amax**2)
+                lo, hi = np.r_[lo, np.full(N1, -np.inf)], np.r_[hi, np.ones(N1)]
+        dt = 2 * ds / (c[:-1] + c[1:])  # segment durations
         time_total = ca.sum1(dt)
-        # on each segment the mean of its two ends' weighted squared efforts
-        right, left = (sum(self.weights[i] * side[i]**2 for i in range(n_act)) for side in taus)
-        effort = ca.sum1(0.5 * (right[:-1] + left[1:]) * dt)
-        # per-point rows in grid order (a banded Jacobian), then the duration for 'effort'
-        F = len(g)
-        G = ca.vec(ca.horzcat(*g).T)
-        lo, hi = np.column_stack(lbg).ravel(), np.column_stack(ubg).ravel()
         if self.objective == "time":
             f = time_total
-        elif self.objective == "effort":
-            f = effort
-            G = ca.vertcat(G, time_total)
-            lo, hi = np.r_[lo, self.duration], np.r_[hi, self.duration]
         else:
-            f = time_total + self.effort_weight * effort
+            # on each segment the mean of its two ends' weighted squared efforts
+            T, t_0 = self._rows(efforts, list(np.sqrt(self.weights)))
+            tau = ca.mtimes(ca.DM(sparse_to_casadi(T)), X) + t_0          # sqrt(w_i) tau_i, point-major
+            sq = ca.reshape(tau**2, 2 * n_act, N1)
+            right, left = ca.sum1(sq[:n_act, :]).T, ca.sum1(sq[n_act:, :]).T
+            effort = ca.sum1(0.5 * (right[:-1] + left[1:]) * dt)
+            if self.objective == "effort":
+                f = effort
+                G.append(time_total)
+                lo, hi = np.r_[lo, self.duration], np.r_[hi, self.duration]
+            else:
+                f = time_total + self.effort_weight * effort
+        G = ca.densify(ca.vertcat(*G))
         # bounds on the unknowns
         bmax = np.full(N1, np.inf)
         if self.bounds["max_speed"] is not None:
@@ -370,7 +390,7 @@ class _Setup:
         if self.bounds["max_task_speed"] is not None:
             speed2 = np.sum(fam.pose_s[:, :k2] ** 2, axis=1)
             bmax = np.minimum(bmax, self.bounds["max_task_speed"] ** 2 / np.maximum(speed2, 1e-300))
-        lbx = np.zeros((2 + m, N1))
+        lbx = np.zeros((nv, N1))
         ubx = np.vstack([bmax, np.sqrt(bmax), np.full((m, N1), np.inf)])
         lbx[2:] = -np.inf
         v0, v1 = self.ends
@@ -382,17 +402,17 @@ class _Setup:
             lbx[1, k] = ubx[1, k] = v
         # start: a sine speed profile below the speed bounds; alpha 0
         shape = np.sin(np.pi * fam.s) + np.linspace(v0, v1, N1)
-        x0 = np.zeros((2 + m, N1))
+        x0 = np.zeros((nv, N1))
         x0[1] = np.minimum(shape, 0.9 * np.sqrt(np.minimum(bmax, 1e300)))
         x0[1, [0, N]] = v0, v1
         x0[0] = x0[1] ** 2
-        solver = ca.nlpsol("optimal_time_law", "ipopt", {"x": ca.vec(X), "f": f, "g": G}, IPOPT_OPTIONS)
+        solver = ca.nlpsol("optimal_time_law", "ipopt", {"x": X, "f": f, "g": G}, IPOPT_OPTIONS)
         build = time.perf_counter() - t0
         t1 = time.perf_counter()
         sol = solver(x0=x0.T.ravel(), lbx=lbx.T.ravel(), ubx=ubx.T.ravel(), lbg=lo, ubg=hi)
         solve_time = time.perf_counter() - t1
         st = solver.stats()
-        x = np.array(sol["x"]).reshape(N1, 2 + m).T
+        x = np.array(sol["x"]).reshape(N1, nv).T
         stats = {"solver": "ipopt", "return_status": st["return_status"], "success": bool(st["success"]),
                  "iterations": int(st["iter_count"]), "build_time_s": build, "solve_time_s": solve_time,
                  "points": N1, "objective_value": float(sol["f"]), "sign": sign}
@@ -400,9 +420,16 @@ class _Setup:
         gv = np.array(sol["g"]).ravel()
         viol = np.maximum(lo - gv, gv - hi)
         w = int(np.argmax(viol))
-        point, row = divmod(w, F)
-        stats.update(max_violation=float(max(viol.max(), 0.0)), worst_s=float(fam.s[min(point, N)]),
-                     worst_constraint=labels[row] if point <= N else "duration")
+        n_lin = 2 * N1 * F
+        if w < n_lin:
+            point, label = w // (2 * F), labels[w % F]
+        elif w < n_lin + N1:
+            point, label = w - n_lin, "relaxation"
+        elif amax is not None and w < n_lin + 3 * N1:
+            point, label = (w - n_lin - N1) % N1, "task acceleration"
+        else:
+            point, label = N, "duration"
+        stats.update(max_violation=float(max(viol.max(), 0.0)), worst_s=float(fam.s[point]), worst_constraint=label)
         return law
 
     def _law(self, sign, b, alpha, stats) -> OptimalTimeLaw:
