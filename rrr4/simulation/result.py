@@ -26,7 +26,8 @@ class Simulation:
     on the second); driver_effort (N, n_drivers) [N m or N]; contact_loss_events: passive
     joint -> count of contact -> free-flight transitions (0 for ideal joints); energy: dict of (N,) arrays [J] (see
     :mod:`rrr4.dynamics.energy`); energy_audit_residual = max |W_in - dE - D| / largest
-    energy term; stats: solver statistics (method, step, steps, graph sizes; wall_time [s]: the
+    energy term; film_force (N, nc, 2) [N]: the oil film's share of contact_force (zeros at
+    dry joints; :mod:`rrr4.contact.lubrication`); stats: solver statistics (method, step, steps, graph sizes; wall_time [s]: the
     stepping, without making its frame inputs, input_time [s]).
     :meth:`body` gives the (N, 3) pose of any body.
     """
@@ -52,6 +53,7 @@ class Simulation:
     energy: dict
     energy_audit_residual: float
     stats: dict = field(default_factory=dict)
+    film_force: np.ndarray | None = None
 
     def body(self, name: str) -> np.ndarray:
         """(N, 3) pose [x, y, theta] [m, m, rad] of the centre of mass of the body `name`."""

@@ -322,7 +322,8 @@ def _result(problem: Problem, eqs, X: np.ndarray, t_out: np.ndarray, failure, me
         reaction=per_joint(out["reaction"], 2) if k else np.zeros((N, 0, 2)),
         driver_effort=np.array(out["driver_effort"]).T.reshape(N, -1),
         contact_loss_events=losses, energy=energy, energy_audit_residual=energy_audit_residual(energy),
-        stats=stats)
+        stats=stats, film_force=(per_joint(out["film_force"], 2) if "film_force" in eqs.acceleration.name_out()
+                                 else np.zeros((N, nc, 2))))
 
 
 def _failure_message(failure: dict, method: str, joints, penetration) -> str:
