@@ -51,7 +51,10 @@ import casadi as ca
 from ..scene.vocabulary import LUBRICATION_LAWS as LUBRICATION_LAW_NAMES
 from ..scene.vocabulary import registry
 
-__all__ = ["LUBRICATION_LAWS", "film_force", "film_weight", "film_rates"]
+__all__ = ["LUBRICATION_LAWS", "film_force", "film_weight", "film_rates", "RATE_FLOOR"]
+
+# [1/s] added to the squeeze rate where the film's position is taken (see _film_integrals)
+RATE_FLOOR = 1e-9
 
 
 def film_rates(eps, e_dot_n, e_dot_t, omega_journal, omega_bearing, clearance):
@@ -71,7 +74,9 @@ def _film_integrals(eps, A, B):
     k = 1.0 - eps**2
     s = ca.sqrt(k)
     beta = eps / (1.0 + s)
-    a = -ca.atan2(B, A) - 0.5 * math.pi  # start of the film
+    # start of the film; RATE_FLOOR keeps the angle's derivative finite at A = B = 0 (there the
+    # force, proportional to (A, B), is 0 and its derivative 0, not 0 * NaN)
+    a = -ca.atan2(B, A + RATE_FLOOR) - 0.5 * math.pi
     p0, p1 = _psi(a, eps, beta), _psi(a + math.pi, eps, beta)
 
     def between(F):

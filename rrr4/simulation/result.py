@@ -27,8 +27,9 @@ class Simulation:
     joint -> count of contact -> free-flight transitions (0 for ideal joints); energy: dict of (N,) arrays [J] (see
     :mod:`rrr4.dynamics.energy`); energy_audit_residual = max |W_in - dE - D| / largest
     energy term; film_force (N, nc, 2) [N]: the oil film's share of contact_force (zeros at
-    dry joints; :mod:`rrr4.contact.lubrication`); stats: solver statistics (method, step, steps, graph sizes; wall_time [s]: the
-    stepping, without making its frame inputs, input_time [s]).
+    dry joints; :mod:`rrr4.contact.lubrication`); stats: solver statistics (method, step,
+    steps, graph sizes; wall_time [s]: the stepping, without making its frame inputs,
+    input_time [s]).
     :meth:`body` gives the (N, 3) pose of any body.
     """
     scene: Scene
