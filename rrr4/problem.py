@@ -34,7 +34,7 @@ import numpy as np
 
 from .checks import argument, describe, unknown_value
 from .contact import V_MIN, joint_stiffness
-from .dynamics.builder import BAUMGARTE_OMEGA, EFFECT_PARAMETERS, INPUTS, Equations, build_equations
+from .dynamics.builder import BAUMGARTE_OMEGA, EFFECT_PARAMETERS, INPUTS, Equations, build_equations, lubricated_joints
 from .dynamics.family import EffortFamily, graph_family
 from .dynamics.inverse import inverse_dynamics_function
 from .errors import SceneError
@@ -134,8 +134,9 @@ class Problem:
     def contact_parameters(self) -> np.ndarray:
         """The contact numbers the equations take as inputs: per clearance joint (graph order)
         stiffness [N/m^n], journal and bearing radius [m], then restitution, damping and the
-        friction law's coefficients (:data:`rrr4.dynamics.builder.EFFECT_PARAMETERS`); empty
-        without a clearance joint (no contact)."""
+        friction law's coefficients (:data:`rrr4.dynamics.builder.EFFECT_PARAMETERS`), then per
+        lubricated joint viscosity [Pa s], bearing length [m] and threshold (none without
+        lubrication); empty without a clearance joint (no contact)."""
         per = [(self.joint_stiffness(j), self.joint(j).journal_radius, self.joint(j).bearing_radius)
                for j in self.clearance_joints]
         if not per:
@@ -144,7 +145,9 @@ class Problem:
         values = dict(restitution=ce.restitution, damping=ce.damping, friction_coefficient=fe.coefficient,
                       static_coefficient=fe.static_coefficient, v0=fe.v0, v1=fe.v1,
                       stribeck_velocity=fe.stribeck_velocity)
-        return np.array([*(v for row in per for v in row), *(values[k] for k in EFFECT_PARAMETERS)], float)
+        films = [(f.viscosity, f.length, f.threshold) for _, f in lubricated_joints(self.model, self.scene.effects)]
+        return np.array([*(v for row in per for v in row), *(values[k] for k in EFFECT_PARAMETERS),
+                         *(v for row in films for v in row)], float)
 
     def equation_parameters(self, geometry: bool = False) -> np.ndarray:
         """The values of the equations' input ``parameters``: the contact numbers, then with
@@ -159,12 +162,15 @@ class Problem:
         integrator and initial state, without the contact numbers and the actuators' limits,
         and with the controller's numbers (gains, limits, f_min, weights, rate) neutral."""
         s = self.scene
-        joints = tuple(replace(j, journal_radius=1.0, radial_clearance=1.0) if j.clearance else j
-                       for j in s.graph.joints)
+        def film(f):  # the law is structure, its numbers are inputs
+            return None if f is None else replace(f, viscosity=1.0, length=1.0, threshold=0.5)
+
+        joints = tuple(replace(j, journal_radius=1.0, radial_clearance=1.0, lubrication=film(j.lubrication))
+                       if j.clearance else j for j in s.graph.joints)
         ce, fe = s.effects.contact, s.effects.friction
         effects = replace(s.effects, contact=replace(ce, restitution=1.0, damping=0.0, stiffness=None),
                           friction=replace(fe, coefficient=0.0, static_coefficient=0.0, v0=1.0, v1=2.0,
-                                           stribeck_velocity=1.0))
+                                           stribeck_velocity=1.0), lubrication=film(s.effects.lubrication))
         actuators = tuple(replace(a, limit=1.0) for a in s.graph.actuators)
         a, n = s.actuation, self.model.n_actuators
         preload = replace(a.preload, min_force=float(a.preload.min_force > 0), weights=(1.0,) * n,

@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from rrr4.contact.friction import FRICTION_LAWS
+from rrr4.contact.lubrication import LUBRICATION_LAWS
 from rrr4.contact.normal import NORMAL_LAWS
 from rrr4.integrators import METHODS
 from rrr4.integrators.implicit import ImplicitIntegrator
@@ -21,10 +22,11 @@ PACKAGE = Path(__file__).resolve().parents[1] / "rrr4"
 @pytest.mark.parametrize("registry,names", [
     (NORMAL_LAWS, v.CONTACT_LAWS),
     (FRICTION_LAWS, v.FRICTION_LAWS),
+    (LUBRICATION_LAWS, v.LUBRICATION_LAWS),
     (METHODS, v.INTEGRATORS),
     (PRELOAD_METHODS, v.PRELOAD_METHODS),
     (QP_OPTIONS, v.QP_SOLVERS),
-], ids=["contact law", "friction law", "integrator", "preload method", "qp solver"])
+], ids=["contact law", "friction law", "lubrication law", "integrator", "preload method", "qp solver"])
 def test_every_registry_holds_exactly_the_names_of_the_vocabulary(registry, names):
     assert tuple(registry) == tuple(names)
 

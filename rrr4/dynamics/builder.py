@@ -12,7 +12,10 @@ with exactly the effects the scene asks for:
   row per driver s_d(q) - (initial + speed t) = 0, and in the prescribed mode the driving
   constraints s(q) - theta_ref(t) = 0 (s: actuator coordinates);
 - Q_contact has one journal-bearing contact per clearance joint, with the scene's normal
-  law; the friction term exists only if the friction law is not 'none'; with no clearance
+  law; the friction term exists only if the friction law is not 'none'; the oil film's
+  force (:mod:`rrr4.contact.lubrication`) only at the clearance joints whose lubrication
+  law is not 'none': w(eps) F(min(eps, threshold), eps_dot, whirl), acting at the joint
+  centres, handed over to the dry laws between the threshold and eps = 1; with no clearance
   joint there is no contact code at all;
 - tau (actuator efforts, generalised force S^T tau with S = ds/dq): 'free' -> 0 (no
   effort inputs in the graph); 'torque' -> the input ``effort``, what the controller
@@ -27,10 +30,13 @@ joints, in graph order; B1..Bn, C1..Cn for an n-RRR; prismatic actuators in m, m
 
 ``acceleration`` (index-1 form, for explicit integrators): refs -> qdd (nq,), lambda (m,),
 tau (n,) [N m], reaction (2, k) [N] of the k ideal passive revolute joints, contact_force (2, nc)
-[N], normal_force (nc,), friction_force (nc,), penetration (nc,) [m], delta_dot (nc,)
-[m/s], eccentricity (2, nc) [m], power_in [W] (actuators and drivers), power_damping [W],
-power_friction [W] (both >= 0, dissipated), driver_effort (n_drivers,) [N m or N] (what
-each driver applies along its joint coordinate, -lambda of its row).
+[N] (on the journal body: dry contact plus film), normal_force (nc,), friction_force (nc,),
+penetration (nc,) [m], delta_dot (nc,) [m/s], eccentricity (2, nc) [m], power_in [W]
+(actuators and drivers), power_damping [W] (the normal force's non-conservative part, and
+the film's power -F_film . e_dot), power_friction [W] (dissipated), driver_effort
+(n_drivers,) [N m or N] (what each driver applies along its joint coordinate, -lambda of
+its row); with lubrication also film_force (2, nc) [N] on the journal (0 at dry joints)
+and power_film [W] (the film's share of power_damping).
 
 ``residual`` (for implicit Newton methods such as Bathe or Newmark): q, qd, qdd, lambda and
 the other refs -> dynamics (nq,) = M qdd + Phi_q^T lambda - Q, constraint (m,) = Phi_q qdd -
@@ -81,6 +87,7 @@ from ..contact import (
     friction_force,
     normal_force,
 )
+from ..contact.lubrication import film_force, film_rates, film_weight
 from ..contact.normal import V_MIN, power
 from ..errors import SceneError
 from ..functions import fix_last_input
@@ -88,8 +95,8 @@ from ..mechanism.model import Model, geometry_parameters
 from ..mechanism.tree import tree_map
 from ..scene import Effects
 
-__all__ = ["Equations", "build_equations", "INPUTS",
-           "BAUMGARTE_OMEGA", "JOINT_PARAMETERS", "EFFECT_PARAMETERS"]
+__all__ = ["Equations", "build_equations", "INPUTS", "lubricated_joints",
+           "BAUMGARTE_OMEGA", "JOINT_PARAMETERS", "EFFECT_PARAMETERS", "LUBRICATION_PARAMETERS"]
 
 INPUTS = ("contact", "geometry")  # build_equations(inputs=...): the numbers the parametric equations take
 
@@ -135,6 +142,14 @@ class Equations:
 JOINT_PARAMETERS = ("stiffness", "journal_radius", "bearing_radius")
 EFFECT_PARAMETERS = ("restitution", "damping", "friction_coefficient", "static_coefficient", "v0", "v1",
                      "stribeck_velocity")
+# then per lubricated joint (graph order), the film's numbers
+LUBRICATION_PARAMETERS = ("viscosity", "length", "threshold")
+
+
+def lubricated_joints(model: Model, effects: Effects) -> tuple:
+    """((name, LubricationEffect), ...) of the clearance joints with an oil film, graph order."""
+    films = ((j, effects.lubrication_of(model.graph.joint(j))) for j in model.clearance_joints)
+    return tuple((j, f) for j, f in films if f.law != "none")
 
 
 def build_equations(model: Model, effects: Effects, mode: str, parameters, v_min: float = V_MIN,
@@ -188,7 +203,9 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
     refs = [q, qd, effort, th_ref, thd_ref, thdd_ref, dd0, inc, t]
     ref_names = ["q", "qd", "effort", "theta_ref", "theta_d_ref", "theta_dd_ref", "delta_dot0", "in_contact", "t"]
 
-    nk = (len(JOINT_PARAMETERS) * nc + len(EFFECT_PARAMETERS)) if nc else 0
+    films = dict(lubricated_joints(model, effects))
+    nk0 = (len(JOINT_PARAMETERS) * nc + len(EFFECT_PARAMETERS)) if nc else 0
+    nk = nk0 + len(LUBRICATION_PARAMETERS) * len(films)
     P = ca.SX.sym("parameters", nk + (geometry_parameters(graph).size if geometry else 0))
     G = P[nk:] if geometry else None  # masses, inertias, joint points (else constants)
     m_diag = model.masses(G)[0]
@@ -215,15 +232,17 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
     ce = effects.contact
     fe = effects.friction
     if nc:
-        restitution, damping, mu, mu_s, v0, v1, v_s = ca.vertsplit(P[len(JOINT_PARAMETERS) * nc:nk])
+        restitution, damping, mu, mu_s, v0, v1, v_s = ca.vertsplit(P[len(JOINT_PARAMETERS) * nc:nk0])
         fe = replace(fe, coefficient=mu, static_coefficient=mu_s, v0=v0, v1=v1, stribeck_velocity=v_s)
-    cols = {k: [] for k in ("f", "fn", "ft", "delta", "delta_dot", "e")}
-    V_contact, p_damp, p_fric = ca.SX(0), ca.SX(0), ca.SX(0)
+    cols = {k: [] for k in ("f", "fn", "ft", "delta", "delta_dot", "e", "film")}
+    V_contact, p_damp, p_fric, p_film = ca.SX(0), ca.SX(0), ca.SX(0), ca.SX(0)
     delta_list = []
     if nc:
         terms.append(f"contact ({ce.law}) at {' '.join(clear)}")
         if fe.law != "none":
             terms.append(f"friction ({fe.law})")
+        for law in sorted({f.law for f in films.values()}):
+            terms.append(f"lubrication ({law}) at {' '.join(j for j, f in films.items() if f.law == law)}")
     for j, name in enumerate(clear):
         spec = graph.joint(name)
         pts = model.joint_points(q, spec, G)
@@ -231,8 +250,9 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
         g_j, g_b = ca.jacobian(p_j, q), ca.jacobian(p_b, q)
         i_b, i_j = model.rotation_index(spec.bearing_body), model.rotation_index(spec.journal_body)
         K, r_j, r_b = (P[len(JOINT_PARAMETERS) * j + k] for k in range(len(JOINT_PARAMETERS)))
-        kin = clearance_kinematics(p_j - p_b, (g_j - g_b) @ qd, 0 if i_b is None else qd[i_b],
-                                   0 if i_j is None else qd[i_j], r_j, r_b)
+        e_dot = (g_j - g_b) @ qd
+        w_b, w_j = 0 if i_b is None else qd[i_b], 0 if i_j is None else qd[i_j]
+        kin = clearance_kinematics(p_j - p_b, e_dot, w_b, w_j, r_j, r_b)
         dd0_eff = ca.if_else(inc[j] > 0.5, dd0[j], ca.fmax(kin.delta_dot, v_min))
         fn = normal_force(ce.law, kin.penetration, kin.delta_dot, dd0_eff, K, ce.exponent, restitution, damping,
                           v_min)
@@ -240,12 +260,24 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
         ft = friction_force(fe, kin.v_t, fn) if fe.law != "none" else ca.SX(0)
         Qc, f = contact_generalized_forces(kin, fn, ft, g_b, g_j, i_b, i_j, r_j, r_b, nq)
         Q = Q + Qc
+        f_film = ca.SX.zeros(2)
+        if name in films:  # the oil film, at the joint centres (its pressure passes through them)
+            mu_oil, length, eps_t = (P[nk0 + len(LUBRICATION_PARAMETERS) * list(films).index(name) + k]
+                                     for k in range(len(LUBRICATION_PARAMETERS)))
+            c = r_b - r_j
+            eps = (kin.penetration + c) / c
+            A, B = film_rates(eps, kin.delta_dot, ca.dot(e_dot, kin.tangent), w_j, w_b, c)
+            f_r, f_s = film_force(films[name].law, ca.fmin(eps, eps_t), A, B, r_j, length, mu_oil, c)
+            f_film = film_weight(eps, eps_t) * (f_r * kin.normal + f_s * kin.tangent)
+            Q = Q + (g_j - g_b).T @ f_film
+            f = f + f_film
+            p_film += -ca.dot(f_film, e_dot)
         V_contact += K * power(ca.fmax(kin.penetration, 0.0), ce.exponent + 1) / (ce.exponent + 1)
         if ce.law != "hertz":
             p_damp += (fn - f_el) * kin.delta_dot
         if fe.law != "none":
             p_fric += -ft * kin.v_t
-        for k, v in zip(cols, (f, fn, ft, kin.penetration, kin.delta_dot, kin.eccentricity), strict=True):
+        for k, v in zip(cols, (f, fn, ft, kin.penetration, kin.delta_dot, kin.eccentricity, f_film), strict=True):
             cols[k].append(v)
         delta_list.append(kin.penetration)
 
@@ -253,6 +285,7 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
         return ca.horzcat(*cols[key]) if nc else ca.SX(rows, 0)
 
     contact_force, ecc = stack("f", 2), stack("e", 2)
+    p_damp += p_film
     fn_v, ft_v, delta_v, dd_v = (ca.vertcat(*cols[k]) if nc else ca.SX(0, 1)
                                  for k in ("fn", "ft", "delta", "delta_dot"))
 
@@ -292,13 +325,14 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
 
     # ca.cse merges repeated subexpressions (each body's sin/cos is built once per joint point
     # otherwise): about 11 % fewer instructions on the reference scene.
+    film_out = ([stack("film", 2), p_film], ["film_force", "power_film"]) if films else ([], [])
     acc = ca.Function(
         "acceleration", [*refs, P],
         ca.cse([qdd, lam, tau, reaction, contact_force, fn_v, ft_v, delta_v, dd_v, ecc, power_in, p_damp, p_fric,
-                driver_effort]),
+                driver_effort, *film_out[0]]),
         [*ref_names, "parameters"],
         ["qdd", "lambda", "tau", "reaction", "contact_force", "normal_force", "friction_force", "penetration",
-         "delta_dot", "eccentricity", "power_in", "power_damping", "power_friction", "driver_effort"])
+         "delta_dot", "eccentricity", "power_in", "power_damping", "power_friction", "driver_effort", *film_out[1]])
 
     lam_s = ca.SX.sym("lambda", n_con)
     res = ca.Function(

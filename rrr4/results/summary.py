@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..contact import V_MIN, hysteresis_factor
+from ..dynamics.builder import lubricated_joints
 from ..functions import graph_size
 from ..mechanism.workspace import path_kinematics
 from ..preload import PreloadSolution, PreloadWarning, solve_preload
@@ -53,6 +54,10 @@ def contact_numbers(problem: Problem, v_min: float = V_MIN) -> dict | None:
     out["stiffness_from"] = "scene" if c.stiffness is not None else STIFFNESS_FROM_MATERIALS
     out["stiffness_N_per_m^n"] = {j: problem.joint_stiffness(j) for j in joints}
     out["friction"] = {"law": f.law, **{k + _FRICTION_UNITS[k]: getattr(f, k) for k in FRICTION_LAW_KEYS[f.law]}}
+    films = lubricated_joints(problem.model, problem.scene.effects)
+    if films:  # only scenes with an oil film say so
+        out["lubrication"] = {j: {"law": m.law, "viscosity_Pa_s": m.viscosity, "length_m": m.length,
+                                  "threshold": m.threshold} for j, m in films}
     return out
 
 
@@ -76,7 +81,9 @@ def contact_lines(numbers: dict | None) -> list[str]:
              "coefficient": ("mu", ""), "static_coefficient": ("mu_s", "")}
     terms = [f"{units[k][0]} = {v:g}{' ' + units[k][1] if units[k][1] else ''}" for k, v in fr.items() if k != "law"]
     friction = (f"friction: {fr['law']}, " + ", ".join(terms)) if terms else "friction: none (no friction terms)"
-    return [", ".join(law), f"  stiffness from {n['stiffness_from']}: {stiff}", friction]
+    films = [f"lubrication at {j}: {m['law']}, viscosity {m['viscosity_Pa_s']:g} Pa s, length {m['length_m']:g} m, "
+             f"dry laws take over from eps = {m['threshold']:g} to 1" for j, m in n.get("lubrication", {}).items()]
+    return [", ".join(law), f"  stiffness from {n['stiffness_from']}: {stiff}", friction, *films]
 
 
 def _preload(study: Study) -> dict:

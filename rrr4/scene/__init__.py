@@ -26,6 +26,7 @@ from .schema import (
     IntegratorSettings,
     JointSpec,
     Link,
+    LubricationEffect,
     Material,
     NRRRSpec,
     PathSpec,
@@ -38,7 +39,8 @@ from .vocabulary import GROUND, MATERIALS, choices
 
 __all__ = [
     "SceneError", "Scene", "Link", "Chain", "Platform", "NRRRSpec", "Material", "JointSpec", "ContactEffect",
-    "FrictionEffect", "Effects", "PreloadSettings", "Actuation", "PathSpec", "Initial", "IntegratorSettings",
+    "FrictionEffect", "LubricationEffect", "Effects", "PreloadSettings", "Actuation", "PathSpec", "Initial",
+    "IntegratorSettings",
     "Body", "ActuatorSpec", "DriverSpec", "Graph", "GROUND", "MATERIALS", "PASSIVE_JOINTS", "choices",
     "read_scene", "parse_scene", "read_yaml", "load_yaml",
     "expand_nrrr", "bare_nrrr_graph", "get_key", "set_key", "key_steps",

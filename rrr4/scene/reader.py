@@ -17,6 +17,7 @@ import yaml
 from ..checks import describe, unknown_value
 from ..errors import SceneError
 from .fields import MAX_SAMPLES, Section
+from .lubrication import read_lubrication
 from .nrrr import expand_nrrr
 from .schema import (
     Actuation,
@@ -163,8 +164,9 @@ def _joints(sec: Section, n_chains: int) -> tuple[JointSpec, ...]:
                              f"(must be smaller than the journal radius {rj:g} m)")
         mj = _material(s.raw("journal_material"), s.key("journal_material"))
         mb = _material(s.raw("bearing_material"), s.key("bearing_material"))
+        film = read_lubrication(s.raw("lubrication"), s.key("lubrication")) if s.has("lubrication") else None
         s.done()
-        out.append(JointSpec(name, name in cl, rj, c, mj, mb))
+        out.append(JointSpec(name, name in cl, rj, c, mj, mb, lubrication=film))
     sec.done()
     return tuple(out)
 
@@ -197,6 +199,8 @@ def _clearance(v, key: str, bodies: tuple[str, str]) -> dict:
     out = {"clearance": True, "journal_radius": rj, "radial_clearance": c, "journal": bodies.index(journal),
            "journal_material": _material(s.raw("journal_material", "steel"), s.key("journal_material")),
            "bearing_material": _material(s.raw("bearing_material", "steel"), s.key("bearing_material"))}
+    if s.has("lubrication"):
+        out["lubrication"] = read_lubrication(s.raw("lubrication"), s.key("lubrication"))
     s.done()
     return out
 
@@ -394,9 +398,10 @@ def _effects(sec: Section) -> Effects:
     vs = f.number("stribeck_velocity", 1e-3, positive=True)
     f.done()
     g = sec.vector("gravity", 2, [0.0, 0.0])
+    film = read_lubrication(sec.raw("lubrication"), sec.key("lubrication"))
     sec.done()
     return Effects(ContactEffect(law, cr, exponent, stiffness, damping),
-                   FrictionEffect(flaw, mu, mus, v0, v1, vs), g)
+                   FrictionEffect(flaw, mu, mus, v0, v1, vs), g, film)
 
 
 def _actuation(sec: Section, n: int, graph: Graph | None = None) -> tuple[Actuation, tuple[float, ...]]:

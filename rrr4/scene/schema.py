@@ -11,8 +11,8 @@ from .time_table import check_time_table
 from .vocabulary import GROUND
 
 __all__ = ["Link", "Chain", "Platform", "NRRRSpec", "Material", "JointSpec", "Body", "ActuatorSpec", "DriverSpec",
-           "Graph", "ContactEffect", "FrictionEffect", "Effects", "PreloadSettings", "Actuation", "PathSpec",
-           "Initial", "IntegratorSettings", "Scene", "PASSIVE_JOINTS"]
+           "Graph", "ContactEffect", "FrictionEffect", "LubricationEffect", "Effects", "PreloadSettings", "Actuation",
+           "PathSpec", "Initial", "IntegratorSettings", "Scene", "PASSIVE_JOINTS"]
 
 @dataclass(frozen=True)
 class Link:
@@ -64,6 +64,17 @@ class Material:
 
 
 @dataclass(frozen=True)
+class LubricationEffect:
+    """The oil film of a lubricated clearance joint (:mod:`rrr4.contact.lubrication`): law
+    'none' (dry), 'long-bearing' or 'short-bearing'; viscosity [Pa s], bearing length [m];
+    threshold: the eccentricity ratio in (0, 1) above which the dry laws take the load over."""
+    law: str = "none"
+    viscosity: float = 0.0
+    length: float = 0.0
+    threshold: float = 0.95
+
+
+@dataclass(frozen=True)
 class JointSpec:
     """A joint between two bodies (or a body and 'ground').
 
@@ -86,6 +97,7 @@ class JointSpec:
     axis: tuple[float, float] = (1.0, 0.0)
     angle: float = 0.0
     journal: int = 1
+    lubrication: LubricationEffect | None = None  # this clearance joint's film; None: the scene's (Effects)
 
     @property
     def bearing_radius(self) -> float:
@@ -185,6 +197,11 @@ class Effects:
     contact: ContactEffect
     friction: FrictionEffect
     gravity: tuple[float, float]
+    lubrication: LubricationEffect = LubricationEffect()  # every clearance joint's, unless the joint says
+
+    def lubrication_of(self, joint: JointSpec) -> LubricationEffect:
+        """The film of clearance joint `joint`: its own if it gives one, else the scene's."""
+        return self.lubrication if joint.lubrication is None else joint.lubrication
 
 
 @dataclass(frozen=True)

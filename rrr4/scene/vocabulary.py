@@ -9,7 +9,8 @@ registry agree. Imports nothing.
 from __future__ import annotations
 
 __all__ = ["MECHANISM_KINDS", "JOINT_TYPES", "PATH_TYPES", "TIME_LAWS", "ACTUATION_MODES", "CONTACT_LAWS",
-           "FRICTION_LAWS", "CONTACT_LAW_KEYS", "FRICTION_LAW_KEYS", "INTEGRATORS", "ERROR_CONTROLLED", "NEWTON",
+           "FRICTION_LAWS", "LUBRICATION_LAWS", "CONTACT_LAW_KEYS", "FRICTION_LAW_KEYS",
+           "LUBRICATION_LAW_KEYS", "INTEGRATORS", "ERROR_CONTROLLED", "NEWTON",
            "COORDINATES", "PRELOAD_METHODS", "COMPENSATIONS", "QP_SOLVERS", "JOURNAL_STARTS", "OBJECTIVES", "MATERIALS",
            "GROUND", "choices", "registry"]
 
@@ -21,6 +22,7 @@ TIME_LAWS = ("quintic", "cycloidal", "linear", "table")  # table: path.time_tabl
 ACTUATION_MODES = ("torque", "prescribed", "free")  # free: zero actuator torque
 CONTACT_LAWS = ("hertz", "kelvin-voigt", "hunt-crossley", "lankarani-nikravesh", "flores", "gonthier")
 FRICTION_LAWS = ("coulomb", "ambrosio", "smooth", "stribeck")  # a scene may also say 'none'
+LUBRICATION_LAWS = ("long-bearing", "short-bearing")  # a scene may also say 'none' (dry joints)
 # the keys of effects.contact / effects.friction each law uses besides 'law' (a scene giving
 # another law's key is refused: the law would ignore it)
 CONTACT_LAW_KEYS = {
@@ -35,6 +37,10 @@ FRICTION_LAW_KEYS = {
     "ambrosio": ("coefficient", "v0", "v1"),
     "smooth": ("coefficient", "v0"),
     "stribeck": ("coefficient", "static_coefficient", "v0", "stribeck_velocity"),
+}
+LUBRICATION_LAW_KEYS = {
+    "none": (),
+    **{law: ("viscosity", "length", "threshold") for law in LUBRICATION_LAWS},
 }
 INTEGRATORS = ("bathe", "newmark", "generalized-alpha", "rk4", "erk", "rosenbrock", "cvodes", "idas", "rk45",
                "radau")
@@ -58,6 +64,7 @@ MATERIALS = {  # name: (Young's modulus [Pa], Poisson ratio)
 _CHOICES = {
     "contact law": CONTACT_LAWS,
     "friction law": ("none", *FRICTION_LAWS),
+    "lubrication law": ("none", *LUBRICATION_LAWS),
     "integrator": INTEGRATORS,
     "error control": ERROR_CONTROLLED,
     "coordinates": COORDINATES,
@@ -79,6 +86,6 @@ def registry(names: tuple[str, ...], implementations: dict) -> dict:
 
 
 def choices(what: str) -> tuple[str, ...]:
-    """The allowed names of a scene setting: 'contact law', 'friction law', 'integrator',
+    """The allowed names of a scene setting: 'contact law', 'friction law', 'lubrication law', 'integrator',
     'error control', 'coordinates', 'newton', 'preload method', 'compensation' or 'qp solver'."""
     return _CHOICES[what]

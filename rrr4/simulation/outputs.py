@@ -48,7 +48,8 @@ class Outputs:
         self.arrays = {"q": (N, nq), "qd": (N, nq), "qdd": (N, nq), "pose": (N, 3), "pose_ref": (N, 3),
                        "platform_error": (N,), "tau": (N, n), "contact_force": (N, nc, 2), "normal_force": (N, nc),
                        "eccentricity": (N, nc, 2), "penetration": (N, nc), "reaction": (N, k, 2),
-                       "driver_effort": (N, eqs.acceleration.size1_out("driver_effort"))}
+                       "driver_effort": (N, eqs.acceleration.size1_out("driver_effort")),
+                       "film_force": (N, nc, 2)}  # zeros at dry joints (rrr4.contact.lubrication)
         self.arrays = {name: np.zeros(shape) for name, shape in self.arrays.items()}
         self.energy: dict[str, np.ndarray] = {}
         self._buffer = np.empty((min(self.BLOCK, N), system.kept))
@@ -115,6 +116,8 @@ class Outputs:
         if nc:
             for name, rows in (("contact_force", 2), ("normal_force", 1), ("eccentricity", 2), ("penetration", 1)):
                 out[name][:] = per_joint(acc[name], rows)
+            if "film_force" in eqs.acceleration.name_out():
+                out["film_force"][:] = per_joint(acc["film_force"], 2)
         if eqs.passive_ideal_joints:
             out["reaction"][:] = per_joint(acc["reaction"], 2)
         if model.task is not None:

@@ -29,9 +29,10 @@ class Simulation:
     energy term; extremes: over every integrator step (and the start), whatever the output
     rate: normal_force_max, normal_force_min, penetration_max (nc,) [N, N, m] per clearance
     joint and, in torque mode, tau_abs_max (n,) [N m or N] per actuator (see
-    :func:`rrr4.simulation.system.extremes`); stats: solver statistics (method, step, steps,
-    graph sizes; wall_time [s]: the stepping, without making its frame inputs, input_time
-    [s], or its outputs, output_time [s]).
+    :func:`rrr4.simulation.system.extremes`); film_force (N, nc, 2) [N]: the oil film's share
+    of contact_force (zeros at dry joints; :mod:`rrr4.contact.lubrication`); stats: solver
+    statistics (method, step, steps, graph sizes; wall_time [s]: the stepping, without making
+    its frame inputs, input_time [s], or its outputs, output_time [s]).
     :meth:`body` gives the (N, 3) pose of any body.
     """
     scene: Scene
@@ -57,6 +58,7 @@ class Simulation:
     energy_audit_residual: float
     extremes: dict
     stats: dict = field(default_factory=dict)
+    film_force: np.ndarray | None = None
 
     def body(self, name: str) -> np.ndarray:
         """(N, 3) pose [x, y, theta] [m, m, rad] of the centre of mass of the body `name`."""

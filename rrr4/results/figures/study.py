@@ -99,8 +99,13 @@ def contact_forces(study: Study, path: Path) -> Path | None:
             x = x_of(sim)
             keep = (x >= x_lim[0]) & (x <= x_lim[1])
             if name in sim.clearance_joints:
-                f = sim.normal_force[:, sim.clearance_joints.index(name)]
+                k_j = sim.clearance_joints.index(name)
+                f = sim.normal_force[:, k_j]
                 ax.plot(x[keep], f[keep], lw=0.5, **STYLE[arm_name])
+                film = np.linalg.norm(sim.film_force[:, k_j], axis=1) if sim.film_force is not None else f * 0
+                if film.any():  # a lubricated joint: the oil film's force beside the dry contact's
+                    ax.plot(x[keep], film[keep], lw=0.8, ls="--", color=STYLE[arm_name].get("color"),
+                            label=f"{STYLE[arm_name].get('label', arm_name)}: oil film |F|")
             elif name in sim.ideal_passive_joints:
                 r = np.linalg.norm(sim.reaction[:, sim.ideal_passive_joints.index(name)], axis=1)
                 ax.plot(x[keep], r[keep], lw=1.0, **STYLE[arm_name])
@@ -112,8 +117,11 @@ def contact_forces(study: Study, path: Path) -> Path | None:
         ax.set_title(name)
         ax.set_xlabel(x_label)
         ax.set_ylabel("normal force [N]")
-    return _finish(fig, axes, len(joints),
-                   _title(study, "normal contact force at each clearance joint (0 = free flight)"), path)
+    lubricated = any(a.simulation.film_force is not None and a.simulation.film_force.any()
+                     for a in study.arms.values())
+    what = ("dry contact and oil-film (dashed) force at each clearance joint" if lubricated else
+            "normal contact force at each clearance joint (0 = free flight)")
+    return _finish(fig, axes, len(joints), _title(study, what), path)
 
 
 def platform_error(study: Study, path: Path) -> Path | None:
