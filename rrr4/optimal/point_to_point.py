@@ -57,7 +57,7 @@ from ..mechanism.workspace import condition_number
 from ..preload.qp import qp_preload_function
 from ..problem import Problem
 from ..trajectory import path_geometry_function
-from .time_law import BINDING_TOL, contact_directions, optimal_time_law
+from .time_law import BINDING_TOL, binding_counts, contact_directions, optimal_time_law, optimum_summary
 
 __all__ = ["OptimalMotion", "optimal_motion", "MOTION_OBJECTIVES"]
 
@@ -110,23 +110,13 @@ class OptimalMotion:
 
     def binding_counts(self) -> dict[str, int]:
         """How many nodes each constraint binds at."""
-        out: dict[str, int] = {}
-        for names in self.binding:
-            for b in names.split(", ") if names else ():
-                out[b] = out.get(b, 0) + 1
-        return dict(sorted(out.items()))
+        return binding_counts(self.binding)
 
     def summary(self) -> dict:
         """The motion's numbers as plain JSON types."""
-        stats = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in self.statistics.items()}
-        return {"objective": self.objective, "duration_s": self.duration, "nodes": len(self.t),
-                "start": list(self.start), "target": list(self.target), "contact_condition": self.contact,
-                "sign": self.sign, "f_min_N": self.f_min,
-                "peak_effort_ratio": float(np.max(np.abs(self.efforts) / np.asarray(self.torque_limit))),
-                "min_contact_margin_N": float(self.axial.min() - self.f_min) if self.axial.size else None,
+        return {**optimum_summary(self), "nodes": len(self.t), "start": list(self.start), "target": list(self.target),
                 "max_condition_number": float(self.condition.max()),
-                "min_transmission": None if self.transmission is None else float(self.transmission.min()),
-                "binding": self.binding_counts(), "statistics": stats}
+                "min_transmission": None if self.transmission is None else float(self.transmission.min())}
 
 
 def _pose(key: str, v) -> np.ndarray:

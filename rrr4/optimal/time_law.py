@@ -49,7 +49,8 @@ from ..scene.vocabulary import OBJECTIVES
 from ..trajectory import PathSamples
 from .family import PathFamily, path_family
 
-__all__ = ["OptimalTimeLaw", "optimal_time_law", "OBJECTIVES", "MAX_POINTS", "contact_directions"]
+__all__ = ["OptimalTimeLaw", "optimal_time_law", "binding_counts", "optimum_summary", "OBJECTIVES", "MAX_POINTS",
+           "contact_directions"]
 
 MAX_POINTS = 100_000
 # a constraint whose relative slack is below this is reported as binding
@@ -120,20 +121,30 @@ class OptimalTimeLaw:
 
     def binding_counts(self) -> dict[str, int]:
         """How many grid points each constraint binds at."""
-        out: dict[str, int] = {}
-        for names in self.binding:
-            for b in names.split(", ") if names else ():
-                out[b] = out.get(b, 0) + 1
-        return dict(sorted(out.items()))
+        return binding_counts(self.binding)
 
     def summary(self) -> dict:
         """The law's numbers as plain JSON types."""
-        return {"objective": self.objective, "duration_s": self.duration, "points": len(self.s),
-                "contact_condition": self.contact, "null_space": self.null_space, "sign": self.sign,
-                "f_min_N": self.f_min, "peak_effort_ratio": float(np.max(np.abs(self.efforts) /
-                                                                         np.asarray(self.torque_limit))),
-                "min_contact_margin_N": (float(self.axial.min() - self.f_min) if self.axial.size else None),
-                "binding": self.binding_counts(), "statistics": _plain(self.statistics)}
+        return {**optimum_summary(self), "points": len(self.s), "null_space": self.null_space}
+
+
+def binding_counts(binding) -> dict[str, int]:
+    """How many points (or nodes) each constraint binds at, from the per-point lists
+    ('name, name', '' where none binds) of an optimal law or motion."""
+    out: dict[str, int] = {}
+    for names in binding:
+        for b in names.split(", ") if names else ():
+            out[b] = out.get(b, 0) + 1
+    return dict(sorted(out.items()))
+
+
+def optimum_summary(opt) -> dict:
+    """What an optimal law and an optimal motion report alike, as plain JSON types."""
+    return {"objective": opt.objective, "duration_s": opt.duration, "contact_condition": opt.contact,
+            "sign": opt.sign, "f_min_N": opt.f_min,
+            "peak_effort_ratio": float(np.max(np.abs(opt.efforts) / np.asarray(opt.torque_limit))),
+            "min_contact_margin_N": float(opt.axial.min() - opt.f_min) if opt.axial.size else None,
+            "binding": binding_counts(opt.binding), "statistics": _plain(opt.statistics)}
 
 
 def _plain(d):
