@@ -165,7 +165,7 @@ def _measurements(problem: Problem, measurements, arm, noise) -> Measurements:
 
 
 def identify(scene, measurements, parameters=None, method: str = "seated", noise: dict | None = None,
-             arm: str | None = None) -> Identification:
+             arm: str | None = None, effort_lag="controller") -> Identification:
     """Identify `parameters` of `scene` (the nominal model: a Scene, a scene file or a
     Problem) from `measurements` (a CSV file, :class:`Measurements` or a Simulation).
 
@@ -174,6 +174,8 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
     [lower, upper] | {nominal, lower, upper}. method: 'seated' (journals seated under
     preload; quasi-static). noise: {column: standard deviation} (the rest is estimated from
     the residuals). arm: the arm prefix of a study's timeseries.csv with several arms.
+    effort_lag: the time constant [s] with which the measured friction efforts follow the
+    seat model ('controller': the feedback's kd / kp; 0: none).
     Raises SceneError / MeasurementError (one line) for bad input."""
     problem = Problem.from_scene(scene)
     if method not in METHODS:
@@ -188,7 +190,7 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
     m = _measurements(problem, measurements, arm, noise)
     source = problem.scene.source
     params = resolve_parameters(problem, parameters, read_yaml(source) if source and Path(source).is_file() else None)
-    data = SeatedData(problem, m, params)
+    data = SeatedData(problem, m, params, effort_lag)
     lower = np.array([q.coordinate(q.lower) for q in params])
     upper = np.array([q.coordinate(q.upper) for q in params])
     given = {c: float(s) for c, s in m.noise.items() if c in data.columns()}
@@ -237,7 +239,8 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
     fit = {"samples": len(m), "residuals": int(r.size), "reduced_chi2": cov["reduced_chi2"], "chi2": cov["chi2"],
            "rms_residual": {c: float(np.sqrt(np.mean(v ** 2))) for c, v in res["raw"].items()},
            "iterations": iterations, "converged": bool(converged), "wall_time_s": time.perf_counter() - wall,
-           "angles": "measured" if data.angles_measured else "controller references",
+           "angles": "measured" if data.angles_measured else "controller references", "preload": data.preload,
+           "effort_lag_s": data.lag,
            "columns": data.columns()}
     return Identification(
         method, tuple(params), p, se, np.column_stack([p - Z95 * se, p + Z95 * se]), cov["covariance"],

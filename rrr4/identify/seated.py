@@ -9,12 +9,17 @@ the chains close around those gaps: the least-squares forward kinematics of the 
 ~1e-4^2 / l, below 0.1 um). The efforts carry the seated journals' friction moments: the
 part of the measured efforts outside the preload direction tau_n is the inverse dynamics
 plus the minimum-norm effort that overcomes them (:func:`rrr4.control.compensation.friction_feed_forward`),
-so the preload, whatever the controller made of it, drops out (variable projection).
+so the preload, whatever the controller made of it, drops out (variable projection). A
+friction moment that reverses is taken up by the feedback's position error while the
+journal sticks: the friction efforts follow the model through a first-order lag of the
+feedback's kd / kp (``effort_lag``).
 
 :func:`seated_model` is one SX Function per problem structure and parameter layout:
 pose_ref, pose_d (3 each), theta (n), r (2, nj), p (np) -> pose (3), tau_friction (n) and
 their Jacobians in p. The reactions r are those of the ideal mechanism at the desired
-motion with the controller's preload alpha (the measured ``alpha_Nm`` where present).
+motion with the preload alpha the mechanism carries: the measured efforts' part along tau_n
+(where all efforts are measured; the controller's feedback changes the preload it plans),
+else the measured ``alpha_Nm``, else the controller's.
 """
 
 from __future__ import annotations
@@ -30,7 +35,8 @@ from ..problem import Problem
 from .measurements import Measurements, measurement_columns
 from .parameters import Parameter
 
-__all__ = ["seated_model", "SeatedData", "noise_from_residuals", "seated_measurements", "GN_STEPS"]
+__all__ = ["seated_model", "SeatedData", "noise_from_residuals", "seated_measurements", "first_order_lag", "effort_lag_of",
+           "GN_STEPS"]
 
 GN_STEPS = 2  # Gauss-Newton steps of the forward kinematics from the reference pose
 
@@ -106,13 +112,37 @@ def _build(problem: Problem, params: list[Parameter]) -> ca.Function:
                        ["pose", "tau_friction", "dpose_dp", "dtau_dp"])
 
 
+def effort_lag_of(problem: Problem, lag) -> float:
+    """The time constant [s] of the friction efforts' lag: 'controller' (kd / kp of the scene's
+    feedback: a friction moment that reverses is taken up by the feedback's position error,
+    which settles with kd / kp while the journal sticks), or a number >= 0."""
+    if lag == "controller":
+        a = problem.scene.actuation
+        return a.kd / a.kp if a.kp > 0 else 0.0
+    if isinstance(lag, bool) or not isinstance(lag, (int, float)) or not (lag >= 0 and np.isfinite(lag)):
+        raise SceneError(f"effort_lag: {lag!r} is not allowed ('controller' or a time constant >= 0 in s)")
+    return float(lag)
+
+
+def first_order_lag(t: np.ndarray, x: np.ndarray, T: float) -> np.ndarray:
+    """x (N, ...) through the first-order lag T y' + y = x (backward Euler on the grid t,
+    y_0 = x_0)."""
+    y = np.empty_like(x)
+    y[0] = x[0]
+    for k in range(1, len(t)):
+        a = (t[k] - t[k - 1]) / (T + t[k] - t[k - 1])
+        y[k] = y[k - 1] + a * (x[k] - y[k - 1])
+    return y
+
+
 class SeatedData:
     """What the seated model needs at the measured instants, computed once: the desired
     motion, the actuator angles (measured, else the controller's references), the reactions
     with the preload, the effort family, and the measured columns."""
 
-    def __init__(self, problem: Problem, m: Measurements, params: list[Parameter]):
+    def __init__(self, problem: Problem, m: Measurements, params: list[Parameter], effort_lag="controller"):
         self.problem, self.m, self.params = problem, m, params
+        self.lag = effort_lag_of(problem, effort_lag)
         kinds = measurement_columns(problem)
         t = m.t
         path = problem.path
@@ -134,12 +164,20 @@ class SeatedData:
             missing = sorted(set(kinds["angle"]) - set(angles))
             raise MeasurementError(f"{m.source or 'measurements'}: actuator angles {', '.join(missing)} are missing "
                                    "(measure all of them, or none: then the controller's references are used)")
+        all_efforts = len(self.effort_cols) == len(kinds["effort"])
         refs = None
-        if not angles or "alpha_Nm" not in m.columns:
+        if not angles or not (all_efforts or "alpha_Nm" in m.columns):
             refs = tabulated(problem, t)
         self.theta = np.column_stack([m.columns[c] for c in angles]) if angles else refs.theta_ref
         self.angles_measured = bool(angles)
-        alpha = m.columns["alpha_Nm"][:, None] if "alpha_Nm" in m.columns else refs.alpha.reshape(len(t), -1)
+        if all_efforts:  # the preload the mechanism carries: the efforts' part along tau_n (the rest is orthogonal)
+            tau = np.column_stack([m.columns[c] for c in kinds["effort"]])
+            alpha = np.einsum("kmn,kn->km", np.linalg.pinv(fam.tau_n), tau - fam.tau_p)
+            self.preload = "measured efforts"
+        elif "alpha_Nm" in m.columns:
+            alpha, self.preload = m.columns["alpha_Nm"][:, None], "alpha_Nm"
+        else:
+            alpha, self.preload = refs.alpha.reshape(len(t), -1), "controller"
         r = fam.r_p + np.einsum("kjcm,km->kjc", fam.r_n, alpha)
         N, nj = r.shape[:2]
         self.r = r.transpose(2, 0, 1).reshape(2, N * nj)
@@ -155,6 +193,8 @@ class SeatedData:
         pose, tau, dpose, dtau = (np.array(v) for v in self.f(self.pose_ref.T, self.pose_d.T, self.theta.T, self.r,
                                                                  np.asarray(p, float)))
         tau, dtau = tau.T, dtau.reshape(-1, N, npar).transpose(1, 0, 2)
+        if self.lag > 0:
+            tau, dtau = first_order_lag(self.m.t, tau, self.lag), first_order_lag(self.m.t, dtau, self.lag)
         return (pose.T, tau[:, self.effort_index], dpose.reshape(3, N, npar).transpose(1, 0, 2),
                 dtau[:, self.effort_index, :])
 
@@ -215,7 +255,7 @@ def noise_from_residuals(res: dict, n_par: int) -> dict:
 
 
 def seated_measurements(problem: Problem, params: list[Parameter], values, t, noise: dict | None = None,
-                        rng: np.random.Generator | None = None) -> Measurements:
+                        rng: np.random.Generator | None = None, effort_lag="controller") -> Measurements:
     """What the seated model predicts a mechanism with the parameters `values` (the nominal
     problem's otherwise) shows at the times t (N,) [s]: its task pose with the actuators at
     the controller's references, its actuator angles, its efforts (the controller's preload
@@ -227,7 +267,7 @@ def seated_measurements(problem: Problem, params: list[Parameter], values, t, no
     cols = {c: refs.theta_ref[:, i] for i, c in enumerate(kinds["angle"])}
     cols["alpha_Nm"] = refs.alpha.reshape(len(t), -1)[:, 0]
     m = Measurements(t, {**cols, **{c: np.zeros(len(t)) for c in kinds["pose"] + kinds["effort"]}})
-    data = SeatedData(problem, m, params)
+    data = SeatedData(problem, m, params, effort_lag)
     pose, tau_f, _, _ = data.predict(np.asarray(values, float))
     fam = problem.effort_family(data.pose_ref, data.pose_d, path_rows(problem.path, t)[:, 6:9])
     tau = fam.tau_p + np.einsum("knm,km->kn", fam.tau_n, refs.alpha.reshape(len(t), -1)) + tau_f
