@@ -35,8 +35,8 @@ from ..problem import Problem
 from .measurements import Measurements, measurement_columns
 from .parameters import Parameter
 
-__all__ = ["seated_model", "SeatedData", "noise_from_residuals", "seated_measurements", "first_order_lag", "effort_lag_of",
-           "GN_STEPS"]
+__all__ = ["seated_model", "SeatedData", "noise_from_residuals", "seated_measurements", "first_order_lag",
+           "effort_lag_of", "GN_STEPS"]
 
 GN_STEPS = 2  # Gauss-Newton steps of the forward kinematics from the reference pose
 
