@@ -39,7 +39,9 @@ class Identification:
     noise_estimated {column: True if estimated from the residuals}; fit: reduced chi^2,
     RMS residual per column, iterations, convergence, wall time; verdict: the identifiability
     verdict (:func:`rrr4.identify.least_squares.identifiability`); t (N,), measured,
-    prediction, residual: {column: (N,)}; scene: the nominal scene; identified: the scene
+    prediction, residual: {column: (N,)}; explained: {column: (N,)} what the model explains
+    (the pose's offset from the path, the friction efforts off the preload direction; the
+    measured counterpart is explained + residual); scene: the nominal scene; identified: the scene
     with the estimates (None without the nominal scene's YAML); identified_yaml: its data."""
     method: str
     parameters: tuple[Parameter, ...]
@@ -57,6 +59,7 @@ class Identification:
     measured: dict
     prediction: dict
     residual: dict
+    explained: dict
     scene: Scene
     identified: Scene | None = None
     identified_yaml: dict | None = None
@@ -245,5 +248,6 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
     return Identification(
         method, tuple(params), p, se, np.column_stack([p - Z95 * se, p + Z95 * se]), cov["covariance"],
         cov["correlation"], at_bound, sigma, {c: c not in given for c in sigma}, fit, verdict, m.t,
-        {c: m.columns[c] for c in data.columns()}, res["prediction"], res["raw"], problem.scene, identified,
+        {c: m.columns[c] for c in data.columns()}, res["prediction"], res["raw"], res["explained"], problem.scene,
+        identified,
         yaml_data)

@@ -37,11 +37,13 @@ def measurement_columns(problem: Problem) -> dict[str, list[str]]:
     """The columns identification reads for `problem`, by kind: pose, angle, rate, effort
     (without an arm prefix), and 'preload' (alpha_Nm)."""
     model = problem.model
-    units = ["Nm" if problem.joint(j).type == "revolute" else "N" for j in model.actuated_joints]
+    rev = [problem.joint(j).type == "revolute" for j in model.actuated_joints]
     names = model.actuator_names
-    return {"pose": list(POSE_COLUMNS), "angle": [f"theta_{a}_rad" for a in names],
-            "rate": [f"theta_d_{a}_rad_s" for a in names],
-            "effort": [f"tau_{a}_{u}" for a, u in zip(names, units, strict=True)], "preload": ["alpha_Nm"]}
+    return {"pose": list(POSE_COLUMNS),
+            "angle": [f"theta_{a}_{'rad' if r else 'm'}" for a, r in zip(names, rev, strict=True)],
+            "rate": [f"theta_d_{a}_{'rad_s' if r else 'm_s'}" for a, r in zip(names, rev, strict=True)],
+            "effort": [f"tau_{a}_{'Nm' if r else 'N'}" for a, r in zip(names, rev, strict=True)],
+            "preload": ["alpha_Nm"]}
 
 
 @dataclass(frozen=True)
@@ -90,6 +92,16 @@ class Measurements:
     def has(self, kind_columns) -> list[str]:
         """The columns of `kind_columns` that are present."""
         return [c for c in kind_columns if c in self.columns]
+
+    def write_csv(self, path, prefix: str = "") -> Path:
+        """Write t_s and the columns (behind `prefix`, e.g. 'with_preload_') as a CSV file
+        that :func:`read_measurements` reads back."""
+        names = list(self.columns)
+        with open(path, "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(["t_s", *(c if c == "alpha_Nm" else prefix + c for c in names)])
+            w.writerows(np.column_stack([self.t, *(self.columns[c] for c in names)]).tolist())
+        return Path(path)
 
     def window(self, t0: float, t1: float) -> Measurements:
         """The rows with t0 <= t <= t1."""

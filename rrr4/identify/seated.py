@@ -206,10 +206,11 @@ class SeatedData:
         """Whitened residuals at parameters p with the noise levels sigma {column: std}:
         {'r': (M,), 'J': (M, np) in p, 'raw': {column: (N,) residual in its unit},
         'expected': {column: (N,) fraction of the noise variance left after the projection},
-        'prediction': {column: (N,) model}}."""
+        'prediction': {column: (N,) model}, 'explained': {column: (N,) what the parameters
+        explain: the pose's offset from the path, the friction efforts off the preload}}."""
         kinds = measurement_columns(self.problem)
         pose, tau_f, dpose, dtau = self.predict(p)
-        rs, js, raw, expected, pred = [], [], {}, {}, {}
+        rs, js, raw, expected, pred, explained = [], [], {}, {}, {}, {}
         for c in self.pose_cols:
             i = kinds["pose"].index(c)
             s = sigma[c]
@@ -217,6 +218,7 @@ class SeatedData:
             if c == "theta_rad":
                 raw[c] = np.arctan2(np.sin(raw[c]), np.cos(raw[c]))
             expected[c], pred[c] = np.ones(len(raw[c])), pose[:, i]
+            explained[c] = pose[:, i] - self.pose_ref[:, i]
             rs.append(raw[c] / s)
             js.append(-dpose[:, i, :] / s)
         if self.effort_cols:
@@ -226,14 +228,16 @@ class SeatedData:
             dz = -dtau / s[None, :, None]
             Q = np.linalg.qr(self.tau_n / s[None, :, None])[0]  # (N, ne, m): the whitened preload directions
             z = z - np.einsum("kim,kjm,kj->ki", Q, Q, z)
+            zf = tau_f / s - np.einsum("kim,kjm,kj->ki", Q, Q, tau_f / s)  # the friction efforts off the preload
             dz = dz - np.einsum("kim,kjm,kjp->kip", Q, Q, dz)
             left = 1.0 - np.einsum("kim,kim->ki", Q, Q)
             for i, c in enumerate(self.effort_cols):
-                raw[c], expected[c] = z[:, i] * s[i], left[:, i]
+                raw[c], expected[c], explained[c] = z[:, i] * s[i], left[:, i], zf[:, i] * s[i]
                 pred[c] = meas[:, i] - raw[c]
                 rs.append(z[:, i])
                 js.append(dz[:, i, :])
-        return {"r": np.concatenate(rs), "J": np.vstack(js), "raw": raw, "expected": expected, "prediction": pred}
+        return {"r": np.concatenate(rs), "J": np.vstack(js), "raw": raw, "expected": expected, "prediction": pred,
+                "explained": explained}
 
     def initial_noise(self) -> dict:
         """A first guess of the noise levels, for the weights of the first fit: 1 um, 1e-5 rad,
