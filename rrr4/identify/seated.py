@@ -187,16 +187,17 @@ class SeatedData:
         self.tau_n = fam.tau_n[:, idx, :]
         self.f = seated_model(problem, params).map(N)
 
-    def predict(self, p: np.ndarray):
-        """(pose (N, 3), tau_friction (N, n_e), dpose (N, 3, np), dtau (N, n_e, np)) at parameters p."""
+    def predict(self, p: np.ndarray, efforts: str = "measured"):
+        """(pose (N, 3), tau_friction (N, n_e), dpose (N, 3, np), dtau (N, n_e, np)) at parameters p,
+        for the measured efforts (n_e of them) or with efforts='all' every actuator's."""
         N, npar = len(self.m), len(self.params)
         pose, tau, dpose, dtau = (np.array(v) for v in self.f(self.pose_ref.T, self.pose_d.T, self.theta.T, self.r,
                                                                  np.asarray(p, float)))
         tau, dtau = tau.T, dtau.reshape(-1, N, npar).transpose(1, 0, 2)
         if self.lag > 0:
             tau, dtau = first_order_lag(self.m.t, tau, self.lag), first_order_lag(self.m.t, dtau, self.lag)
-        return (pose.T, tau[:, self.effort_index], dpose.reshape(3, N, npar).transpose(1, 0, 2),
-                dtau[:, self.effort_index, :])
+        idx = slice(None) if efforts == "all" else self.effort_index
+        return pose.T, tau[:, idx], dpose.reshape(3, N, npar).transpose(1, 0, 2), dtau[:, idx, :]
 
     def columns(self) -> list[str]:
         """The fitted columns: the measured pose columns, then the measured efforts."""
@@ -270,9 +271,9 @@ def seated_measurements(problem: Problem, params: list[Parameter], values, t, no
     refs = tabulated(problem, t)
     cols = {c: refs.theta_ref[:, i] for i, c in enumerate(kinds["angle"])}
     cols["alpha_Nm"] = refs.alpha.reshape(len(t), -1)[:, 0]
-    m = Measurements(t, {**cols, **{c: np.zeros(len(t)) for c in kinds["pose"] + kinds["effort"]}})
+    m = Measurements(t, {**cols, **{c: np.zeros(len(t)) for c in kinds["pose"]}})  # the preload: alpha_Nm
     data = SeatedData(problem, m, params, effort_lag)
-    pose, tau_f, _, _ = data.predict(np.asarray(values, float))
+    pose, tau_f, _, _ = data.predict(np.asarray(values, float), efforts="all")
     fam = problem.effort_family(data.pose_ref, data.pose_d, path_rows(problem.path, t)[:, 6:9])
     tau = fam.tau_p + np.einsum("knm,km->kn", fam.tau_n, refs.alpha.reshape(len(t), -1)) + tau_f
     cols.update({c: pose[:, i] for i, c in enumerate(kinds["pose"])})
