@@ -128,7 +128,8 @@ def _robustness(args) -> int:
     scene = load_scene(args.scene)
     out = Path(args.out) if args.out else Path("results") / f"{scene.name}_robustness"
     check_writable(out)
-    for f in write_robustness(scene, out, t_end=args.t_end, log=lambda m: tqdm.write(f"rrr4 robustness: {m}")):
+    for f in write_robustness(scene, out, t_end=args.t_end, log=lambda m: tqdm.write(f"rrr4 robustness: {m}"),
+                              identified=args.identified):
         print(f)
     return 0
 
@@ -262,6 +263,9 @@ def build_parser() -> argparse.ArgumentParser:
     rb.add_argument("--out", help="directory (default results/<scene name>_robustness/); the two files are "
                                   "replaced atomically")
     rb.add_argument("--t-end", type=float, default=None, help="simulated time [s] (default: the path duration)")
+    rb.add_argument("--identified", action="store_true",
+                    help="also identify each perturbed mechanism from its uncompensated run (rrr4 identify) and run "
+                         "the compensated controller with the identified and with the true model")
     rb.set_defaults(func=_robustness)
     idn = sub.add_parser("identify", help="identify clearances, friction, contact stiffness or link lengths of a "
                                           "scene from measured task poses, actuator angles and efforts (a CSV with "

@@ -264,3 +264,16 @@ def test_the_cli_refuses_bad_input_in_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "--parameters" in err and "LOWER:UPPER" in err
     assert not (tmp_path / "o").exists()
+
+
+# ---------------------------------------------------------------------- closing the loop
+
+
+@pytest.mark.slow
+def test_the_identified_model_compensates_as_well_as_the_true_one_in_every_robustness_case(problem):
+    from rrr4.studies.robustness import CASES, robustness
+    rows = robustness(problem, t_end=1.0, identified=True)
+    for case in CASES:
+        rms = {r["model"]: r["platform_error_rms_m"] for r in rows
+               if r["case"] == case and r["arm"] == "with_preload_compensated"}
+        assert rms["identified"] <= max(1.25 * rms["true"], rms["true"] + 0.5e-6), (case, rms)

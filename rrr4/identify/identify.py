@@ -42,7 +42,8 @@ class Identification:
     prediction, residual: {column: (N,)}; explained: {column: (N,)} what the model explains
     (the pose's offset from the path, the friction efforts off the preload direction; the
     measured counterpart is explained + residual); scene: the nominal scene; identified: the scene
-    with the estimates (None without the nominal scene's YAML); identified_yaml: its data."""
+    with the estimates (None without the nominal scene's YAML; a parameter the verdict finds
+    barely determined keeps its nominal value there); identified_yaml: its data."""
     method: str
     parameters: tuple[Parameter, ...]
     estimate: np.ndarray
@@ -78,7 +79,8 @@ class Identification:
     def summary(self) -> dict:
         """A JSON-ready summary (what ``identification.json`` holds)."""
         rows = [{"key": p.key, "nominal": p.nominal, "lower": p.lower, "upper": p.upper, "estimate": float(e),
-                 "standard_error": float(s), "interval_95": [float(a), float(b)], "at_bound": p.key in self.at_bound}
+                 "standard_error": float(s), "interval_95": [float(a), float(b)], "at_bound": p.key in self.at_bound,
+                 "in_identified_scene": p.nominal if p.key in self.verdict["poorly_determined"] else float(e)}
                 for p, e, s, (a, b) in zip(self.parameters, self.estimate, self.standard_error, self.interval,
                                            strict=True)]
         corr = np.where(np.isfinite(self.correlation), self.correlation, None).tolist()
@@ -91,6 +93,8 @@ class Identification:
         lines = [f"{'parameter':44s} {'nominal':>11s} {'estimate':>11s} {'std error':>10s}  95 % interval"]
         for p, e, s, (a, b) in zip(self.parameters, self.estimate, self.standard_error, self.interval, strict=True):
             mark = "  (at a bound)" if p.key in self.at_bound else ""
+            if p.key in self.verdict["poorly_determined"]:
+                mark += "  (the identified scene keeps the nominal value)"
             lines.append(f"{p.key:44s} {p.nominal:11.5g} {e:11.5g} {s:10.3g}  [{a:.5g}, {b:.5g}]{mark}")
         f = self.fit
         rms = ", ".join(f"{c} {v:.3g}" for c, v in f["rms_residual"].items())
@@ -231,7 +235,9 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
     verdict = {**verdict, "poorly_determined": poor, "identifiable": verdict["identifiable"] and not poor}
     at_bound = tuple(q.key for q, v in zip(params, p, strict=True)
                      if min(v - q.lower, q.upper - v) <= 1e-9 * (q.upper - q.lower))
-    yaml_data = identified_data(problem, params, p)
+    # a barely determined parameter keeps its nominal value in the identified scene
+    written = [q.nominal if q.key in poor else v for q, v in zip(params, p, strict=True)]
+    yaml_data = identified_data(problem, params, written)
     identified = None
     if yaml_data is not None:
         try:
