@@ -17,12 +17,13 @@ from ..checks import unknown_value
 from ..errors import MeasurementError, SceneError
 from ..problem import Problem
 from ..scene import Scene, parse_scene, read_yaml, set_key
+from .dynamic import DynamicData
 from .least_squares import Z95, covariance, identifiability, levenberg_marquardt
 from .measurements import Measurements, measurements_from_simulation, read_measurements
 from .parameters import Parameter, resolve_parameters
 from .seated import SeatedData, noise_from_residuals
 
-__all__ = ["identify", "Identification", "METHODS", "identified_data"]
+__all__ = ["identify", "Identification", "METHODS", "identified_data", "scene_yaml"]
 
 METHODS = ("seated", "dynamic")
 POOR = 0.5  # a standard error above half a parameter's scale (a factor 1.6 in a stiffness): barely determined
@@ -143,12 +144,19 @@ def _excite(params: dict[str, Parameter]):
     return hint
 
 
-def identified_data(problem: Problem, params, values) -> dict | None:
-    """The nominal scene's YAML data with the estimates set at their keys (None without a YAML file)."""
+def scene_yaml(problem: Problem) -> dict | None:
+    """The YAML data of the problem's scene file (None without one)."""
     source = problem.scene.source
-    if not source or not Path(source).is_file():
+    return read_yaml(source) if source and Path(source).is_file() else None
+
+
+def identified_data(problem: Problem, params, values, data: dict | None = None) -> dict | None:
+    """The nominal scene's YAML data (`data`, else read from its file) with the values set at
+    the parameters' keys (None without a YAML file)."""
+    data = scene_yaml(problem) if data is None else data
+    if data is None:
         return None
-    data = copy.deepcopy(read_yaml(source))
+    data = copy.deepcopy(data)
     for p, v in zip(params, values, strict=True):
         set_key(data, p.key, float(v))
     if isinstance(data.get("name"), str):
@@ -179,44 +187,52 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
     parameters: dotted scene keys (:data:`rrr4.identify.parameters.PATTERNS`; default
     clearance, friction coefficient, contact stiffness), or a mapping key -> None |
     [lower, upper] | {nominal, lower, upper}. method: 'seated' (journals seated under
-    preload; quasi-static). noise: {column: standard deviation} (the rest is estimated from
-    the residuals). arm: the arm prefix of a study's timeseries.csv with several arms.
+    preload; quasi-static) or 'dynamic' (single shooting through rrr4.simulate from the
+    scene's initial state; contact numbers only; refuses a run too chaotic to shoot).
+    noise: {column: standard deviation} (the rest is estimated from the residuals). arm:
+    the arm prefix of a study's timeseries.csv with several arms.
     effort_lag: the time constant [s] with which the measured friction efforts follow the
     seat model ('controller': the feedback's kd / kp; 0: none).
     Raises SceneError / MeasurementError (one line) for bad input."""
     problem = Problem.from_scene(scene)
     if method not in METHODS:
         raise unknown_value("method", "identification method", method, METHODS)
-    if method == "dynamic":
-        raise SceneError("method: 'dynamic' (shooting through the simulation) is not built yet; use 'seated' for "
-                         "preloaded runs")
-    if not problem.has_preload:
+    if method == "seated" and not problem.has_preload:
         raise SceneError(f"actuation.preload: method 'seated' needs the journals seated by a preload (scene "
-                         f"{problem.name!r} does not preload)")
+                         f"{problem.name!r} does not preload; method 'dynamic' shoots through the simulation)")
     wall = time.perf_counter()
     m = _measurements(problem, measurements, arm, noise)
-    source = problem.scene.source
-    params = resolve_parameters(problem, parameters, read_yaml(source) if source and Path(source).is_file() else None)
-    data = SeatedData(problem, m, params, effort_lag)
+    yaml_nominal = scene_yaml(problem)
+    params = resolve_parameters(problem, parameters, yaml_nominal)
+    if method == "seated":
+        data = SeatedData(problem, m, params, effort_lag)
+    else:
+        data = DynamicData(problem, m, params, yaml_nominal)
     lower = np.array([q.coordinate(q.lower) for q in params])
     upper = np.array([q.coordinate(q.upper) for q in params])
     given = {c: float(s) for c, s in m.noise.items() if c in data.columns()}
-    sigma = {**data.initial_noise(), **given}
+    first = data.initial_noise()
+    sigma = {**first, **given}
 
     def values(u):
         return np.array([q.value(v) for q, v in zip(params, u, strict=True)])
 
-    def fun(u):
-        res = data.residuals(values(u), sigma)
+    def fun(u, jacobian):
+        res = data.residuals(values(u), sigma, jacobian=jacobian)
+        if not jacobian:
+            return res["r"], None
         return res["r"], res["J"] * np.array([q.derivative(v) for q, v in zip(params, u, strict=True)])
 
     u, iterations, converged = np.zeros(len(params)), 0, True
+    if method == "dynamic":  # a run too chaotic to shoot is refused before fitting, and again at the end
+        data.check_sensitivities(values(u), sigma, data.residuals(values(u), sigma)["J"])
     for _ in range(4):
         u, r, J, it, ok = levenberg_marquardt(fun, u, lower, upper)
         iterations, converged = iterations + it, ok
         if len(given) == len(sigma):
             break
-        new = {**noise_from_residuals(data.residuals(values(u), sigma), len(params)), **given}
+        new = noise_from_residuals(data.residuals(values(u), sigma, jacobian=False), len(params))
+        new = {**{c: max(v, 1e-6 * first[c]) for c, v in new.items()}, **given}  # a floor for exact data
         change = max(abs(new[c] / sigma[c] - 1) for c in sigma)
         sigma = new
         if change < 0.01:
@@ -225,6 +241,8 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
             break
     p = values(u)
     res = data.residuals(p, sigma)
+    if method == "dynamic":
+        data.check_sensitivities(p, sigma, res["J"])
     scale = np.array([q.derivative(v) for q, v in zip(params, u, strict=True)])  # delta method in log coordinates
     r, J = res["r"], res["J"] * scale
     cov = covariance(J, r, scale, dof=sum(float(np.sum(v)) for v in res["expected"].values()))
@@ -237,7 +255,7 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
                      if min(v - q.lower, q.upper - v) <= 1e-9 * (q.upper - q.lower))
     # a barely determined parameter keeps its nominal value in the identified scene
     written = [q.nominal if q.key in poor else v for q, v in zip(params, p, strict=True)]
-    yaml_data = identified_data(problem, params, written)
+    yaml_data = identified_data(problem, params, written, yaml_nominal)
     identified = None
     if yaml_data is not None:
         try:
@@ -249,7 +267,8 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
            "rms_residual": {c: float(np.sqrt(np.mean(v ** 2))) for c, v in res["raw"].items()},
            "iterations": iterations, "converged": bool(converged), "wall_time_s": time.perf_counter() - wall,
            "angles": "measured" if data.angles_measured else "controller references", "preload": data.preload,
-           "effort_lag_s": data.lag,
+           "effort_lag_s": data.lag, **({"simulations": data.runs, "sensitivity_disagreement": data.chaos}
+                                        if method == "dynamic" else {}),
            "columns": data.columns()}
     return Identification(
         method, tuple(params), p, se, np.column_stack([p - Z95 * se, p + Z95 * se]), cov["covariance"],

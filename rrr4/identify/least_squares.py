@@ -21,11 +21,12 @@ COLLINEARITY_LIMIT = 20.0
 
 
 def levenberg_marquardt(fun, u0, lower, upper, max_iter: int = 60, tol: float = 1e-8, rtol: float = 1e-10):
-    """Minimise 0.5 |r(u)|^2 with fun(u) -> (r (M,), J (M, p)) from u0 within [lower, upper].
+    """Minimise 0.5 |r(u)|^2 with fun(u, jacobian) -> (r (M,), J (M, p) or None without
+    `jacobian`) from u0 within [lower, upper]; the Jacobian is asked only at accepted steps.
     Stops when a step moves u by less than tol or lowers the cost by less than rtol of it.
     Returns (u, r, J, iterations, converged)."""
     u = np.clip(np.asarray(u0, float), lower, upper)
-    r, J = fun(u)
+    r, J = fun(u, True)
     cost = 0.5 * r @ r
     lam = 1e-3
     for it in range(1, max_iter + 1):
@@ -41,13 +42,16 @@ def levenberg_marquardt(fun, u0, lower, upper, max_iter: int = 60, tol: float = 
                 lam *= 10
                 continue
             u_new = np.clip(u + step, lower, upper)
-            r_new, J_new = fun(u_new)
+            r_new, _ = fun(u_new, False)
             cost_new = 0.5 * r_new @ r_new
             if np.isfinite(cost_new) and cost_new <= cost:
+                r_new, J_new = fun(u_new, True)
                 break
             lam *= 10
-            if lam > 1e12:
-                return u, r, J, it, False
+            if lam > 1e12:  # no step lowers the cost: converged if the gradient vanishes (to rounding)
+                g_free = g[free]
+                small = np.linalg.norm(g_free) <= 1e-6 * max(np.linalg.norm(J[:, free]) * np.linalg.norm(r), 1e-300)
+                return u, r, J, it, bool(small)
         moved = np.max(np.abs(u_new - u))
         change = cost - cost_new
         u, r, J, cost = u_new, r_new, J_new, cost_new

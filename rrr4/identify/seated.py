@@ -203,7 +203,7 @@ class SeatedData:
         """The fitted columns: the measured pose columns, then the measured efforts."""
         return self.pose_cols + self.effort_cols
 
-    def residuals(self, p: np.ndarray, sigma: dict) -> dict:
+    def residuals(self, p: np.ndarray, sigma: dict, jacobian: bool = True) -> dict:
         """Whitened residuals at parameters p with the noise levels sigma {column: std}:
         {'r': (M,), 'J': (M, np) in p, 'raw': {column: (N,) residual in its unit},
         'expected': {column: (N,) fraction of the noise variance left after the projection},

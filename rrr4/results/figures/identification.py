@@ -23,8 +23,9 @@ def _unit(c: str):
 
 
 def plot_identification_fit(ident, path: Path) -> Path:
-    """One panel per fitted column: the measured offset from the path (pose) or friction
-    effort off the preload direction (efforts), and what the identified model explains."""
+    """One panel per fitted column: the measured offset from the path (pose), the friction
+    effort off the preload direction (efforts, method 'seated') or the column itself (angles
+    and efforts, method 'dynamic'), and what the identified model explains."""
     cols = list(ident.residual)
     fig, axes = plt.subplots(len(cols), 1, figsize=(8.5, 1.7 * len(cols) + 0.8), sharex=True, squeeze=False)
     for ax, c in zip(axes[:, 0], cols, strict=True):
@@ -32,12 +33,13 @@ def plot_identification_fit(ident, path: Path) -> Path:
         observed = (ident.explained[c] + ident.residual[c]) * f
         ax.plot(ident.t, observed, ".", ms=1.5, color="0.5", label="measured")
         ax.plot(ident.t, ident.explained[c] * f, color="tab:red", lw=1.2, label="identified model")
-        what = "offset from path" if c in _UNITS else "off preload"
+        what = "offset from path" if c in _UNITS else "off preload" if ident.method == "seated" else ""
         ax.set_ylabel(f"{name} {what}\n[{unit}]", fontsize=8)
         ax.grid(alpha=0.3)
     axes[0, 0].legend(fontsize=8, loc="upper right", markerscale=6)
     axes[-1, 0].set_xlabel("time [s]")
-    fig.suptitle(f"{ident.scene.name}: measurements and the identified seated model ({ident.fit['samples']} "
+    model = "seated model" if ident.method == "seated" else "simulation (shooting)"
+    fig.suptitle(f"{ident.scene.name}: measurements and the identified {model} ({ident.fit['samples']} "
                  "instants)", fontsize=10)
     fig.tight_layout()
     return save_figure(fig, path, dpi=110)
