@@ -23,7 +23,7 @@ from ..problem import Problem
 from ..scene import parse_scene
 from ..simulation import simulate
 from .measurements import Measurements, measurement_columns
-from .parameters import Parameter
+from .parameters import Parameter, identified_data
 
 __all__ = ["DynamicData", "DYNAMIC_KINDS", "CHAOS_LIMIT", "FD_STEP"]
 
@@ -67,7 +67,6 @@ class DynamicData:
 
     def scene(self, p):
         """The scene of the parameter values p."""
-        from .identify import identified_data  # the one place that writes values into the YAML
         data = identified_data(self.problem, self.params, p, self.scene_data)
         return parse_scene(data, name=str(data.get("name", "candidate")), source="")
 

@@ -5,25 +5,23 @@ scene (DESIGN section 11)."""
 
 from __future__ import annotations
 
-import copy
 import os
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from ..checks import unknown_value
 from ..errors import MeasurementError, SceneError
 from ..problem import Problem
-from ..scene import Scene, parse_scene, read_yaml, set_key
+from ..scene import Scene, parse_scene
 from .dynamic import DynamicData
 from .least_squares import Z95, covariance, identifiability, levenberg_marquardt
 from .measurements import Measurements, measurements_from_simulation, read_measurements
-from .parameters import Parameter, resolve_parameters
+from .parameters import Parameter, identified_data, resolve_parameters, scene_yaml
 from .seated import SeatedData, noise_from_residuals
 
-__all__ = ["identify", "Identification", "METHODS", "identified_data", "scene_yaml"]
+__all__ = ["identify", "Identification", "METHODS"]
 
 METHODS = ("seated", "dynamic")
 POOR = 0.5  # a standard error above half a parameter's scale (a factor 1.6 in a stiffness): barely determined
@@ -142,26 +140,6 @@ def _excite(params: dict[str, Parameter]):
             out.append("poses spread over the workspace and rotations of the task body")
         return "; ".join(out) or "a path that moves these parameters' effects apart"
     return hint
-
-
-def scene_yaml(problem: Problem) -> dict | None:
-    """The YAML data of the problem's scene file (None without one)."""
-    source = problem.scene.source
-    return read_yaml(source) if source and Path(source).is_file() else None
-
-
-def identified_data(problem: Problem, params, values, data: dict | None = None) -> dict | None:
-    """The nominal scene's YAML data (`data`, else read from its file) with the values set at
-    the parameters' keys (None without a YAML file)."""
-    data = scene_yaml(problem) if data is None else data
-    if data is None:
-        return None
-    data = copy.deepcopy(data)
-    for p, v in zip(params, values, strict=True):
-        set_key(data, p.key, float(v))
-    if isinstance(data.get("name"), str):
-        data["name"] = f"{data['name']}_identified"
-    return data
 
 
 def _measurements(problem: Problem, measurements, arm, noise) -> Measurements:

@@ -12,18 +12,20 @@
 
 from __future__ import annotations
 
+import copy
 import math
 import re
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from ..checks import describe, unknown_value
 from ..errors import SceneError
 from ..problem import Problem
-from ..scene import get_key
+from ..scene import get_key, read_yaml, set_key
 
-__all__ = ["Parameter", "resolve_parameters", "DEFAULT_PARAMETERS", "PATTERNS"]
+__all__ = ["Parameter", "resolve_parameters", "DEFAULT_PARAMETERS", "PATTERNS", "scene_yaml", "identified_data"]
 
 DEFAULT_PARAMETERS = ("joints.radial_clearance", "effects.friction.coefficient", "effects.contact.stiffness")
 PATTERNS = ("joints.radial_clearance", "joints.per_joint.<J>.radial_clearance", "effects.friction.coefficient",
@@ -157,3 +159,23 @@ def resolve_parameters(problem: Problem, parameters=None, data: dict | None = No
         else:
             raise SceneError(f"parameters: key {key!r} is not allowed (choose from: {', '.join(PATTERNS)})")
     return out
+
+
+def scene_yaml(problem: Problem) -> dict | None:
+    """The YAML data of the problem's scene file (None without one)."""
+    source = problem.scene.source
+    return read_yaml(source) if source and Path(source).is_file() else None
+
+
+def identified_data(problem: Problem, params, values, data: dict | None = None) -> dict | None:
+    """The nominal scene's YAML data (`data`, else read from its file) with the values set at
+    the parameters' keys (None without a YAML file)."""
+    data = scene_yaml(problem) if data is None else data
+    if data is None:
+        return None
+    data = copy.deepcopy(data)
+    for p, v in zip(params, values, strict=True):
+        set_key(data, p.key, float(v))
+    if isinstance(data.get("name"), str):
+        data["name"] = f"{data['name']}_identified"
+    return data
