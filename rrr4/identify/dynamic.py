@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..control.references import path_rows
 from ..errors import MeasurementError, SceneError, SimulationError
 from ..problem import Problem
 from ..scene import parse_scene
@@ -112,17 +113,17 @@ class DynamicData:
             else:
                 cols.append({c: (up[c] - base[c]) / h[i] for c in base})
         rs, js, raw, expected, explained = [], [], {}, {}, {}
-        pose_ref = None
+        pose_ref, theta_ref = self._references()
         for c in self.columns():
             raw[c] = self.m.columns[c] - base[c]
             if c in ("theta_rad", *self.angle_cols):
                 raw[c] = np.arctan2(np.sin(raw[c]), np.cos(raw[c]))
             expected[c] = np.ones(len(raw[c]))
             if c in self.pose_cols:
-                if pose_ref is None:
-                    from ..control.references import path_rows
-                    pose_ref = path_rows(self.problem.path, self.m.t)[:, :3]
                 explained[c] = base[c] - pose_ref[:, self.kinds["pose"].index(c)]
+            elif c in self.angle_cols and theta_ref is not None:
+                d = base[c] - theta_ref[:, self.kinds["angle"].index(c)]
+                explained[c] = np.arctan2(np.sin(d), np.cos(d))
             else:
                 explained[c] = base[c]
             rs.append(raw[c] / sigma[c])
@@ -130,6 +131,18 @@ class DynamicData:
                 js.append(-np.column_stack([d[c] for d in cols]) / sigma[c])
         return {"r": np.concatenate(rs), "J": np.vstack(js) if js else None, "raw": raw, "expected": expected,
                 "prediction": base, "explained": explained}
+
+    def _references(self):
+        """The path's poses (N, 3) at the measured instants and, for an n-RRR, the ideal IK's
+        actuator angles (N, n) (what the figures show offsets from)."""
+        if not hasattr(self, "_refs"):
+            pose_ref = path_rows(self.problem.path, self.m.t)[:, :3]
+            theta_ref = None
+            if self.problem.closed_form:
+                mech = self.problem.mechanism
+                theta_ref = np.array(mech.ik_function.map(len(self.m.t))(pose_ref.T, mech.modes)[0]).T
+            self._refs = pose_ref, theta_ref
+        return self._refs
 
     def initial_noise(self) -> dict:
         out = {}

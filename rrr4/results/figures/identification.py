@@ -19,6 +19,9 @@ _UNITS = {"x_m": ("x", "um", 1e6), "y_m": ("y", "um", 1e6), "theta_rad": ("orien
 def _unit(c: str):
     if c in _UNITS:
         return _UNITS[c]
+    if c.startswith("theta_"):
+        revolute = c.endswith("_rad")
+        return (c.removeprefix("theta_").rsplit("_", 1)[0] + " angle", "urad" if revolute else "um", 1e6)
     return (c.removeprefix("tau_").rsplit("_", 1)[0] + " effort", "mN m" if c.endswith("Nm") else "mN", 1e3)
 
 
@@ -33,7 +36,8 @@ def plot_identification_fit(ident, path: Path) -> Path:
         observed = (ident.explained[c] + ident.residual[c]) * f
         ax.plot(ident.t, observed, ".", ms=1.5, color="0.5", label="measured")
         ax.plot(ident.t, ident.explained[c] * f, color="tab:red", lw=1.2, label="identified model")
-        what = "offset from path" if c in _UNITS else "off preload" if ident.method == "seated" else ""
+        what = "offset from path" if c in _UNITS else "from ideal IK" if c.startswith("theta_") else \
+            "off preload" if ident.method == "seated" else ""
         ax.set_ylabel(f"{name} {what}\n[{unit}]", fontsize=8)
         ax.grid(alpha=0.3)
     axes[0, 0].legend(fontsize=8, loc="upper right", markerscale=6)
@@ -41,7 +45,7 @@ def plot_identification_fit(ident, path: Path) -> Path:
     model = "seated model" if ident.method == "seated" else "simulation (shooting)"
     fig.suptitle(f"{ident.scene.name}: measurements and the identified {model} ({ident.fit['samples']} "
                  "instants)", fontsize=10)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 0.98))
     return save_figure(fig, path, dpi=110)
 
 
@@ -61,7 +65,7 @@ def plot_identification_residuals(ident, path: Path) -> Path:
     axes[-1, 0].set_xlabel("time [s]")
     fig.suptitle(f"{ident.scene.name}: residuals of the identification (reduced chi^2 "
                  f"{ident.fit['reduced_chi2']:.3g})", fontsize=10)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 0.98))
     return save_figure(fig, path, dpi=110)
 
 
