@@ -294,6 +294,17 @@ def test_the_cli_refuses_bad_input_in_one_line(tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
+
+def test_the_cli_refuses_an_output_it_cannot_write_before_any_work(tmp_path, capsys):
+    a_file = tmp_path / "file.txt"
+    a_file.write_text("keep")
+    for out in (a_file / "sub", a_file):
+        assert main(["identify", str(PAPER), str(tmp_path / "missing.csv"), "--out", str(out)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and "--out" in err, err
+    assert a_file.read_text() == "keep" and [p.name for p in tmp_path.iterdir()] == ["file.txt"]
+
+
 # ---------------------------------------------------------------------- closing the loop
 
 
