@@ -149,7 +149,7 @@ def _key_values(option: str, text: str | None, what: str) -> dict:
             parts = [float(v) for v in value.split(":")]
         except ValueError:
             parts = []
-        if len(parts) != (2 if what == "LOWER:UPPER" else 1):
+        if len(parts) != (1 if what == "STD" else 2):
             raise SceneError(f"{option}: {item!r} is not allowed (KEY or KEY={what}, comma-separated)")
         out[key.strip()] = parts if len(parts) == 2 else parts[0]
     return out
@@ -159,7 +159,7 @@ def _identify(args) -> int:
     import warnings
     from pathlib import Path
 
-    from .identify import MeasurementWarning, identify
+    from .identify import MeasurementWarning, identify, read_measurements
     from .mechanism import load_scene
     from .results.identification import MARKER, write_identification
     scene = load_scene(args.scene)
@@ -172,10 +172,21 @@ def _identify(args) -> int:
     if any(v is None for v in noise.values()):
         from .errors import SceneError
         raise SceneError(f"--noise: {args.noise!r} is not allowed (COLUMN=STD, comma-separated, e.g. x_m=1e-6)")
+    window = None
+    if args.window:
+        try:
+            window = [float(v) for v in args.window.split(":")]
+        except ValueError:
+            window = []
+        if len(window) != 2 or not window[0] < window[1]:
+            from .errors import SceneError
+            raise SceneError(f"--window: {args.window!r} is not allowed (T0:T1 in s with T0 < T1, e.g. 0.2:0.8)")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", MeasurementWarning)
-        ident = identify(scene, args.measurements, parameters=parameters, method=args.method, noise=noise or None,
-                         arm=args.arm)
+        measured = read_measurements(args.measurements, scene, arm=args.arm)
+        if window is not None:
+            measured = measured.window(*window)
+        ident = identify(scene, measured, parameters=parameters, method=args.method, noise=noise or None)
     for w in caught:
         if issubclass(w.category, MeasurementWarning):
             _say(f"rrr4 identify: warning: {w.message}")
@@ -282,6 +293,7 @@ def build_parser() -> argparse.ArgumentParser:
     idn.add_argument("--arm", help="the arm prefix of a timeseries.csv with several arms, e.g. with_preload")
     idn.add_argument("--noise", help="noise levels COLUMN=STD, comma-separated (default: estimated from the "
                                      "residuals)")
+    idn.add_argument("--window", help="fit only the rows with T0 <= t <= T1 [s], as T0:T1")
     idn.add_argument("--out", help="directory (default results/<scene name>_identified/); replaced atomically")
     idn.set_defaults(func=_identify)
     sw = sub.add_parser("sweep", help="run the study over a grid of scene values or a tolerance Monte Carlo, on "

@@ -291,6 +291,11 @@ def test_the_cli_refuses_bad_input_in_one_line(tmp_path, capsys):
                  "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "--parameters" in err and "LOWER:UPPER" in err
+    p_ok = _csv(tmp_path, "t_s,x_m", ["0,0", "0.1,0", "0.2,0"])
+    for window, words in (("0.3", ["--window", "T0:T1"]), ("0.5:0.9", ["window", "0 instants", "0 to 0.2 s"])):
+        assert main(["identify", str(PAPER), str(p_ok), "--window", window, "--out", str(tmp_path / "o")]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and all(w in err for w in words), err
     assert not (tmp_path / "o").exists()
 
 

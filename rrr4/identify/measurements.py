@@ -104,8 +104,12 @@ class Measurements:
         return Path(path)
 
     def window(self, t0: float, t1: float) -> Measurements:
-        """The rows with t0 <= t <= t1."""
+        """The rows with t0 <= t <= t1 (at least two)."""
         rows = (self.t >= t0) & (self.t <= t1)
+        if np.count_nonzero(rows) < 2:
+            raise MeasurementError(f"window: [{t0:g}, {t1:g}] s holds {np.count_nonzero(rows)} instants of "
+                                   f"{self.source or 'the measurements'} (t runs from {self.t[0]:g} to "
+                                   f"{self.t[-1]:g} s; at least 2 are required)")
         return Measurements(self.t[rows], {k: v[rows] for k, v in self.columns.items()}, self.noise, self.source)
 
 
