@@ -129,8 +129,71 @@ def _robustness(args) -> int:
     scene = load_scene(args.scene)
     out = Path(args.out) if args.out else Path("results") / f"{scene.name}_robustness"
     check_writable(out)
-    for f in write_robustness(scene, out, t_end=args.t_end, log=lambda m: tqdm.write(f"rrr4 robustness: {m}")):
+    for f in write_robustness(scene, out, t_end=args.t_end, log=lambda m: tqdm.write(f"rrr4 robustness: {m}"),
+                              identified=args.identified):
         print(f)
+    return 0
+
+
+def _key_values(option: str, text: str | None, what: str) -> dict:
+    """'a,b=1:2' -> {'a': None, 'b': [1.0, 2.0]} (what: the value's form, for the message)."""
+    from .errors import SceneError
+    out: dict = {}
+    for item in (text or "").split(","):
+        if not item.strip():
+            continue
+        key, _, value = item.partition("=")
+        if not value:
+            out[key.strip()] = None
+            continue
+        try:
+            parts = [float(v) for v in value.split(":")]
+        except ValueError:
+            parts = []
+        if len(parts) != (1 if what == "STD" else 2):
+            raise SceneError(f"{option}: {item!r} is not allowed (KEY or KEY={what}, comma-separated)")
+        out[key.strip()] = parts if len(parts) == 2 else parts[0]
+    return out
+
+
+def _identify(args) -> int:
+    import warnings
+    from pathlib import Path
+
+    from .identify import MeasurementWarning, identify, read_measurements
+    from .mechanism import load_scene
+    from .results.identification import MARKER, write_identification
+    scene = load_scene(args.scene)
+    out = Path(args.out) if args.out else Path("results") / f"{scene.name}_identified"
+    check_writable(out)
+    from .files import check_target
+    check_target(out, MARKER)
+    parameters = _key_values("--parameters", args.parameters, "LOWER:UPPER") or None
+    noise = _key_values("--noise", args.noise, "STD")
+    if any(v is None for v in noise.values()):
+        from .errors import SceneError
+        raise SceneError(f"--noise: {args.noise!r} is not allowed (COLUMN=STD, comma-separated, e.g. x_m=1e-6)")
+    window = None
+    if args.window:
+        try:
+            window = [float(v) for v in args.window.split(":")]
+        except ValueError:
+            window = []
+        if len(window) != 2 or not window[0] < window[1]:
+            from .errors import SceneError
+            raise SceneError(f"--window: {args.window!r} is not allowed (T0:T1 in s with T0 < T1, e.g. 0.2:0.8)")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", MeasurementWarning)
+        measured = read_measurements(args.measurements, scene, arm=args.arm)
+        if window is not None:
+            measured = measured.window(*window)
+        ident = identify(scene, measured, parameters=parameters, method=args.method, noise=noise or None)
+    for w in caught:
+        if issubclass(w.category, MeasurementWarning):
+            _say(f"rrr4 identify: warning: {w.message}")
+    files = write_identification(ident, out)
+    print(ident.table())
+    print(f"wrote {', '.join(files)} to {out}/")
     return 0
 
 
@@ -216,7 +279,28 @@ def build_parser() -> argparse.ArgumentParser:
     rb.add_argument("--out", help="directory (default results/<scene name>_robustness/); the two files are "
                                   "replaced atomically")
     rb.add_argument("--t-end", type=float, default=None, help="simulated time [s] (default: the path duration)")
+    rb.add_argument("--identified", action="store_true",
+                    help="also identify each perturbed mechanism from its uncompensated run (rrr4 identify) and run "
+                         "the compensated controller with the identified and with the true model")
     rb.set_defaults(func=_robustness)
+    idn = sub.add_parser("identify", help="identify clearances, friction, contact stiffness or link lengths of a "
+                                          "scene from measured task poses, actuator angles and efforts (a CSV with "
+                                          "the column names of a study's timeseries.csv); writes identified.yaml, "
+                                          "identification.json and figures")
+    idn.add_argument("scene", help="the nominal scene YAML, e.g. problems/paper_circle.yaml")
+    idn.add_argument("measurements", help="CSV file: t_s and any of x_m, y_m, theta_rad, theta_<A>_rad, "
+                                          "tau_<A>_Nm (optionally behind an arm prefix such as with_preload_)")
+    idn.add_argument("--parameters", help="comma-separated scene keys, each optionally KEY=LOWER:UPPER (default "
+                                          "joints.radial_clearance,effects.friction.coefficient,"
+                                          "effects.contact.stiffness)")
+    idn.add_argument("--method", choices=["seated", "dynamic"], default="seated",
+                     help="seated (journals seated under preload, quasi-static; default) or dynamic (not built yet)")
+    idn.add_argument("--arm", help="the arm prefix of a timeseries.csv with several arms, e.g. with_preload")
+    idn.add_argument("--noise", help="noise levels COLUMN=STD, comma-separated (default: estimated from the "
+                                     "residuals)")
+    idn.add_argument("--window", help="fit only the rows with T0 <= t <= T1 [s], as T0:T1")
+    idn.add_argument("--out", help="directory (default results/<scene name>_identified/); replaced atomically")
+    idn.set_defaults(func=_identify)
     sw = sub.add_parser("sweep", help="run the study over a grid of scene values or a tolerance Monte Carlo, on "
                                       "Dask; writes results.csv (one row per case and arm), skips finished cases")
     sw.add_argument("spec", help="sweep spec YAML, e.g. problems/sweeps/clearance_vs_preload.yaml")

@@ -21,3 +21,8 @@ class KinematicsError(Rrr4Error, RuntimeError):
 class InfeasibleError(Rrr4Error, RuntimeError):
     """An optimal-control problem has no solution: the message names where along the path
     (or at which node) and which constraint (an actuator's limit, a joint's contact condition)."""
+
+
+class MeasurementError(Rrr4Error, ValueError):
+    """A measurement file or array cannot be used: the message names the file, the column
+    (and row), the value and what is allowed."""

@@ -18,7 +18,8 @@ def write_timeseries_csv(study: Study, path: Path, rate: float | None = None) ->
 
     Columns: t_s, x_ref_m, y_ref_m, theta_ref_rad, alpha_Nm (preload, if any), then per arm
     (prefix ``<arm>_``, e.g. ``with_preload_``): x_m, y_m, theta_rad, error_m,
-    tau_<actuator>_Nm (or _N for a prismatic actuator), and per clearance joint Fn_<J>_N,
+    tau_<actuator>_Nm (or _N for a prismatic actuator), theta_<actuator>_rad (its coordinate;
+    _m for a prismatic one), and per clearance joint Fn_<J>_N,
     penetration_<J>_m, ex_<J>_m, ey_<J>_m.
     A driven scene (no task; arms ``with_clearance_`` / ``ideal_``) has instead, per body B,
     B_x_m, B_y_m, B_theta_rad, B_ax_m_s2, B_ay_m_s2 and per driver D, D_effort_Nm (or _N on a
@@ -50,8 +51,12 @@ def write_timeseries_csv(study: Study, path: Path, rate: float | None = None) ->
             for k, key in enumerate(("x_m", "y_m", "theta_rad")):
                 cols[f"{name}_{key}"] = sim.pose[rows, k]
             cols[f"{name}_error_m"] = sim.platform_error[rows]
+        theta = np.array(model.actuator_coordinates_function.map(len(rows))(sim.q[rows].T)[0]).T
         for i, a in enumerate(model.actuator_names):
             cols[f"{name}_tau_{a}_{_unit(problem, model.actuated_joints[i])}"] = sim.tau[rows, i]
+        for i, a in enumerate(model.actuator_names):
+            revolute = problem.joint(model.actuated_joints[i]).type == "revolute"
+            cols[f"{name}_theta_{a}_{'rad' if revolute else 'm'}"] = theta[:, i]
         for k, j in enumerate(sim.clearance_joints):
             cols[f"{name}_Fn_{j}_N"] = sim.normal_force[rows, k]
             cols[f"{name}_penetration_{j}_m"] = sim.penetration[rows, k]

@@ -5,6 +5,11 @@ contact stiffness x0.3 to x3, friction coefficient 0 to 0.2, one link 50 um long
 For each case :func:`robustness` simulates the preloaded controller with and without
 compensation (both built from the nominal scene, ``simulate(..., model=nominal)``) on the
 perturbed mechanism and reports the platform RMS and peak error and the contact losses.
+With ``identified=True`` it closes the loop of identification (issue 33): the uncompensated
+run of each perturbed mechanism is its measurement (task pose, actuator angles, efforts);
+:func:`rrr4.identify` fits :data:`IDENTIFIED` to it from the nominal scene, and the
+compensated controller runs once with the identified scene as its model ('model:
+identified') and once with the true perturbed scene ('model: true').
 :func:`write_robustness` (``rrr4 robustness SCENE``) writes them and their figure
 (:func:`rrr4.results.figures.plot_robustness`).
 """
@@ -24,7 +29,7 @@ from ..scene import Scene, parse_scene, read_yaml, set_key
 from ..simulation import simulate
 from .study import arm_scene
 
-__all__ = ["CASES", "ARMS", "robustness", "perturbed", "write_robustness"]
+__all__ = ["CASES", "ARMS", "IDENTIFIED", "robustness", "perturbed", "write_robustness"]
 
 # name -> (scene key path, how the nominal value changes): a factor on a number, a value, or
 # a length added [m] to the first chain's driving link
@@ -39,6 +44,9 @@ CASES = {
     "link A1B1 +50 um": ("mechanism.chains[0].driving_link.length", "add", 50e-6),
 }
 ARMS = ("with_preload", "with_preload_compensated")
+# what identification fits in every case (it is not told which parameter changed)
+IDENTIFIED = ("joints.radial_clearance", "effects.friction.coefficient", "effects.contact.stiffness",
+              *(f"mechanism.chains[{i}].driving_link.length" for i in range(4)))
 METRICS = ("platform_error_rms_m", "platform_error_max_m", "contact_loss_events")  # of scalar_metrics, per row
 
 
@@ -73,10 +81,14 @@ def perturbed(problem: Problem, case: str) -> Scene:
     return parse_scene(data, name=f"{scene.name}, {case}", source="")
 
 
-def robustness(scene: Scene | Problem, t_end: float | None = None, progress: bool = False, log=None) -> list[dict]:
-    """Rows {case, arm, platform_error_rms_m, platform_error_max_m, contact_loss_events,
+def robustness(scene: Scene | Problem, t_end: float | None = None, progress: bool = False, log=None,
+               identified: bool = False) -> list[dict]:
+    """Rows {case, arm, model, platform_error_rms_m, platform_error_max_m, contact_loss_events,
     wall_time_s}: the scene's preloaded controller, uncompensated and compensated, built
-    from the nominal scene, on each perturbed mechanism of :data:`CASES`."""
+    from the nominal scene (model 'nominal'), on each perturbed mechanism of :data:`CASES`;
+    with `identified`, the compensated controller also with the true perturbed scene
+    (model 'true') and with the scene identified from the uncompensated run (model
+    'identified', the row also holding the estimates)."""
     say = log or (lambda _m: None)
     problem = Problem.from_scene(scene)
     scene = problem.scene
@@ -88,27 +100,55 @@ def robustness(scene: Scene | Problem, t_end: float | None = None, progress: boo
     rows = []
     for case in CASES:
         plant = Problem.from_scene(perturbed(problem, case))
+        runs = {}
         for arm, model in models.items():
             say(f"{case}: {arm.replace('_', ' ')}")
             wall = time.perf_counter()
-            sim = simulate(arm_scene(plant, arm), t_end=t_end, model=model, progress=progress)
-            m = scalar_metrics(sim)
-            rows.append({"case": case, "arm": arm, **{k: m[k] for k in METRICS},
-                         "wall_time_s": time.perf_counter() - wall})
+            runs[arm] = sim = simulate(arm_scene(plant, arm), t_end=t_end, model=model, progress=progress)
+            rows.append(_row(case, arm, "nominal", sim, wall))
+        if identified:
+            rows += _closed_loop(problem, plant, case, runs["with_preload"], t_end, progress, say)
     return rows
 
 
+def _row(case: str, arm: str, model: str, sim, wall: float, **extra) -> dict:
+    m = scalar_metrics(sim)
+    return {"case": case, "arm": arm, "model": model, **{k: m[k] for k in METRICS},
+            "wall_time_s": time.perf_counter() - wall, **extra}
+
+
+def _closed_loop(problem: Problem, plant: Problem, case: str, measured, t_end, progress, say) -> list[dict]:
+    """The compensated controller on `plant` with the true model and with the model identified
+    from the uncompensated run `measured`."""
+    from ..identify import identify, measurements_from_simulation
+    arm = "with_preload_compensated"
+    say(f"{case}: identify from the uncompensated run")
+    wall = time.perf_counter()
+    ident = identify(problem, measurements_from_simulation(measured), list(IDENTIFIED))
+    estimates = {k: ident.value(k) for k in ident.keys}
+    sim = simulate(arm_scene(plant, arm), t_end=t_end, model=arm_scene(Problem.from_scene(ident.identified), arm),
+                   progress=progress)
+    out = [_row(case, arm, "identified", sim, wall, estimates=estimates,
+                identifiable=bool(ident.verdict["identifiable"]))]
+    say(f"{case}: compensated with the true model")
+    wall = time.perf_counter()
+    out.append(_row(case, arm, "true", simulate(arm_scene(plant, arm), t_end=t_end, progress=progress), wall))
+    return out
+
+
 def write_robustness(scene: Scene, out: Path, t_end: float | None = None, progress: bool = False,
-                     log=None) -> list[Path]:
+                     log=None, identified: bool = False) -> list[Path]:
     """Run :func:`robustness` and write ``robustness.json`` and ``robustness.png`` into out."""
     from ..results.figures import plot_robustness
-    rows = robustness(scene, t_end=t_end, progress=progress, log=log)
+    rows = robustness(scene, t_end=t_end, progress=progress, log=log, identified=identified)
     out.mkdir(parents=True, exist_ok=True)
     meta = {"scene": scene.name, "t_end_s": t_end or scene.path.duration, "cases": {
         k: (None if v is None else {"key": v[0], "change": v[1], "value": v[2]}) for k, v in CASES.items()},
-            "rows": rows}
+            "identified_parameters": list(IDENTIFIED) if identified else [], "rows": rows}
     js = out / "robustness.json"
     write_atomic(js, json.dumps(meta, indent=1) + "\n")
-    png = plot_robustness(rows, out / "robustness.png", f"{scene.name}: controller with the nominal model, "
+    models = "the nominal model; compensated also with the identified and the true model" if identified else \
+        "the nominal model"
+    png = plot_robustness(rows, out / "robustness.png", f"{scene.name}: controller with {models}, "
                                                           f"{meta['t_end_s']:g} s")
     return [js, png]

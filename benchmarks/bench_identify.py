@@ -1,0 +1,88 @@
+"""Wall time of rrr4.identify, method 'seated', on the reference scene (issue 33: 1 s of data
+at 1 kHz, 8 clearances + friction + stiffness, aim under 5 s), medians of repeated runs in
+one process, with the machine and its load named.
+
+    .venv/bin/python benchmarks/bench_identify.py [SCENE] [--repeats N]
+
+Cases:
+- 'synthetic, 10 parameters': measurements from the seated model itself (1 um on the pose,
+  1 % on the efforts), fitted for the 8 per-joint clearances, the friction coefficient and
+  the contact stiffness (an unidentifiable set: the B/C pairs of a chain; the verdict says
+  so, the time is what counts here);
+- 'synthetic, 3 parameters': clearance, friction coefficient, contact stiffness;
+- 'simulated, 3 parameters': a 1 s simulation of the mechanism with 20 % more clearance
+  under the nominal preloaded controller (the simulation's time not counted).
+- 'dynamic, 0.1 s window': method 'dynamic' (single shooting through the compiled stepping,
+  forward differences of whole runs) on the first 0.1 s of that simulated run, clearance and
+  friction (friction is barely seen so early: the verdict says so).
+The first fit of a parameter layout builds its CasADi Function (reported apart); the
+repeats reuse it, as a user's second call does.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+import rrr4
+from rrr4.codegen.build import machine
+from rrr4.identify import identify, measurements_from_simulation, resolve_parameters
+from rrr4.identify.seated import seated_measurements
+from rrr4.studies.robustness import perturbed
+from rrr4.studies.study import arm_scene
+
+ROOT = Path(__file__).resolve().parents[1]
+CLEARANCES = [f"joints.per_joint.{j}.radial_clearance" for j in ("B1", "B2", "B3", "B4", "C1", "C2", "C3", "C4")]
+DEFAULT = ["joints.radial_clearance", "effects.friction.coefficient", "effects.contact.stiffness"]
+
+
+def synthetic(problem, keys, seed=0):
+    params = resolve_parameters(problem, keys)
+    rng = np.random.default_rng(seed)
+    truth = [q.value(q.coordinate(q.nominal) + 0.1 * rng.standard_normal()) for q in params]
+    t = np.linspace(0.0, 1.0, 1001)
+    clean = seated_measurements(problem, params, truth, t)
+    noise = {"x_m": 1e-6, "y_m": 1e-6, "theta_rad": 1e-5}
+    noise.update({c: 0.01 * float(np.sqrt(np.mean(v ** 2))) for c, v in clean.columns.items() if c.startswith("tau_")})
+    return seated_measurements(problem, params, truth, t, noise, rng)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("scene", nargs="?", default=str(ROOT / "problems" / "paper_circle.yaml"))
+    ap.add_argument("--repeats", type=int, default=5)
+    args = ap.parse_args()
+    problem = rrr4.build(rrr4.load_scene(args.scene))
+    plant = rrr4.build(perturbed(problem, "clearance +20 %"))
+    sim = rrr4.simulate(arm_scene(plant, "with_preload"), t_end=1.0, model=arm_scene(problem, "with_preload"))
+    measured = measurements_from_simulation(sim)
+    cases = {"synthetic, 10 parameters": (synthetic(problem, CLEARANCES + DEFAULT[1:]), CLEARANCES + DEFAULT[1:],
+                                          "seated"),
+             "synthetic, 3 parameters": (synthetic(problem, DEFAULT), DEFAULT, "seated"),
+             "simulated, 3 parameters": (measured, DEFAULT, "seated"),
+             "dynamic, 0.1 s window": (measured.window(0.0, 0.1), DEFAULT[:2], "dynamic")}
+    print(f"machine: {machine()}; load average {', '.join(f'{v:.2f}' for v in os.getloadavg())}")
+    print(f"scene {problem.name}, medians of {args.repeats} runs (dynamic: {min(args.repeats, 3)})")
+    print(f"{'case':28s} {'samples':>7s} {'params':>6s} {'first [s]':>9s} {'median [s]':>10s} {'iters':>5s} "
+          f"{'verdict':>16s}")
+    for name, (m, keys, method) in cases.items():
+        t0 = time.perf_counter()
+        identify(problem, m, keys, method=method)
+        first = time.perf_counter() - t0
+        walls = []
+        for _ in range(args.repeats if method == "seated" else min(args.repeats, 3)):
+            t0 = time.perf_counter()
+            res = identify(problem, m, keys, method=method)
+            walls.append(time.perf_counter() - t0)
+        verdict = "identifiable" if res.verdict["identifiable"] else "not identifiable"
+        print(f"{name:28s} {len(m):7d} {len(keys):6d} {first:9.2f} {statistics.median(walls):10.2f} "
+              f"{res.fit['iterations']:5d} {verdict:>16s}")
+
+
+if __name__ == "__main__":
+    main()

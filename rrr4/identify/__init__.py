@@ -1,0 +1,26 @@
+"""Parameter identification from measurements (DESIGN section 11): clearances, friction,
+contact stiffness and kinematic parameters of a scene from measured task poses, actuator
+angles and efforts, with uncertainty and an identifiability verdict.
+
+- :mod:`.measurements`: the measured columns (the names of a study's timeseries.csv);
+- :mod:`.parameters`: what is identified, by dotted scene key;
+- :mod:`.seated`: method 'seated', the quasi-static model of seated journals;
+- :mod:`.least_squares`: Levenberg-Marquardt, covariance, identifiability;
+- :mod:`.identify`: the front door :func:`identify` and its result :class:`Identification`.
+"""
+
+from .identify import METHODS, Identification, identify, verdict_text
+from .least_squares import COLLINEARITY_LIMIT
+from .measurements import (
+                           Measurements,
+                           MeasurementWarning,
+                           measurement_columns,
+                           measurements_from_simulation,
+                           read_measurements,
+)
+from .parameters import DEFAULT_PARAMETERS, PATTERNS, Parameter, resolve_parameters
+from .seated import seated_model
+
+__all__ = ["identify", "Identification", "METHODS", "Measurements", "MeasurementWarning", "read_measurements",
+           "measurements_from_simulation", "measurement_columns", "Parameter", "resolve_parameters",
+           "DEFAULT_PARAMETERS", "PATTERNS", "seated_model", "COLLINEARITY_LIMIT", "verdict_text"]

@@ -1,0 +1,256 @@
+"""The front door: :func:`identify` turns measurements of a mechanism into the parameters
+of its scene (clearances, friction, contact stiffness, link lengths and base positions),
+with their uncertainty, their correlations, an identifiability verdict and the identified
+scene (DESIGN section 11)."""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..checks import unknown_value
+from ..errors import MeasurementError, SceneError
+from ..problem import Problem
+from ..scene import Scene, parse_scene
+from .dynamic import DynamicData
+from .least_squares import Z95, covariance, identifiability, levenberg_marquardt
+from .measurements import Measurements, measurements_from_simulation, read_measurements
+from .parameters import Parameter, identified_data, resolve_parameters, scene_yaml
+from .seated import SeatedData, noise_from_residuals
+
+__all__ = ["identify", "Identification", "METHODS"]
+
+METHODS = ("seated", "dynamic")
+POOR = 0.5  # a standard error above half a parameter's scale (a factor 1.6 in a stiffness): barely determined
+
+
+@dataclass(frozen=True)
+class Identification:
+    """The result of :func:`identify`. p parameters (``parameters``: keys, nominal values,
+    bounds), M fitted residuals over N instants.
+
+    estimate, standard_error (p,) in the parameters' units; interval (p, 2): 95 % intervals
+    (estimate -+ 1.96 standard errors); covariance, correlation (p, p); at_bound: keys whose
+    estimate sits on a bound (their interval means little); noise {column: std} and
+    noise_estimated {column: True if estimated from the residuals}; fit: reduced chi^2,
+    RMS residual per column, iterations, convergence, wall time; verdict: the identifiability
+    verdict (:func:`rrr4.identify.least_squares.identifiability`); t (N,), measured,
+    prediction, residual: {column: (N,)}; explained: {column: (N,)} what the model explains
+    (the pose's offset from the path, the friction efforts off the preload direction; the
+    measured counterpart is explained + residual); scene: the nominal scene; identified: the scene
+    with the estimates (None without the nominal scene's YAML; a parameter the verdict finds
+    barely determined keeps its nominal value there); identified_yaml: its data."""
+    method: str
+    parameters: tuple[Parameter, ...]
+    estimate: np.ndarray
+    standard_error: np.ndarray
+    interval: np.ndarray
+    covariance: np.ndarray
+    correlation: np.ndarray
+    at_bound: tuple[str, ...]
+    noise: dict
+    noise_estimated: dict
+    fit: dict
+    verdict: dict
+    t: np.ndarray
+    measured: dict
+    prediction: dict
+    residual: dict
+    explained: dict
+    scene: Scene
+    identified: Scene | None = None
+    identified_yaml: dict | None = None
+    warnings: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def keys(self) -> list[str]:
+        return [p.key for p in self.parameters]
+
+    def value(self, key: str) -> float:
+        """The estimate of the parameter `key`."""
+        if key not in self.keys:
+            raise unknown_value("key", "parameter", key, self.keys)
+        return float(self.estimate[self.keys.index(key)])
+
+    def summary(self) -> dict:
+        """A JSON-ready summary (what ``identification.json`` holds)."""
+        rows = [{"key": p.key, "nominal": p.nominal, "lower": p.lower, "upper": p.upper, "estimate": float(e),
+                 "standard_error": float(s), "interval_95": [float(a), float(b)], "at_bound": p.key in self.at_bound,
+                 "in_identified_scene": p.nominal if p.key in self.verdict["poorly_determined"] else float(e)}
+                for p, e, s, (a, b) in zip(self.parameters, self.estimate, self.standard_error, self.interval,
+                                           strict=True)]
+        corr = np.where(np.isfinite(self.correlation), self.correlation, None).tolist()
+        return {"scene": self.scene.name, "method": self.method, "parameters": rows, "correlation": corr,
+                "noise": {c: {"std": s, "estimated": self.noise_estimated[c]} for c, s in self.noise.items()},
+                "fit": self.fit, "verdict": self.verdict, "warnings": list(self.warnings)}
+
+    def table(self) -> str:
+        """The estimates as a plain-text table, then the verdict."""
+        lines = [f"{'parameter':44s} {'nominal':>11s} {'estimate':>11s} {'std error':>10s}  95 % interval"]
+        for p, e, s, (a, b) in zip(self.parameters, self.estimate, self.standard_error, self.interval, strict=True):
+            mark = "  (at a bound)" if p.key in self.at_bound else ""
+            if p.key in self.verdict["poorly_determined"]:
+                mark += "  (the identified scene keeps the nominal value)"
+            lines.append(f"{p.key:44s} {p.nominal:11.5g} {e:11.5g} {s:10.3g}  [{a:.5g}, {b:.5g}]{mark}")
+        f = self.fit
+        rms = ", ".join(f"{c} {v:.3g}" for c, v in f["rms_residual"].items())
+        lines.append(f"{f['samples']} instants, reduced chi^2 {f['reduced_chi2']:.3g}, RMS residuals: {rms}; "
+                     f"{f['iterations']} iterations in {f['wall_time_s']:.2f} s")
+        lines.append(verdict_text(self.verdict))
+        return "\n".join(lines)
+
+
+def verdict_text(v: dict) -> str:
+    """The verdict in words (one line per combination the data cannot separate)."""
+    if v["identifiable"]:
+        return (f"verdict: identifiable (collinearity index {v['collinearity_index']:.3g} < "
+                f"{v['collinearity_limit']:g})")
+    out = [f"verdict: NOT identifiable from these data (collinearity index {v['collinearity_index']:.3g}, limit "
+           f"{v['collinearity_limit']:g})"]
+    for k in v["not_seen"]:
+        out.append(f"  {k}: these data do not depend on it")
+    for k in v.get("poorly_determined", []):
+        out.append(f"  {k}: barely determined (standard error above half its scale)")
+    for c in v["not_identifiable"]:
+        combo = " ".join(f"{w:+.2g} {k}" for k, w in c["combination"].items())
+        out.append(f"  cannot separate: {combo} (singular value {c['singular_value']:.2g}); to excite it: "
+                   f"{c['excite']}")
+    return "\n".join(out)
+
+
+def _excite(params: dict[str, Parameter]):
+    def hint(keys: list[str]) -> str:
+        ps = [params[k] for k in keys]
+        kinds = {p.kind for p in ps}
+        joints = [j for p in ps if p.kind == "clearance" for j in p.joints]
+        out = []
+        chains = {j[1:] for j in joints}
+        if len(joints) > 1 and any(f"B{c}" in joints and f"C{c}" in joints for c in chains):
+            out.append("loads that differ at the two ends of a following link (accelerate it harder, or a load "
+                       "across it)")
+        if "clearance" in kinds and "stiffness" in kinds:
+            out.append("a load whose magnitude changes (vary the preload f_min along the run)")
+        if "friction" in kinds:
+            out.append("a reversal of the slip or load direction (a path that reverses) and the efforts tau_* "
+                       "among the measurements")
+        if kinds & {"driving", "following", "base"}:
+            out.append("poses spread over the workspace and rotations of the task body")
+        return "; ".join(out) or "a path that moves these parameters' effects apart"
+    return hint
+
+
+def _measurements(problem: Problem, measurements, arm, noise) -> Measurements:
+    if isinstance(measurements, Measurements):
+        m = measurements
+    elif isinstance(measurements, (str, os.PathLike)):
+        m = read_measurements(measurements, problem, arm=arm)
+    elif hasattr(measurements, "tau") and hasattr(measurements, "q"):
+        m = measurements_from_simulation(measurements)
+    else:
+        raise MeasurementError(f"measurements: {type(measurements).__name__} is not allowed (a CSV file's path, "
+                               "rrr4.identify.Measurements or a Simulation)")
+    if noise:
+        m = Measurements(m.t, m.columns, {**m.noise, **noise}, m.source)
+    return m
+
+
+def identify(scene, measurements, parameters=None, method: str = "seated", noise: dict | None = None,
+             arm: str | None = None, effort_lag="controller") -> Identification:
+    """Identify `parameters` of `scene` (the nominal model: a Scene, a scene file or a
+    Problem) from `measurements` (a CSV file, :class:`Measurements` or a Simulation).
+
+    parameters: dotted scene keys (:data:`rrr4.identify.parameters.PATTERNS`; default
+    clearance, friction coefficient, contact stiffness), or a mapping key -> None |
+    [lower, upper] | {nominal, lower, upper}. method: 'seated' (journals seated under
+    preload; quasi-static) or 'dynamic' (single shooting through rrr4.simulate from the
+    scene's initial state; contact numbers only; refuses a run too chaotic to shoot).
+    noise: {column: standard deviation} (the rest is estimated from the residuals). arm:
+    the arm prefix of a study's timeseries.csv with several arms.
+    effort_lag: the time constant [s] with which the measured friction efforts follow the
+    seat model ('controller': the feedback's kd / kp; 0: none).
+    Raises SceneError / MeasurementError (one line) for bad input."""
+    problem = Problem.from_scene(scene)
+    if method not in METHODS:
+        raise unknown_value("method", "identification method", method, METHODS)
+    if method == "seated" and not problem.has_preload:
+        raise SceneError(f"actuation.preload: method 'seated' needs the journals seated by a preload (scene "
+                         f"{problem.name!r} does not preload; method 'dynamic' shoots through the simulation)")
+    wall = time.perf_counter()
+    m = _measurements(problem, measurements, arm, noise)
+    yaml_nominal = scene_yaml(problem)
+    params = resolve_parameters(problem, parameters, yaml_nominal)
+    if method == "seated":
+        data = SeatedData(problem, m, params, effort_lag)
+    else:
+        data = DynamicData(problem, m, params, yaml_nominal)
+    lower = np.array([q.coordinate(q.lower) for q in params])
+    upper = np.array([q.coordinate(q.upper) for q in params])
+    given = {c: float(s) for c, s in m.noise.items() if c in data.columns()}
+    first = data.initial_noise()
+    sigma = {**first, **given}
+
+    def values(u):
+        return np.array([q.value(v) for q, v in zip(params, u, strict=True)])
+
+    def fun(u, jacobian):
+        res = data.residuals(values(u), sigma, jacobian=jacobian)
+        if not jacobian:
+            return res["r"], None
+        return res["r"], res["J"] * np.array([q.derivative(v) for q, v in zip(params, u, strict=True)])
+
+    u, iterations, converged = np.zeros(len(params)), 0, True
+    if method == "dynamic":  # a run too chaotic to shoot is refused before fitting, and again at the end
+        data.check_sensitivities(values(u), sigma, data.residuals(values(u), sigma)["J"])
+    for _ in range(4):
+        u, r, J, it, ok = levenberg_marquardt(fun, u, lower, upper)
+        iterations, converged = iterations + it, ok
+        if len(given) == len(sigma):
+            break
+        new = noise_from_residuals(data.residuals(values(u), sigma, jacobian=False), len(params))
+        new = {**{c: max(v, 1e-6 * first[c]) for c, v in new.items()}, **given}  # a floor for exact data
+        change = max(abs(new[c] / sigma[c] - 1) for c in sigma)
+        sigma = new
+        if change < 0.01:
+            u, r, J, it, ok = levenberg_marquardt(fun, u, lower, upper)
+            iterations, converged = iterations + it, ok
+            break
+    p = values(u)
+    res = data.residuals(p, sigma)
+    if method == "dynamic":
+        data.check_sensitivities(p, sigma, res["J"])
+    scale = np.array([q.derivative(v) for q, v in zip(params, u, strict=True)])  # delta method in log coordinates
+    r, J = res["r"], res["J"] * scale
+    cov = covariance(J, r, scale, dof=sum(float(np.sum(v)) for v in res["expected"].values()))
+    se = cov["standard_error"]
+    keys = [q.key for q in params]
+    verdict = identifiability(J, keys, _excite(dict(zip(keys, params, strict=True))))
+    poor = [k for k, s_u in zip(keys, se / scale, strict=True) if not s_u <= POOR]
+    verdict = {**verdict, "poorly_determined": poor, "identifiable": verdict["identifiable"] and not poor}
+    at_bound = tuple(q.key for q, v in zip(params, p, strict=True)
+                     if min(v - q.lower, q.upper - v) <= 1e-9 * (q.upper - q.lower))
+    # a barely determined parameter keeps its nominal value in the identified scene
+    written = [q.nominal if q.key in poor else v for q, v in zip(params, p, strict=True)]
+    yaml_data = identified_data(problem, params, written, yaml_nominal)
+    identified = None
+    if yaml_data is not None:
+        try:
+            identified = parse_scene(yaml_data, name=str(yaml_data.get("name", "identified")), source="")
+        except SceneError as e:
+            raise SceneError(f"identified scene: {e} (an estimate left the scene's allowed range; bound it with "
+                             "parameters=)") from None
+    fit = {"samples": len(m), "residuals": int(r.size), "reduced_chi2": cov["reduced_chi2"], "chi2": cov["chi2"],
+           "rms_residual": {c: float(np.sqrt(np.mean(v ** 2))) for c, v in res["raw"].items()},
+           "iterations": iterations, "converged": bool(converged), "wall_time_s": time.perf_counter() - wall,
+           "angles": "measured" if data.angles_measured else "controller references", "preload": data.preload,
+           "effort_lag_s": data.lag, **({"simulations": data.runs, "sensitivity_disagreement": data.chaos}
+                                        if method == "dynamic" else {}),
+           "columns": data.columns()}
+    return Identification(
+        method, tuple(params), p, se, np.column_stack([p - Z95 * se, p + Z95 * se]), cov["covariance"],
+        cov["correlation"], at_bound, sigma, {c: c not in given for c in sigma}, fit, verdict, m.t,
+        {c: m.columns[c] for c in data.columns()}, res["prediction"], res["raw"], res["explained"], problem.scene,
+        identified,
+        yaml_data)

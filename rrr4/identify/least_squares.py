@@ -1,0 +1,110 @@
+"""Weighted nonlinear least squares and what it says about its estimates.
+
+- :func:`levenberg_marquardt`: Gauss-Newton with Levenberg-Marquardt damping (Marquardt
+  1963, diagonal scaling) in scaled coordinates, bounds by projection (a bound the gradient presses on stays active);
+- :func:`covariance`: s^2 (J^T J)^-1 of whitened residuals, s^2 the residual variance
+  (chi^2 / (M - p)); standard errors, 95 % intervals and the correlation matrix;
+- :func:`identifiability`: the singular values of the scaled sensitivity matrix (columns
+  of unit length, Brun, Reichert & Kuensch 2001): its collinearity index 1 / s_min and,
+  for each small singular value, the combination of parameters the data cannot separate.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["levenberg_marquardt", "covariance", "identifiability", "COLLINEARITY_LIMIT", "Z95"]
+
+Z95 = 1.959963984540054  # two-sided 95 % quantile of the normal distribution
+# the collinearity index above which a combination is not identifiable (Brun et al. 2001: 10-15 is critical)
+COLLINEARITY_LIMIT = 20.0
+
+
+def levenberg_marquardt(fun, u0, lower, upper, max_iter: int = 60, tol: float = 1e-8, rtol: float = 1e-10):
+    """Minimise 0.5 |r(u)|^2 with fun(u, jacobian) -> (r (M,), J (M, p) or None without
+    `jacobian`) from u0 within [lower, upper]; the Jacobian is asked only at accepted steps.
+    Stops when a step moves u by less than tol or lowers the cost by less than rtol of it.
+    Returns (u, r, J, iterations, converged)."""
+    u = np.clip(np.asarray(u0, float), lower, upper)
+    r, J = fun(u, True)
+    cost = 0.5 * r @ r
+    lam = 1e-3
+    for it in range(1, max_iter + 1):
+        A, g = J.T @ J, J.T @ r
+        d = np.diag(A).copy()
+        d[d <= 0] = 1.0
+        free = ~(((u <= lower) & (g > 0)) | ((u >= upper) & (g < 0)))  # a bound that holds stays active
+        while True:
+            step = np.zeros_like(u)
+            try:
+                step[free] = -np.linalg.solve((A + lam * np.diag(d))[np.ix_(free, free)], g[free])
+            except np.linalg.LinAlgError:
+                lam *= 10
+                continue
+            u_new = np.clip(u + step, lower, upper)
+            r_new, _ = fun(u_new, False)
+            cost_new = 0.5 * r_new @ r_new
+            if np.isfinite(cost_new) and cost_new <= cost:
+                r_new, J_new = fun(u_new, True)
+                break
+            lam *= 10
+            if lam > 1e12:  # no step lowers the cost: converged if the gradient vanishes (to rounding)
+                g_free = g[free]
+                small = np.linalg.norm(g_free) <= 1e-6 * max(np.linalg.norm(J[:, free]) * np.linalg.norm(r), 1e-300)
+                return u, r, J, it, bool(small)
+        moved = np.max(np.abs(u_new - u))
+        change = cost - cost_new
+        u, r, J, cost = u_new, r_new, J_new, cost_new
+        lam = max(lam / 10, 1e-12)
+        if moved < tol or change <= rtol * max(cost, 1e-300):
+            return u, r, J, it, True
+    return u, r, J, max_iter, False
+
+
+def covariance(J: np.ndarray, r: np.ndarray, scale: np.ndarray, dof: float | None = None) -> dict:
+    """Covariance, standard errors and correlation of the parameters p (dp/du = scale)
+    from the whitened residuals r (M,) and their Jacobian J (M, p) in u: s^2 (J^T J)^-1
+    with s^2 = chi^2 / (dof - p) (dof: the residuals' degrees of freedom, default M). A
+    singular J^T J gives infinite standard errors."""
+    M, npar = J.shape
+    chi2 = float(r @ r)
+    s2 = chi2 / max((M if dof is None else dof) - npar, 1)
+    A = J.T @ J
+    try:
+        inv = np.linalg.inv(A)
+        if not np.all(np.isfinite(inv)) or np.linalg.cond(A) > 1e15:
+            raise np.linalg.LinAlgError
+    except np.linalg.LinAlgError:
+        inv = np.linalg.pinv(A)
+        inv[np.diag_indices(npar)] = np.inf
+    cov = s2 * inv * np.outer(scale, scale)
+    se = np.sqrt(np.diag(cov))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(se, se)
+    corr[~np.isfinite(corr)] = np.nan
+    np.fill_diagonal(corr, 1.0)
+    return {"covariance": cov, "standard_error": se, "correlation": corr, "chi2": chi2, "reduced_chi2": s2,
+            "residuals": M}
+
+
+def identifiability(J: np.ndarray, keys: list[str], hint=None) -> dict:
+    """The verdict from the singular values of the sensitivity matrix J (M, p) with columns
+    scaled to unit length: collinearity index gamma = 1 / s_min; for every singular value
+    below 1 / COLLINEARITY_LIMIT the combination (right singular vector, entries above 0.2)
+    the data cannot separate; `hint(keys) -> str` says what motion would excite it."""
+    norms = np.linalg.norm(J, axis=0)
+    blind = [k for k, v in zip(keys, norms, strict=True) if not v > 0]
+    Jn = J / np.where(norms > 0, norms, 1.0)
+    _, s, vt = np.linalg.svd(Jn, full_matrices=False)
+    gamma = float(1.0 / s[-1]) if s[-1] > 0 else float("inf")
+    combos = []
+    for k in range(len(s)):
+        if s[k] * COLLINEARITY_LIMIT >= 1.0:
+            continue
+        v = vt[k] / np.max(np.abs(vt[k]))
+        members = {key: float(round(c, 3)) for key, c in zip(keys, v, strict=True) if abs(c) > 0.2}
+        combos.append({"singular_value": float(s[k]), "combination": members,
+                       "excite": hint(list(members)) if hint else ""})
+    return {"identifiable": not combos and not blind, "collinearity_index": gamma,
+            "collinearity_limit": COLLINEARITY_LIMIT, "singular_values": [float(v) for v in s],
+            "not_identifiable": combos, "not_seen": blind}

@@ -1,0 +1,284 @@
+"""Method 'seated': the quasi-static model of a preloaded n-RRR (DESIGN sections 7 and 11).
+
+Under preload each clearance journal is seated where its reaction pushes it
+(:func:`rrr4.control.compensation.seats`): its gap is a smooth function of the clearance,
+the contact stiffness and the friction coefficient. With the actuators at their measured
+angles theta (or, without them, at the controller's references) the task body sits where
+the chains close around those gaps: the least-squares forward kinematics of the n chains
+(two Gauss-Newton steps from the reference pose; the offsets are ~1e-4 m, so the error is
+~1e-4^2 / l, below 0.1 um). The efforts carry the seated journals' friction moments: the
+part of the measured efforts outside the preload direction tau_n is the inverse dynamics
+plus the minimum-norm effort that overcomes them (:func:`rrr4.control.compensation.friction_feed_forward`),
+so the preload, whatever the controller made of it, drops out (variable projection). A
+friction moment that reverses is taken up by the feedback's position error while the
+journal sticks: the friction efforts follow the model through a first-order lag of the
+feedback's kd / kp (``effort_lag``).
+
+:func:`seated_model` is one SX Function per problem structure and parameter layout:
+pose_ref, pose_d (3 each), theta (n), r (2, nj), p (np) -> pose (3), tau_friction (n) and
+their Jacobians in p. The reactions r are those of the ideal mechanism at the desired
+motion with the preload alpha the mechanism carries: the measured efforts' part along tau_n
+(where all efforts are measured; the controller's feedback changes the preload it plans),
+else the measured ``alpha_Nm``, else the controller's.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from ..control.compensation import friction_feed_forward, nrrr_slip, seats
+from ..control.references import path_rows, tabulated
+from ..dynamics.builder import JOINT_PARAMETERS
+from ..errors import MeasurementError, SceneError
+from ..problem import Problem
+from .measurements import Measurements, measurement_columns
+from .parameters import Parameter
+
+__all__ = ["seated_model", "SeatedData", "noise_from_residuals", "seated_measurements", "first_order_lag",
+           "effort_lag_of", "GN_STEPS"]
+
+GN_STEPS = 2  # Gauss-Newton steps of the forward kinematics from the reference pose
+
+
+def _layout(params: list[Parameter]) -> tuple:
+    return tuple((p.kind, p.joints, p.chain, p.axis) for p in params)
+
+
+def seated_model(problem: Problem, params: list[Parameter]) -> ca.Function:
+    """The seated prediction as an SX Function 'seated_prediction' (see the module docstring),
+    built once per problem and parameter layout."""
+    if not problem.closed_form:
+        raise SceneError(f"mechanism.kind: method 'seated' is built for n-RRR scenes (scene {problem.name!r} is a "
+                         "graph)")
+    return problem.memo(("identify_seated", _layout(params)), lambda: _build(problem, params))
+
+
+def _build(problem: Problem, params: list[Parameter]) -> ca.Function:
+    mech = problem.mechanism
+    data, n = mech.data, mech.n
+    names, clear = problem.model.preload_joints, problem.clearance_joints
+    k = len(JOINT_PARAMETERS)
+    p = ca.SX.sym("p", len(params))
+    pose_ref, pose_d = ca.SX.sym("pose_ref", 3), ca.SX.sym("pose_d", 3)
+    theta, r = ca.SX.sym("theta", n), ca.SX.sym("r", 2, len(names))
+    contact = [ca.SX(v) for v in problem.contact_parameters]
+    base = [[ca.SX(v) for v in c.base] for c in data.chains]
+    l1 = [ca.SX(c.driving.length) for c in data.chains]
+    l2 = [ca.SX(c.following.length) for c in data.chains]
+    for i, q in enumerate(params):
+        if q.kind == "clearance":
+            for j in q.joints:
+                contact[k * clear.index(j) + 2] = contact[k * clear.index(j) + 1] + p[i]
+        elif q.kind == "stiffness":
+            for jj in range(len(clear)):
+                contact[k * jj] = p[i]
+        elif q.kind == "friction":
+            contact[k * len(clear) + 2] = p[i]
+        elif q.kind == "base":
+            base[q.chain][q.axis] = p[i]
+        else:
+            (l1 if q.kind == "driving" else l2)[q.chain] = p[i]
+    contact = ca.vertcat(*contact)
+    slip = nrrr_slip(problem, pose_ref, pose_d)
+    gaps, f_t = seats(problem, r, slip if problem.scene.effects.friction.law != "none" else None, contact)
+
+    # the chains' IK around their gaps, with the (possibly identified) geometry
+    x, shift = ca.SX.sym("x", 3), ca.SX.sym("shift", 2, n)
+    th = []
+    for i, c in enumerate(data.chains):
+        C = x[0:2] + c.attachment_radius * ca.vertcat(ca.cos(x[2] + c.attachment_angle),
+                                                       ca.sin(x[2] + c.attachment_angle))
+        d = C - ca.vertcat(*base[i]) - shift[:, i]
+        dist = ca.norm_2(d)
+        cos_arg = (l1[i] ** 2 + dist ** 2 - l2[i] ** 2) / (2 * l1[i] * dist)
+        th.append(ca.atan2(d[1], d[0]) + float(mech.modes[i]) * ca.acos(cos_arg))
+    th = ca.vertcat(*th)
+    ik = ca.Function("seated_ik", [x, shift, p], [th, ca.jacobian(th, x)])
+    pose = pose_ref
+    shifts = gaps[:, :n] + gaps[:, n:]
+    for _ in range(GN_STEPS):
+        t_model, jac = ik(pose, shifts, p)
+        d = t_model - theta
+        res = ca.atan2(ca.sin(d), ca.cos(d))
+        pose = pose - ca.solve(jac.T @ jac, jac.T @ res)
+    if problem.scene.effects.friction.law != "none":
+        tau_f = friction_feed_forward(problem, pose_ref, pose_d, slip, f_t)
+    else:
+        tau_f = ca.SX.zeros(n)
+    return ca.Function("seated_prediction", [pose_ref, pose_d, theta, r, p],
+                       [pose, tau_f, ca.jacobian(pose, p), ca.jacobian(tau_f, p)],
+                       ["pose_ref", "pose_d", "theta", "r", "p"],
+                       ["pose", "tau_friction", "dpose_dp", "dtau_dp"])
+
+
+def effort_lag_of(problem: Problem, lag) -> float:
+    """The time constant [s] of the friction efforts' lag: 'controller' (kd / kp of the scene's
+    feedback: a friction moment that reverses is taken up by the feedback's position error,
+    which settles with kd / kp while the journal sticks), or a number >= 0."""
+    if lag == "controller":
+        a = problem.scene.actuation
+        return a.kd / a.kp if a.kp > 0 else 0.0
+    if isinstance(lag, bool) or not isinstance(lag, (int, float)) or not (lag >= 0 and np.isfinite(lag)):
+        raise SceneError(f"effort_lag: {lag!r} is not allowed ('controller' or a time constant >= 0 in s)")
+    return float(lag)
+
+
+def first_order_lag(t: np.ndarray, x: np.ndarray, T: float) -> np.ndarray:
+    """x (N, ...) through the first-order lag T y' + y = x (backward Euler on the grid t,
+    y_0 = x_0)."""
+    y = np.empty_like(x)
+    y[0] = x[0]
+    for k in range(1, len(t)):
+        a = (t[k] - t[k - 1]) / (T + t[k] - t[k - 1])
+        y[k] = y[k - 1] + a * (x[k] - y[k - 1])
+    return y
+
+
+class SeatedData:
+    """What the seated model needs at the measured instants, computed once: the desired
+    motion, the actuator angles (measured, else the controller's references), the reactions
+    with the preload, the effort family, and the measured columns."""
+
+    def __init__(self, problem: Problem, m: Measurements, params: list[Parameter], effort_lag="controller"):
+        self.problem, self.m, self.params = problem, m, params
+        self.lag = effort_lag_of(problem, effort_lag)
+        kinds = measurement_columns(problem)
+        t = m.t
+        path = problem.path
+        if t[0] < -1e-12 or t[-1] > path.duration + 1e-9:
+            raise MeasurementError(f"{m.source or 'measurements'}: t runs from {t[0]:.6g} s to {t[-1]:.6g} s (the "
+                                   f"scene's path runs from 0 to {path.duration:g} s; times are path times)")
+        rows = path_rows(path, t)
+        self.pose_ref, self.pose_d, pose_dd = rows[:, :3], rows[:, 3:6], rows[:, 6:9]
+        self.pose_cols = m.has(kinds["pose"])
+        self.effort_cols = m.has(kinds["effort"])
+        angles = m.has(kinds["angle"])
+        fam = problem.effort_family(self.pose_ref, self.pose_d, pose_dd)
+        n_m = fam.tau_n.shape[2]
+        if self.effort_cols and len(self.effort_cols) <= n_m:
+            raise MeasurementError(f"{m.source or 'measurements'}: efforts {', '.join(self.effort_cols)} alone carry "
+                                   f"nothing beyond the preload (measure at least {n_m + 1} of "
+                                   f"{', '.join(kinds['effort'])})")
+        if angles and len(angles) != len(kinds["angle"]):
+            missing = sorted(set(kinds["angle"]) - set(angles))
+            raise MeasurementError(f"{m.source or 'measurements'}: actuator angles {', '.join(missing)} are missing "
+                                   "(measure all of them, or none: then the controller's references are used)")
+        all_efforts = len(self.effort_cols) == len(kinds["effort"])
+        refs = None
+        if not angles or not (all_efforts or "alpha_Nm" in m.columns):
+            refs = tabulated(problem, t)
+        self.theta = np.column_stack([m.columns[c] for c in angles]) if angles else refs.theta_ref
+        self.angles_measured = bool(angles)
+        if all_efforts:  # the preload the mechanism carries: the efforts' part along tau_n (the rest is orthogonal)
+            tau = np.column_stack([m.columns[c] for c in kinds["effort"]])
+            alpha = np.einsum("kmn,kn->km", np.linalg.pinv(fam.tau_n), tau - fam.tau_p)
+            self.preload = "measured efforts"
+        elif "alpha_Nm" in m.columns:
+            alpha, self.preload = m.columns["alpha_Nm"][:, None], "alpha_Nm"
+        else:
+            alpha, self.preload = refs.alpha.reshape(len(t), -1), "controller"
+        r = fam.r_p + np.einsum("kjcm,km->kjc", fam.r_n, alpha)
+        N, nj = r.shape[:2]
+        self.r = r.transpose(2, 0, 1).reshape(2, N * nj)
+        idx = [kinds["effort"].index(c) for c in self.effort_cols]
+        self.effort_index = idx
+        self.tau_p = fam.tau_p[:, idx]
+        self.tau_n = fam.tau_n[:, idx, :]
+        self.f = seated_model(problem, params).map(N)
+
+    def predict(self, p: np.ndarray, efforts: str = "measured"):
+        """(pose (N, 3), tau_friction (N, n_e), dpose (N, 3, np), dtau (N, n_e, np)) at parameters p,
+        for the measured efforts (n_e of them) or with efforts='all' every actuator's."""
+        N, npar = len(self.m), len(self.params)
+        pose, tau, dpose, dtau = (np.array(v) for v in self.f(self.pose_ref.T, self.pose_d.T, self.theta.T, self.r,
+                                                                 np.asarray(p, float)))
+        tau, dtau = tau.T, dtau.reshape(-1, N, npar).transpose(1, 0, 2)
+        if self.lag > 0:
+            tau, dtau = first_order_lag(self.m.t, tau, self.lag), first_order_lag(self.m.t, dtau, self.lag)
+        idx = slice(None) if efforts == "all" else self.effort_index
+        return pose.T, tau[:, idx], dpose.reshape(3, N, npar).transpose(1, 0, 2), dtau[:, idx, :]
+
+    def columns(self) -> list[str]:
+        """The fitted columns: the measured pose columns, then the measured efforts."""
+        return self.pose_cols + self.effort_cols
+
+    def residuals(self, p: np.ndarray, sigma: dict, jacobian: bool = True) -> dict:
+        """Whitened residuals at parameters p with the noise levels sigma {column: std}:
+        {'r': (M,), 'J': (M, np) in p, 'raw': {column: (N,) residual in its unit},
+        'expected': {column: (N,) fraction of the noise variance left after the projection},
+        'prediction': {column: (N,) model}, 'explained': {column: (N,) what the parameters
+        explain: the pose's offset from the path, the friction efforts off the preload}}."""
+        kinds = measurement_columns(self.problem)
+        pose, tau_f, dpose, dtau = self.predict(p)
+        rs, js, raw, expected, pred, explained = [], [], {}, {}, {}, {}
+        for c in self.pose_cols:
+            i = kinds["pose"].index(c)
+            s = sigma[c]
+            raw[c] = self.m.columns[c] - pose[:, i]
+            if c == "theta_rad":
+                raw[c] = np.arctan2(np.sin(raw[c]), np.cos(raw[c]))
+            expected[c], pred[c] = np.ones(len(raw[c])), pose[:, i]
+            explained[c] = pose[:, i] - self.pose_ref[:, i]
+            rs.append(raw[c] / s)
+            js.append(-dpose[:, i, :] / s)
+        if self.effort_cols:
+            s = np.array([sigma[c] for c in self.effort_cols])
+            meas = np.column_stack([self.m.columns[c] for c in self.effort_cols])
+            z = (meas - self.tau_p - tau_f) / s
+            dz = -dtau / s[None, :, None]
+            Q = np.linalg.qr(self.tau_n / s[None, :, None])[0]  # (N, ne, m): the whitened preload directions
+            z = z - np.einsum("kim,kjm,kj->ki", Q, Q, z)
+            zf = tau_f / s - np.einsum("kim,kjm,kj->ki", Q, Q, tau_f / s)  # the friction efforts off the preload
+            dz = dz - np.einsum("kim,kjm,kjp->kip", Q, Q, dz)
+            left = 1.0 - np.einsum("kim,kim->ki", Q, Q)
+            for i, c in enumerate(self.effort_cols):
+                raw[c], expected[c], explained[c] = z[:, i] * s[i], left[:, i], zf[:, i] * s[i]
+                pred[c] = meas[:, i] - raw[c]
+                rs.append(z[:, i])
+                js.append(dz[:, i, :])
+        return {"r": np.concatenate(rs), "J": np.vstack(js), "raw": raw, "expected": expected, "prediction": pred,
+                "explained": explained}
+
+    def initial_noise(self) -> dict:
+        """A first guess of the noise levels, for the weights of the first fit: 1 um, 1e-5 rad,
+        1 % of an effort's RMS."""
+        out = {}
+        for c in self.columns():
+            out[c] = 1e-5 if c == "theta_rad" else 1e-6 if c in ("x_m", "y_m") else \
+                max(0.01 * float(np.sqrt(np.mean(self.m.columns[c] ** 2))), 1e-9)
+        return out
+
+
+def noise_from_residuals(res: dict, n_par: int) -> dict:
+    """Each column's noise level from its residuals: sum r^2 / sum (what the projection
+    leaves), with the parameters' degrees of freedom shared out over all residuals."""
+    M = sum(float(np.sum(v)) for v in res["expected"].values())
+    dof = M / max(M - n_par, 1)
+    return {c: float(np.sqrt(dof * np.sum(v ** 2) / max(np.sum(res["expected"][c]), 1e-300)))
+            for c, v in res["raw"].items()}
+
+
+def seated_measurements(problem: Problem, params: list[Parameter], values, t, noise: dict | None = None,
+                        rng: np.random.Generator | None = None, effort_lag="controller") -> Measurements:
+    """What the seated model predicts a mechanism with the parameters `values` (the nominal
+    problem's otherwise) shows at the times t (N,) [s]: its task pose with the actuators at
+    the controller's references, its actuator angles, its efforts (the controller's preload
+    plus the seated journals' friction moments) and the preload alpha_Nm; with Gaussian
+    noise {column: std} from rng. A synthetic truth for tests and benchmarks."""
+    t = np.asarray(t, float)
+    kinds = measurement_columns(problem)
+    refs = tabulated(problem, t)
+    cols = {c: refs.theta_ref[:, i] for i, c in enumerate(kinds["angle"])}
+    cols["alpha_Nm"] = refs.alpha.reshape(len(t), -1)[:, 0]
+    m = Measurements(t, {**cols, **{c: np.zeros(len(t)) for c in kinds["pose"]}})  # the preload: alpha_Nm
+    data = SeatedData(problem, m, params, effort_lag)
+    pose, tau_f, _, _ = data.predict(np.asarray(values, float), efforts="all")
+    fam = problem.effort_family(data.pose_ref, data.pose_d, path_rows(problem.path, t)[:, 6:9])
+    tau = fam.tau_p + np.einsum("knm,km->kn", fam.tau_n, refs.alpha.reshape(len(t), -1)) + tau_f
+    cols.update({c: pose[:, i] for i, c in enumerate(kinds["pose"])})
+    cols.update({c: tau[:, i] for i, c in enumerate(kinds["effort"])})
+    rng = rng or np.random.default_rng(0)
+    for c, s in (noise or {}).items():
+        cols[c] = cols[c] + s * rng.standard_normal(len(t))
+    return Measurements(t, cols, {}, f"seated model of {problem.name}")
