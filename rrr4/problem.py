@@ -231,9 +231,10 @@ class Problem:
             self._memo[key] = build()
         return self._memo[key]
 
-    def memoized(self, kind: str) -> list:
-        """What :meth:`memo` holds under keys that are tuples starting with `kind` (e.g. 'system')."""
-        return [v for k, v in self._memo.items() if isinstance(k, tuple) and k and k[0] == kind]
+    def memoized(self, kind: str | None = None) -> list:
+        """What :meth:`memo` holds under keys that are tuples starting with `kind` (e.g. 'system'),
+        or under any key (None)."""
+        return [v for k, v in self._memo.items() if kind is None or isinstance(k, tuple) and k and k[0] == kind]
 
     # ------------------------------------------------------------------ built things
 
