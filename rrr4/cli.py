@@ -221,6 +221,12 @@ def _sweep(args) -> int:
     how = " (masses and geometry as inputs, references tabulated per case)" if r["options"] else ""
     print(f"stepping: {'compiled C' if r['compiled'] else 'CasADi virtual machine'}{how}; "
           f"{r['compilations']} C libraries compiled, the rest from the shared cache")
+    run = r["cases"] - r["skipped"]
+    if run:
+        what = {"plant": "the equations and compiled stepping", "controller": "the controller step",
+                "preload": "the preload's sign choice and the mechanism"}
+        print("reused in their worker: " + "; ".join(f"{what[k]} by {n} of {run} cases"
+                                                     for k, n in r["reused"].items()))
     return 0
 
 

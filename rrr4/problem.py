@@ -9,7 +9,7 @@ from a validated :class:`~rrr4.scene.Scene` (:meth:`Problem.from_scene`, or
 - the structure/parameter split: the numbers that enter compiled Functions as inputs
   (:attr:`contact_parameters`, :meth:`equation_parameters`) and the structure keys that
   name what is built once for every problem of the same structure (:attr:`plant_key`,
-  :attr:`controller_key`, :attr:`path_key`);
+  :attr:`controller_key`, :attr:`path_key`, :attr:`preload_key`);
 - the equations of motion (:meth:`equations`) and the effort family along a motion
   (:meth:`effort_family`);
 - the caches of what is built and compiled for it (:meth:`memo`): per problem, or shared
@@ -87,7 +87,9 @@ class Problem:
 
     @functools.cached_property
     def mechanism(self) -> Mechanism:
-        return Mechanism.from_scene(self.scene)
+        """The kinematic mechanism, shared by every problem whose scenes differ only in the
+        clearance joints' numbers (radii, clearance, film), which the kinematics does not use."""
+        return Mechanism.from_scene(replace(self.scene, graph=_without_clearance_numbers(self.scene.graph)))
 
     @property
     def gravity(self) -> tuple[float, float]:
@@ -162,22 +164,17 @@ class Problem:
         integrator and initial state, without the contact numbers and the actuators' limits,
         and with the controller's numbers (gains, limits, f_min, weights, rate) neutral."""
         s = self.scene
-        def film(f):  # the law is structure, its numbers are inputs
-            return None if f is None else replace(f, viscosity=1.0, length=1.0, threshold=0.5)
-
-        joints = tuple(replace(j, journal_radius=1.0, radial_clearance=1.0, lubrication=film(j.lubrication))
-                       if j.clearance else j for j in s.graph.joints)
         ce, fe = s.effects.contact, s.effects.friction
         effects = replace(s.effects, contact=replace(ce, restitution=1.0, damping=0.0, stiffness=None),
                           friction=replace(fe, coefficient=0.0, static_coefficient=0.0, v0=1.0, v1=2.0,
-                                           stribeck_velocity=1.0), lubrication=film(s.effects.lubrication))
+                                           stribeck_velocity=1.0), lubrication=_film(s.effects.lubrication))
         actuators = tuple(replace(a, limit=1.0) for a in s.graph.actuators)
         a, n = s.actuation, self.model.n_actuators
         preload = replace(a.preload, min_force=float(a.preload.min_force > 0), weights=(1.0,) * n,
                           qp_solver="qrqp", smoothness_weight=0.0, max_turn_rate=0.0)  # not in a pointwise law
         actuation = replace(a, kp=0.0, kd=0.0, control_rate=None, preload=preload)
         return replace(s, name="", description="", source="", path=None, integrator=None, initial=None,
-                       graph=replace(s.graph, joints=joints, actuators=actuators), effects=effects,
+                       graph=replace(_without_clearance_numbers(s.graph), actuators=actuators), effects=effects,
                        actuation=actuation)
 
     @functools.cached_property
@@ -209,9 +206,22 @@ class Problem:
         return replace(s, name="", description="", source="", integrator=None, initial=None, actuation=None,
                        effects=None)
 
+    @functools.cached_property
+    def preload_key(self) -> Scene:
+        """What the pointwise preload along the path depends on (the ideal effort family, the
+        preload's settings, so the preload's sign choice): the mechanism with its masses and
+        the actuators' limits, the path, gravity and ``actuation.preload``; not the contact,
+        friction and lubrication, the clearance joints' numbers, the controller's gains, rate
+        and compensation, the integrator or the initial state."""
+        s = self.scene
+        actuation = replace(s.actuation, kp=0.0, kd=0.0, control_rate=None, compensation="none")
+        return replace(s, name="", description="", source="", integrator=None, initial=None,
+                       graph=_without_clearance_numbers(s.graph),
+                       effects=replace(s.effects, contact=None, friction=None, lubrication=None), actuation=actuation)
+
     def structure(self, key: str) -> Problem:
         """The Problem of one of the structure keys ('controller', 'plant', 'geometry',
-        'path'): shared by every problem of that structure, so what is cached on it (its
+        'path', 'preload'): shared by every problem of that structure, so what is cached on it (its
         :meth:`memo`) is built once for all of them."""
         return _problem(getattr(self, f"{key}_key"), "")
 
@@ -221,9 +231,10 @@ class Problem:
             self._memo[key] = build()
         return self._memo[key]
 
-    def memoized(self, kind: str) -> list:
-        """What :meth:`memo` holds under keys that are tuples starting with `kind` (e.g. 'system')."""
-        return [v for k, v in self._memo.items() if isinstance(k, tuple) and k and k[0] == kind]
+    def memoized(self, kind: str | None = None) -> list:
+        """What :meth:`memo` holds under keys that are tuples starting with `kind` (e.g. 'system'),
+        or under any key (None)."""
+        return [v for k, v in self._memo.items() if kind is None or isinstance(k, tuple) and k and k[0] == kind]
 
     # ------------------------------------------------------------------ built things
 
@@ -290,6 +301,18 @@ class Problem:
             ecc[[names.index(c) for c in self.clearance_joints]] = offsets
             return mech.seated_coordinates(target, ecc)
         return mech.assemble(target, offsets, guess=guess)
+
+
+def _film(f):
+    """A film's law without its numbers (the law is structure, its numbers are inputs)."""
+    return None if f is None else replace(f, viscosity=1.0, length=1.0, threshold=0.5)
+
+
+def _without_clearance_numbers(graph):
+    """`graph` with its clearance joints' journal radius, clearance and film numbers neutral."""
+    joints = tuple(replace(j, journal_radius=1.0, radial_clearance=1.0, lubrication=_film(j.lubrication))
+                   if j.clearance else j for j in graph.joints)
+    return replace(graph, joints=joints)
 
 
 @functools.lru_cache(maxsize=64)

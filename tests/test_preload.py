@@ -308,3 +308,30 @@ def test_exact_on_a_branch_is_the_optimum_of_a_dense_scan_of_that_branch(paper_s
         assert c_scan - cost <= (2 * abs(np.dot(w, tau * tau_n)) + 2 * np.dot(w, tau_n**2) * da) * da + 1e-9
         checked += 1
     assert checked >= 5
+
+
+def test_the_sign_choice_and_mechanism_are_shared_by_problems_that_differ_only_in_clearance(paper_scene):
+    """The preload's sign choice (a scan of the path) and the kinematic mechanism are built
+    once per preload structure (Problem.preload_key): a scene that differs only in its
+    clearances, contact numbers or gains shares them; f_min, gravity and the limits do not."""
+    from rrr4.preload import choose_signs, preload_sign
+    from rrr4.trajectory import sample_path
+    a = build(paper_scene)
+    joints = tuple(replace(j, radial_clearance=j.radial_clearance * 1.7) if j.clearance else j
+                   for j in paper_scene.graph.joints)
+    other = replace(paper_scene, name="other", graph=replace(paper_scene.graph, joints=joints),
+                    effects=replace(paper_scene.effects, contact=replace(paper_scene.effects.contact, damping=0.3)),
+                    actuation=replace(paper_scene.actuation, kp=2 * paper_scene.actuation.kp))
+    b = build(other)
+    assert b is not a and b.contact_parameters.tolist() != a.contact_parameters.tolist()
+    assert b.structure("preload") is a.structure("preload") and b.mechanism is a.mechanism
+    for changed in (_with(paper_scene, min_force=2 * paper_scene.actuation.preload.min_force),
+                    replace(paper_scene, effects=replace(paper_scene.effects, gravity=(0.0, -9.81))),
+                    replace(paper_scene, graph=replace(paper_scene.graph, actuators=tuple(
+                        replace(x, limit=0.5 * x.limit) for x in paper_scene.graph.actuators)))):
+        assert build(changed).structure("preload") is not a.structure("preload")
+    # the shared sign is the one chosen on the problem's own path and effort family
+    s = sample_path(b.path)
+    own = choose_signs(b, b.effort_family(s.pose, s.pose_d, s.pose_dd).raw, b.scene.actuation.preload.qp_solver,
+                       exact=b.scene.actuation.preload.method == "exact")[0]
+    assert preload_sign(b) == preload_sign(a) == int(own)

@@ -13,7 +13,7 @@ import pytest
 import yaml
 
 from rrr4 import SceneError, build
-from rrr4.studies.sweeps import METRICS, load_spec, parse_spec, sweep
+from rrr4.studies.sweeps import METRICS, case_scene, load_spec, parse_spec, sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = str(ROOT / "problems" / "paper_circle.yaml")
@@ -327,3 +327,29 @@ def test_an_unsupported_scheduler_scheme_says_what_is_supported_and_why_before_a
     assert "tcp://HOST:PORT" in err and "is not supported: " in err
     assert ("certificate" in err) == (address.startswith(("tls", "wss")))
     assert not out.exists()
+
+
+def test_warm_cases_reuse_their_structures_and_give_the_rows_of_a_fresh_process(tmp_path):
+    """One worker runs four cases (two clearances x two f_min): the equations, stepping and
+    controller are built by the first case and reused by the other three, the preload's sign
+    choice once per f_min; every row equals, to the last digit, the row of the same case run
+    alone in a fresh process (every cache empty)."""
+    spec = {"scene": SCENE, "t_end": 0.01, "arms": ["with_preload", "without_preload"],
+            "grid": {"joints.radial_clearance": [5.0e-5, 1.0e-4], "actuation.preload.min_force": [10.0, 14.0]}}
+    r = sweep(spec, out=tmp_path / "o", workers=1)
+    assert r["failed"] == 0 and r["reused"] == {"plant": 3, "controller": 3, "preload": 2}
+    parsed = parse_spec(spec)
+    for case in parsed.cases:
+        _, text = case_scene(parsed.base, parsed.scene_path, case)
+        code = ("import json, sys; from rrr4.studies.sweeps import run_case; "
+                "rows, _, reused = run_case(sys.stdin.read(), 'paper_circle', 0.01, "
+                f"{list(parsed.arms)!r}, {r['compiled']!r}, {r['options']!r}); print(json.dumps([rows, reused]))")
+        out = subprocess.run([sys.executable, "-c", code], input=text, capture_output=True, text=True, check=True)
+        fresh, reused = json.loads(out.stdout.splitlines()[-1])
+        assert reused == []
+        warm = [{k: v for k, v in row.items() if k not in ("case", *case)} for row in r["rows"]
+                if all(row[k] == v for k, v in case.items())]
+        assert len(warm) == len(fresh) == 2
+        for a, b in zip(sorted(warm, key=lambda x: x["arm"]), sorted(fresh, key=lambda x: x["arm"]), strict=True):
+            assert a["status"] == "ok" and a.pop("wall_time_s") > 0 and b.pop("wall_time_s") > 0
+            assert a == b

@@ -41,13 +41,15 @@ def choose_signs(problem: Problem, raw, solver: str, exact: bool = False):
 def preload_sign(problem: Problem) -> int:
     """The controller's fixed preload sign on the problem's path: +1 / -1 (the exact branch or
     the QP's axial-force sign that :func:`rrr4.solve_preload` picks), 0 without a preload.
-    Computed once per problem."""
+    Computed once per preload structure (``Problem.preload_key``): problems that differ only
+    in contact numbers, gains or the integrator share it."""
     if not problem.has_preload:
         return 0
+    structure = problem.structure("preload")
 
     def choose():
-        s = sample_path(problem.path)
-        raw = problem.effort_family(s.pose, s.pose_d, s.pose_dd).raw
-        p = problem.scene.actuation.preload
-        return int(choose_signs(problem, raw, p.qp_solver, exact=p.method == "exact")[0])
-    return problem.memo("preload_sign", choose)
+        s = sample_path(structure.path)
+        raw = structure.effort_family(s.pose, s.pose_d, s.pose_dd).raw
+        p = structure.scene.actuation.preload
+        return int(choose_signs(structure, raw, p.qp_solver, exact=p.method == "exact")[0])
+    return structure.memo("preload_sign", choose)

@@ -53,6 +53,9 @@ DISTRIBUTIONS = ("normal", "uniform")
 SPEC_KEYS = ("scene", "t_end", "arms", "grid", "monte_carlo")
 MAX_CASES = 100_000
 MAX_WORKERS_PER_CORE = 4  # local worker processes a machine holds per core (each a Python with CasADi)
+# a case's scene text, read in the worker with libyaml's parser where PyYAML has it (about 8x
+# faster than the pure-Python one: 4 ms of a warm reference case; the same constructors)
+CASE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 
 @dataclass(frozen=True)
@@ -280,13 +283,25 @@ def case_options(spec: SweepSpec) -> dict:
     return opts
 
 
+# What a warm case finds built in its worker (Problem.structure): the equations, ODE systems
+# and their compiled stepping ('plant'); the controller step ('controller'); the preload's
+# sign choice and the kinematic mechanism ('preload').
+STRUCTURES = ("plant", "controller", "preload")
+
+
+def _built(problems) -> list[tuple[bool, ...]]:
+    """Per problem, whether each of its STRUCTURES holds anything built."""
+    return [tuple(bool(p.structure(k).memoized()) for k in STRUCTURES) for p in problems]
+
+
 def run_case(text: str, name: str, t_end, arms, jit: bool = False, options: dict | None = None
-             ) -> tuple[list[dict], int]:
+             ) -> tuple[list[dict], int, tuple[str, ...]]:
     """(the rows (one per arm) of one case: metrics of each arm's simulation
     (:func:`rrr4.results.metrics.scalar_metrics` and its wall time), or status
-    'failed' with the error; the C libraries this case compiled). jit: step in compiled C
-    (the shared on-disk cache; RRR4_JIT=0 still says no); options: :func:`case_options`. Runs in a Dask worker; imports
-    nothing Dask."""
+    'failed' with the error; the C libraries this case compiled; the STRUCTURES it reused: those
+    that every arm which uses one found built by an earlier case in this worker). jit: step in
+    compiled C (the shared on-disk cache; RRR4_JIT=0 still says no); options: :func:`case_options`.
+    Runs in a Dask worker; imports nothing Dask."""
     from ..integrators.compiled import compilations
     from ..problem import Problem
     from ..simulation import simulate
@@ -294,19 +309,24 @@ def run_case(text: str, name: str, t_end, arms, jit: bool = False, options: dict
     rows = []
     before = compilations()
     try:
-        problem = Problem.from_scene(parse_scene(yaml.safe_load(text), name=name, source=""))
+        problem = Problem.from_scene(parse_scene(yaml.load(text, Loader=CASE_LOADER), name=name, source=""))
     except Rrr4Error as e:
-        return [{"arm": a, "status": "failed", "error": str(e).splitlines()[0]} for a in arms], 0
-    for arm in arms:
+        return [{"arm": a, "status": "failed", "error": str(e).splitlines()[0]} for a in arms], 0, ()
+    problems = [Problem.from_scene(arm_scene(problem, arm)) for arm in arms]
+    found = _built(problems)
+    for arm, arm_problem in zip(arms, problems, strict=True):
         wall = time.perf_counter()
         try:
-            sim = simulate(arm_scene(problem, arm), t_end=t_end, jit=None if jit else False, **(options or {}))
+            sim = simulate(arm_problem, t_end=t_end, jit=None if jit else False, **(options or {}))
         except Exception as e:  # recorded, the sweep goes on
             rows.append({"arm": arm, "status": "failed", "error": f"{type(e).__name__}: {str(e).splitlines()[0]}"})
             continue
         rows.append({"arm": arm, "status": "ok", "error": "", **scalar_metrics(sim),
                      "wall_time_s": time.perf_counter() - wall})
-    return rows, compilations() - before
+    used = _built(problems)
+    reused = tuple(k for i, k in enumerate(STRUCTURES)
+                   if any(u[i] for u in used) and all(f[i] for f, u in zip(found, used, strict=True) if u[i]))
+    return rows, compilations() - before, reused
 
 
 def _columns(spec: SweepSpec) -> list[str]:
@@ -352,7 +372,8 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
     Returns {'csv': path, 'cases': n, 'skipped': n, 'failed': n, 'rows': list of row dicts of
     this run, 'figures': paths, 'compiled': bool, 'options': the cases' simulate options,
     'compilations': the C libraries the workers compiled (the others came from the shared
-    cache)}."""
+    cache), 'reused': structure ('plant', 'controller', 'preload') -> how many cases found it
+    built in their worker (:func:`run_case`)}."""
     say = log or (lambda _m: None)
     name = None
     if not isinstance(spec, (str, Path, dict, SweepSpec)):
@@ -386,6 +407,7 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
     say(f"{len(spec.cases)} cases x {len(spec.arms)} arms; {skipped} already in {csv_path}, {len(todo)} to run")
     from ..simulation import default_jit
     rows_out, failed, built, jit, options = [], 0, 0, default_jit(), case_options(spec)
+    reused = dict.fromkeys(STRUCTURES, 0)
     if todo:
         from dask.distributed import Client, LocalCluster, as_completed
         cluster = None
@@ -406,8 +428,10 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
             for fut in as_completed(futures):
                 cid, case = futures[fut]
                 try:
-                    rows, n_built = fut.result()
+                    rows, n_built, found = fut.result()
                     built += n_built
+                    for k in found:
+                        reused[k] += 1
                 except Exception as e:  # the worker itself died: record, go on
                     rows = [{"arm": a, "status": "failed", "error": f"{type(e).__name__}: {e}"} for a in spec.arms]
                 rows = [{"case": cid, **case, **r} for r in rows]
@@ -425,4 +449,4 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
     from ..results.figures import sweep_figures
     figures = sweep_figures(csv_path, spec.keys, spec.grid_keys, spec.mc_keys, out, name or spec.scene_path.stem)
     return {"csv": csv_path, "cases": len(spec.cases), "skipped": skipped, "failed": failed, "rows": rows_out,
-            "figures": figures, "compiled": jit, "options": options, "compilations": built}
+            "figures": figures, "compiled": jit, "options": options, "compilations": built, "reused": reused}
