@@ -7,7 +7,9 @@ import os
 import signal
 import sys
 
-from .errors import Rrr4Error
+from . import __version__
+from .checks import argument, unknown_value
+from .errors import Rrr4Error, SceneError
 from .files import check_writable
 from .scene.vocabulary import OBJECTIVES
 
@@ -41,17 +43,33 @@ def _run(args) -> int:
 
     from tqdm import tqdm
 
-    from .checks import argument
+    from .integrators import METHODS
     from .mechanism import load_scene
     from .results import check_target, write_results
+    from .results.metrics import check_skip
     from .studies.study import run_study
     if args.t_end is not None:
         argument("--t-end", args.t_end)
+    for key in ("step", "output_rate"):
+        if getattr(args, key) is not None:
+            argument(f"--{key.replace('_', '-')}", getattr(args, key))
+    if args.integrator is not None and args.integrator not in METHODS:
+        raise unknown_value("--integrator", "integrator", args.integrator, METHODS)
+    if args.skip is not None:
+        argument("--skip", args.skip, allow_zero=True)
     scene = load_scene(args.scene)
+    t_end = scene.path.duration if args.t_end is None else args.t_end
+    step = scene.integrator.step if args.step is None else args.step
+    if args.output_rate is not None and args.output_rate > (1 + 1e-9) / step:
+        raise SceneError(f"--output-rate: {args.output_rate:g} Hz is not allowed at step {step:g} s (at most one "
+                         f"output per step: <= {1 / step:g} Hz)")
+    skip = check_skip(args.skip or 0.0, t_end, "--skip")
     out = Path(args.out) if args.out else Path("results") / scene.name
     check_writable(out)
     check_target(out)
-    study = run_study(scene, t_end=args.t_end, progress=True, log=lambda m: tqdm.write(f"rrr4 run: {m}"))
+    study = run_study(scene, t_end=args.t_end, integrator=args.integrator, step=args.step,
+                      output_rate=args.output_rate, skip=skip, progress=True,
+                      log=lambda m: tqdm.write(f"rrr4 run: {m}"))
     _, files = write_results(study, out, progress=True)
     print(f"wrote {len(files)} files to {out}/: {', '.join(files)}")
     print((out / "report.md").read_text())
@@ -97,12 +115,12 @@ def _animate(args) -> int:
     from .results.animation import render
     if args.out:
         check_writable(args.out, kind="file")
-    print(render(args.result_dir, args.out, progress=True))
+    print(render(args.result_dir, args.out, frames=args.frames, fps=args.fps, magnification=args.magnification,
+                 progress=True))
     return 0
 
 
 def _bench(args) -> int:
-    from .errors import SceneError
     from .mechanism import load_scene
     from .studies.bench import work_precision, write_work_precision
     if args.t_end is not None and not (args.t_end > 0):
@@ -121,7 +139,6 @@ def _robustness(args) -> int:
 
     from tqdm import tqdm
 
-    from .checks import argument
     from .mechanism import load_scene
     from .studies.robustness import write_robustness
     if args.t_end is not None:
@@ -236,6 +253,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Planar redundantly actuated parallel mechanisms (any planar body/joint graph; the 4-RRR is "
                     "the reference scene) with revolute joint clearance: kinematics, preload, contact dynamics and "
                     "C code generation.")
+    p.add_argument("--version", action="version", version=f"rrr4 {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
     c = sub.add_parser("check", help="validate a scene, print what it would simulate and evaluate its preload along "
                                       "the path (exit 1 when the preload cannot hold, 2 when the scene is invalid)")
@@ -256,6 +274,14 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("scene", help="scene YAML file, e.g. problems/paper_circle.yaml")
     r.add_argument("--out", help="result directory (default results/<scene name>/); replaced atomically")
     r.add_argument("--t-end", type=float, default=None, help="simulated time [s] (default: the path duration)")
+    r.add_argument("--integrator", metavar="METHOD", help="integration method instead of the scene's "
+                                                          "integrator.method (one of rrr4.integrators.METHODS)")
+    r.add_argument("--step", type=float, help="integrator step [s] instead of the scene's integrator.step")
+    r.add_argument("--output-rate", type=float, metavar="HZ",
+                   help="outputs kept per second [Hz] (default: every step; at most 1/step)")
+    r.add_argument("--skip", type=float, metavar="S",
+                   help="start-up window [s] the metrics over the output samples discard (0 <= S < t_end; "
+                        "summary.json's metrics_window says which metrics it applies to)")
     r.set_defaults(func=_run)
     op = sub.add_parser("optimize", help="the optimal time law along the scene's path (every actuator within its "
                                          "limit, every passive joint loaded, as the preload layer requires), the "
@@ -276,7 +302,14 @@ def build_parser() -> argparse.ArgumentParser:
     op.set_defaults(func=_optimize)
     an = sub.add_parser("animate", help="remake the animation (motion.gif) of a saved result without simulating")
     an.add_argument("result_dir", help="a result directory of rrr4 run, e.g. results/paper_circle")
-    an.add_argument("--out", help="GIF file to write (default RESULT_DIR/motion.gif)")
+    an.add_argument("--out", help="file to write: .gif, or .mp4 when ffmpeg is installed (default "
+                                  "RESULT_DIR/motion.gif)")
+    an.add_argument("--fps", type=float, default=None, help="frames per second (default 10)")
+    an.add_argument("--frames", type=int, default=None, help="number of frames (default 60; fewer when the "
+                                                              "result has fewer samples)")
+    an.add_argument("--magnification", type=float, default=None,
+                    help="factor the clearance circles and eccentricities are drawn magnified by (default: the "
+                         "largest circle 4 %% of the drawing)")
     an.set_defaults(func=_animate)
     rb = sub.add_parser("robustness", help="the preloaded controller, with and without clearance compensation, "
                                            "keeping the nominal model while the mechanism differs (clearance, "
@@ -347,7 +380,8 @@ def main(argv=None) -> int:
     # SIGTERM unwinds like Ctrl-C, so temporary files are removed; the handlers are restored after
     previous = {s: signal.signal(s, on_signal) for s in (signal.SIGTERM, signal.SIGINT)}
     try:
-        return args.func(args)
+        with _compiling(f"rrr4 {args.command}"):
+            return args.func(args)
     except Rrr4Error as e:
         _say(f"rrr4: error: {type(e).__name__}: {e}")
         return 2
@@ -363,6 +397,24 @@ def main(argv=None) -> int:
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
+
+
+class _compiling:
+    """While it is open, 'compiling ...' is said on stderr whenever the C compiler runs."""
+
+    def __init__(self, who: str):
+        self.who = who
+
+    def __enter__(self):
+        from .codegen.build import compile_notice
+        self.previous = compile_notice(lambda stem: _say(f"{self.who}: compiling {stem} (C compiler; the result is "
+                                                         "cached, later runs skip this) ..."))
+        return self
+
+    def __exit__(self, *exc):
+        from .codegen.build import compile_notice
+        compile_notice(self.previous)
+        return False
 
 
 def _say(line: str) -> None:

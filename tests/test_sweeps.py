@@ -136,6 +136,10 @@ def test_monte_carlo_is_reproducible_from_its_seed(tmp_path):
     ({"monte_carlo": {"samples": 2, "keys": {"mechanism.chains[0].driving_link.length": {"normal": {"std": 1}}}}},
      "mean"),
     ({"t_end": -1}, "t_end: -1 is not allowed"),
+    ({"skip": 0.005}, r"skip: 0.005 s is not allowed \(.*0 <= skip < t_end = 0.005 s\)"),
+    ({"skip": -0.001}, r"skip: -0.001 is not allowed \(must be a finite number >= 0\)"),
+    ({"skip": "1 ms"}, "skip: '1 ms' is not allowed"),
+    ({"t_end": None, "skip": 2.0}, r"skip: 2 s is not allowed .* t_end = 1 s"),
     ({"scenery": 1}, "scenery: unknown key of a sweep spec"),
     # round two: keys that are not strings, no case at all, a grid counted before it is expanded,
     # a case that does not assemble (as rrr4 check says), all refused before any work
@@ -291,8 +295,8 @@ def test_any_value_on_any_spec_key_is_a_spec_or_one_line(tmp_path):
                                                       max_size=4),
                        st.dictionaries(st.one_of(st.text(max_size=8), st.none(), st.integers()),
                                        st.one_of(st.integers(), st.lists(st.floats(0, 1), max_size=3)), max_size=3))
-    keys = ["scene", "t_end", "arms", "grid", "monte_carlo", "grid.joints.radial_clearance", "monte_carlo.samples",
-            "monte_carlo.keys", "monte_carlo.seed", "extra"]
+    keys = ["scene", "t_end", "skip", "arms", "grid", "monte_carlo", "grid.joints.radial_clearance",
+            "monte_carlo.samples", "monte_carlo.keys", "monte_carlo.seed", "extra"]
 
     @settings(max_examples=120, deadline=None, suppress_health_check=list(HealthCheck))
     @given(key=st.sampled_from(keys), value=values)

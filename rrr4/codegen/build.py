@@ -36,6 +36,7 @@ import os
 import platform
 import shutil
 import tempfile
+import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -43,19 +44,35 @@ import casadi as ca
 
 from ..files import BuildError, run_c_compiler
 
-__all__ = ["library", "load", "cache_dir", "compilations", "cpu", "machine", "COMPILE_FLAGS", "PORTABLE_FLAGS",
-           "BuildError"]
+__all__ = ["library", "load", "cache_dir", "compilations", "compile_time", "compile_notice", "cpu", "machine",
+           "COMPILE_FLAGS", "PORTABLE_FLAGS", "BuildError"]
 
 PORTABLE_FLAGS = ("-O2", "-fPIC", "-shared")
 COMPILE_FLAGS = ("-O3", "-march=native", "-ffp-contract=off", "-fno-math-errno", "-fno-semantic-interposition",
                  "-fPIC", "-shared")
 _loaded: dict[tuple[str, str], ca.Function] = {}
 _compilations = [0]  # libraries this process built (not found in the cache)
+_compile_time = [0.0]  # [s] this process spent compiling them (and waiting for another's compiler)
+_notice: list = [None]  # called with the library's stem before the compiler runs
 
 
 def compilations() -> int:
     """How many libraries this process has compiled (cache hits excluded)."""
     return _compilations[0]
+
+
+def compile_time() -> float:
+    """Seconds this process has spent compiling libraries, or waiting for another process
+    compiling one it needs (cache hits cost nothing here); callers take differences."""
+    return _compile_time[0]
+
+
+def compile_notice(notice=None):
+    """Set the callable notice(stem) that :func:`library` calls just before it runs the C
+    compiler (e.g. the command line's 'compiling ...' line); None for silence. Returns the
+    previous one, to restore."""
+    previous, _notice[0] = _notice[0], notice
+    return previous
 
 
 def cache_dir() -> Path:
@@ -116,6 +133,17 @@ def library(stem: str, sources: Mapping[str, str], extra: Sequence = (), keep_so
     lib = cache_dir() / f"{stem}_{key}.so"
     if lib.exists():
         return lib
+    if _notice[0] is not None:
+        _notice[0](stem)
+    start = time.perf_counter()
+    try:
+        return _compile(lib, sources, extra, flags, keep_sources)
+    finally:
+        _compile_time[0] += time.perf_counter() - start
+
+
+def _compile(lib: Path, sources: Mapping[str, str], extra: list, flags: tuple, keep_sources: bool) -> Path:
+    """Compile `lib` (see :func:`library`), or wait for the process compiling it."""
     # one compiler per library: a process (e.g. another sweep worker) that needs the same
     # library waits for it instead of compiling it again
     with open(lib.with_suffix(".lock"), "a") as lock:

@@ -24,9 +24,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from matplotlib.animation import FuncAnimation, PillowWriter  # noqa: E402
+from matplotlib.animation import FFMpegWriter, FuncAnimation, PillowWriter, writers  # noqa: E402
 
-from ..checks import describe  # noqa: E402
+from ..checks import argument, describe  # noqa: E402
 from ..errors import Rrr4Error  # noqa: E402
 from ..mechanism import Model  # noqa: E402
 from ..problem import Problem  # noqa: E402
@@ -157,21 +157,39 @@ def _task_points(model: Model, q: np.ndarray) -> np.ndarray:
     return np.array(model.task_pose_function.map(q.shape[0])(q.T)).T[:, :2]
 
 
-def render(result_dir, out_file=None, frames: int = FRAMES, progress: bool = True):
+MAX_FRAMES = 10_000
+
+
+def render(result_dir, out_file=None, frames: int | None = None, progress: bool = True, fps: float | None = None,
+           magnification: float | None = None):
     """Write the animation of a saved result (default RESULT_DIR/motion.gif); return its path.
-    The figure and its per-frame update function are built by :func:`build`."""
-    data, scene = load_motion(result_dir)
+    frames: how many (default :data:`FRAMES`, fewer when the result has fewer samples); fps:
+    frames per second (default :data:`FPS`); magnification: the factor the clearance circles
+    and eccentricities are drawn at (default: the largest circle 4 % of the drawing). An
+    ``.mp4`` file needs ffmpeg (refused in one line without it). The figure and its per-frame
+    update function are built by :func:`build`."""
+    frames = FRAMES if frames is None else frames
+    if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or not 1 <= frames <= MAX_FRAMES:
+        raise Rrr4Error(f"--frames: {describe(frames)} is not allowed (an integer from 1 to {MAX_FRAMES})")
+    fps = FPS if fps is None else argument("--fps", fps)
+    if magnification is not None:
+        magnification = argument("--magnification", magnification)
     out = Path(out_file) if out_file else Path(result_dir) / "motion.gif"
-    if out.suffix.lower() != ".gif":
-        raise Rrr4Error(f"--out: '{out}' is not allowed (a .gif file; the GIF writer is the one installed)")
-    fig, update, n = build(data, Problem.from_scene(scene), frames)
+    if out.suffix.lower() not in (".gif", ".mp4"):
+        raise Rrr4Error(f"--out: '{out}' is not allowed (a .gif file, or .mp4 when ffmpeg is installed)")
+    if out.suffix.lower() == ".mp4" and not writers.is_available("ffmpeg"):
+        raise Rrr4Error(f"--out: '{out}' is not allowed (an .mp4 needs ffmpeg, which is not installed here; "
+                        "write a .gif instead)")
+    data, scene = load_motion(result_dir)
+    fig, update, n = build(data, Problem.from_scene(scene), frames, magnification)
     anim = FuncAnimation(fig, update, frames=n, blit=False)
     bar = None
     if progress:
         from tqdm import tqdm
         bar = tqdm(total=n, desc="animate", unit="frame")
     try:
-        save_figure(anim, out, writer=PillowWriter(fps=FPS), dpi=72,
+        writer = PillowWriter(fps=fps) if out.suffix.lower() == ".gif" else FFMpegWriter(fps=fps)
+        save_figure(anim, out, writer=writer, dpi=72,
                     progress_callback=(lambda i, total: bar.update(1)) if bar is not None else None)
     finally:
         if bar is not None:
@@ -180,8 +198,9 @@ def render(result_dir, out_file=None, frames: int = FRAMES, progress: bool = Tru
     return out
 
 
-def build(data: dict, problem: Problem, frames: int = FRAMES):
-    """(figure, update(k), frame count): the animation of saved motion `data` of `problem`."""
+def build(data: dict, problem: Problem, frames: int = FRAMES, magnification: float | None = None):
+    """(figure, update(k), frame count): the animation of saved motion `data` of `problem`;
+    magnification: of the clearance circles (default: the largest one 4 % of the drawing)."""
     scene, model = problem.scene, problem.model
     arms = [str(a) for a in data["arms"]]
     t = data["t"]
@@ -205,7 +224,7 @@ def build(data: dict, problem: Problem, frames: int = FRAMES):
     clear = [j for j in scene.graph.joints if j.clearance]
     c_max = max((j.radial_clearance for j in clear), default=1.0)
     R = 0.04 * span
-    mag = R / c_max
+    mag = R / c_max if magnification is None else magnification
     fmax = max((float(np.max(data[f"normal_force_{a}"], initial=0.0)) for a in arms), default=1.0) or 1.0
     cmap = plt.get_cmap("viridis")
     tasks = {a: _task_points(model, data[f"q_{a}"]) for a in arms} if model.task else {}
@@ -234,7 +253,8 @@ def build(data: dict, problem: Problem, frames: int = FRAMES):
             dots.append(ax.plot([], [], "o", ms=5)[0])
         lines[scene.graph.bodies[0].name].set_label("bodies")
         artists.append((lines, joints_art, trace, circles, dots, names))
-    handles = [plt.Line2D([], [], color="k", lw=0.8, label=f"clearance circles x{mag:.0f}, journal centre "
+    shown = f"{mag:.0f}" if mag >= 10 else f"{mag:.3g}"
+    handles = [plt.Line2D([], [], color="k", lw=0.8, label=f"clearance circles x{shown}, journal centre "
                           f"(colour: contact force, 0 to {fmax:.3g} N)")] if clear else []
     fig.legend(handles=axes[0].get_legend_handles_labels()[0] + handles, loc="lower center", ncol=3, fontsize=7,
                frameon=False)

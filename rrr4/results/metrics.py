@@ -12,19 +12,72 @@ motion, not of its samples: the simulation tracks them at every integrator step
 (``Simulation.extremes``), so a sweep that keeps outputs at 1 kHz and a run that keeps every
 step report the same numbers. Ideal joints' reactions and the prescribed mode's efforts are
 taken over the output samples.
+
+The start-up window. A seated start puts the platform on the path at t = 0 and its offset
+builds over 0.1 to 0.5 s, so a short run's averages mix the transient into the steady
+behaviour. ``skip`` [s] (``rrr4 run --skip``, a sweep spec's ``skip:``) discards the samples
+before it from the metrics over the output samples (:data:`WINDOWED`); the metrics tracked
+at every integrator step or counted by the simulation itself (:data:`WHOLE_RUN`) cannot be
+cut after the fact and stay over the whole run. :func:`settling_time` says when the platform
+error has reached its steady behaviour, i.e. how much to skip.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..checks import argument
+from ..errors import SceneError
 from ..problem import Problem
 from ..simulation import Simulation
 
-__all__ = ["scalar_metrics", "SCALAR_METRICS", "arm_metrics", "loss_times", "contact_onsets", "driven_metrics"]
+__all__ = ["scalar_metrics", "SCALAR_METRICS", "arm_metrics", "loss_times", "contact_onsets", "driven_metrics",
+           "settling_time", "check_skip", "window", "WINDOWED", "WHOLE_RUN", "SETTLING_TAIL", "SETTLING_MARGIN"]
 
 SCALAR_METRICS = ("contact_loss_events", "platform_error_rms_m", "platform_error_max_m", "min_contact_force_N",
                   "peak_contact_force_N", "torque_rms_Nm")
+# metrics over the output samples at t >= skip, and those over the whole run whatever the skip
+WINDOWED = ("platform_error_rms_m", "platform_error_max_m", "torque_rms_Nm", "free_flight_fraction",
+            "effort_at_limit_fraction", "peak_contact_force_N (ideal joints)", "min_contact_force_N (ideal joints)",
+            "driver and acceleration metrics of a driven scene")
+WHOLE_RUN = ("contact_loss_events", "last_contact_loss_s", "peak_contact_force_N (clearance joints)",
+             "min_contact_force_N (clearance joints)", "max_penetration_m", "torque_peak_Nm", "energy_audit_residual",
+             "settling_time_s")
+SETTLING_TAIL = 0.25    # the last quarter of the run is the platform error's steady behaviour
+SETTLING_MARGIN = 0.1   # the band: that quarter's range, widened by 10 % of its largest error on each side
+
+
+def check_skip(skip, t_end: float, key: str = "skip") -> float:
+    """`skip` [s] as a float, 0 <= skip < t_end [s], or a one-line SceneError naming `key`."""
+    s = argument(key, skip, allow_zero=True)
+    if s >= t_end:
+        raise SceneError(f"{key}: {s:g} s is not allowed (the start-up window to discard must be shorter than the "
+                         f"run: 0 <= {key} < t_end = {t_end:g} s)")
+    return s
+
+
+def window(sim: Simulation, skip: float = 0.0) -> np.ndarray:
+    """(N,) bool: the output samples at t >= skip [s] (all of them with skip = 0)."""
+    return sim.t >= sim.t[0] + skip - 1e-12 * max(1.0, abs(skip))
+
+
+def settling_time(t: np.ndarray, e: np.ndarray) -> float:
+    """When the platform error e (N,) [m] at the times t (N,) [s] has settled [s].
+
+    Its steady behaviour is the band [lo - m, hi + m]: lo, hi the smallest and largest error
+    over the last :data:`SETTLING_TAIL` of the run, m = :data:`SETTLING_MARGIN` * hi. The
+    settling time is the first output instant from which on the error stays inside that band
+    (t[0] when it never leaves it). By construction it is at most the start of that last
+    quarter; a value near it means the run is too short to have settled."""
+    t, e = np.asarray(t, float), np.asarray(e, float)
+    tail = t >= t[0] + (1 - SETTLING_TAIL) * (t[-1] - t[0])
+    lo, hi = float(e[tail].min()), float(e[tail].max())
+    m = SETTLING_MARGIN * hi
+    out = (e < lo - m) | (e > hi + m)
+    if not out.any():
+        return float(t[0])
+    last = int(np.flatnonzero(out)[-1])
+    return float(t[min(last + 1, len(t) - 1)])
 
 
 def loss_times(sim: Simulation) -> dict:
@@ -37,25 +90,27 @@ def loss_times(sim: Simulation) -> dict:
     return out
 
 
-def scalar_metrics(sim: Simulation) -> dict:
+def scalar_metrics(sim: Simulation, skip: float = 0.0) -> dict:
     """One number per metric of :data:`SCALAR_METRICS` (units in the names):
     contact_loss_events (all joints, whole run, from the simulation's per-step counter);
     platform_error_rms_m / _max_m (position distance to the commanded path, over the
-    samples); min_contact_force_N / peak_contact_force_N (over every clearance joint and
-    integrator step; NaN without one); torque_rms_Nm (over time and actuators; 0 without
-    actuators)."""
-    e, ext = sim.platform_error, sim.extremes
+    samples at t >= skip [s]); min_contact_force_N / peak_contact_force_N (over every
+    clearance joint and integrator step of the whole run; NaN without one); torque_rms_Nm
+    (over the samples at t >= skip and the actuators; 0 without actuators)."""
+    keep = window(sim, skip)
+    e, ext, tau = sim.platform_error[keep], sim.extremes, sim.tau[keep]
     nc = len(sim.clearance_joints)
     return {"contact_loss_events": int(sum(sim.contact_loss_events.values())),
             "platform_error_rms_m": float(np.sqrt(np.mean(e**2))),
             "platform_error_max_m": float(np.max(e)),
             "min_contact_force_N": float(ext["normal_force_min"].min()) if nc else float("nan"),
             "peak_contact_force_N": float(ext["normal_force_max"].max()) if nc else float("nan"),
-            "torque_rms_Nm": float(np.sqrt(np.mean(sim.tau**2))) if sim.tau.size else 0.0}
+            "torque_rms_Nm": float(np.sqrt(np.mean(tau**2))) if tau.size else 0.0}
 
 
-def arm_metrics(sim: Simulation, wall_time: float) -> dict:
-    """JSON-ready metrics of one simulation (units in the key names).
+def arm_metrics(sim: Simulation, wall_time: float, skip: float = 0.0, compile_time: float = 0.0) -> dict:
+    """JSON-ready metrics of one simulation (units in the key names); those of
+    :data:`WINDOWED` over the output samples at t >= skip [s], the rest over the whole run.
 
     contact_loss_events: joint -> count from the simulation's per-step counter (whole run);
     last_contact_loss_s (None without losses);
@@ -64,7 +119,10 @@ def arm_metrics(sim: Simulation, wall_time: float) -> dict:
     integrator step (ideal joint: |reaction|, over the samples); platform_error_rms_m /
     _max_m (position distance to the commanded path); torque_rms_Nm (over time and
     actuators), torque_peak_Nm (over every step in torque mode);
-    energy_audit_residual; wall_time_s; simulated_time_s; integrator, step_s, steps.
+    settling_time_s (with a task body: :func:`settling_time` of the platform error, whole run);
+    energy_audit_residual; wall_time_s (building and stepping, without compiling C);
+    compile_time_s (the C compiler's time for this simulation, 0 when its libraries were in
+    the cache); simulated_time_s; integrator, step_s, steps.
     A metric that does not apply is absent: the contact metrics list the clearance and the
     passive ideal revolute joints (a prismatic joint has no journal), the platform error needs
     a task body, the torques actuators.
@@ -78,16 +136,18 @@ def arm_metrics(sim: Simulation, wall_time: float) -> dict:
     def per_joint(clearance_value, ideal_value):
         return {j: (clearance_value(idx[j]) if j in idx else ideal_value(ideal[j])) for j in names}
 
-    reaction = np.linalg.norm(sim.reaction, axis=2) if sim.reaction.size else np.zeros((len(sim.t), 0))
-    flat, ext = scalar_metrics(sim), sim.extremes
+    keep = window(sim, skip)
+    reaction = np.linalg.norm(sim.reaction, axis=2)[keep] if sim.reaction.size else np.zeros((keep.sum(), 0))
+    flat, ext = scalar_metrics(sim, skip), sim.extremes
     tau_peak = ext["tau_abs_max"] if "tau_abs_max" in ext else np.abs(sim.tau)
-    task = {k: flat[k] for k in ("platform_error_rms_m", "platform_error_max_m")} if model.task is not None else {}
+    task = ({**{k: flat[k] for k in ("platform_error_rms_m", "platform_error_max_m")},
+             "settling_time_s": settling_time(sim.t, sim.platform_error)} if model.task is not None else {})
     efforts = ({"torque_rms_Nm": flat["torque_rms_Nm"], "torque_peak_Nm": float(np.max(tau_peak, initial=0.0)),
-                **_at_limit(sim)} if model.n_actuators else {})
+                **_at_limit(sim, keep)} if model.n_actuators else {})
     return {
         "contact_loss_events": {j: int(sim.contact_loss_events.get(j, 0)) for j in names},
         "last_contact_loss_s": max((float(v[-1]) for v in times.values() if v.size), default=None),
-        "free_flight_fraction": per_joint(lambda k: float(np.mean(sim.penetration[:, k] <= 0)), lambda k: 0.0),
+        "free_flight_fraction": per_joint(lambda k: float(np.mean(sim.penetration[keep, k] <= 0)), lambda k: 0.0),
         "max_penetration_m": float(np.max(ext["penetration_max"], initial=0.0)),
         "peak_contact_force_N": per_joint(lambda k: float(ext["normal_force_max"][k]),
                                           lambda k: float(np.max(reaction[:, k]))),
@@ -97,6 +157,7 @@ def arm_metrics(sim: Simulation, wall_time: float) -> dict:
         **efforts,
         "energy_audit_residual": float(sim.energy_audit_residual),
         "wall_time_s": float(wall_time),
+        "compile_time_s": float(compile_time),
         "simulated_time_s": float(sim.t[-1] - sim.t[0]),
         "integrator": sim.stats["method"],
         "step_s": float(sim.stats["step"]),
@@ -104,14 +165,14 @@ def arm_metrics(sim: Simulation, wall_time: float) -> dict:
     }
 
 
-def _at_limit(sim: Simulation) -> dict:
-    """effort_at_limit_fraction: actuator -> share of output samples where the controller's
-    effort sits at its limit (clipped), for a torque-driven simulation with actuators."""
+def _at_limit(sim: Simulation, keep: np.ndarray) -> dict:
+    """effort_at_limit_fraction: actuator -> share of the output samples `keep` where the
+    controller's effort sits at its limit (clipped), for a torque-driven simulation with actuators."""
     model = Problem.from_scene(sim.scene).model
     if sim.scene.actuation.mode != "torque":
         return {}
     limits = np.asarray(sim.scene.torque_limit, float)
-    at = np.abs(sim.tau) >= limits * (1 - 1e-9)
+    at = np.abs(sim.tau[keep]) >= limits * (1 - 1e-9)
     return {"effort_at_limit_fraction": {a: float(np.mean(at[:, i])) for i, a in enumerate(model.actuator_names)}}
 
 

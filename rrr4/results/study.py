@@ -8,7 +8,7 @@ and its ``ideal`` twin (:data:`DRIVEN_ARMS`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -26,10 +26,12 @@ ARMS = PRELOAD_ARMS + DRIVEN_ARMS
 
 @dataclass(frozen=True)
 class StudyArm:
-    """One clearance simulation of the study and its wall time [s] (building + stepping)."""
+    """One clearance simulation of the study, its wall time [s] (building + stepping, without
+    compiling C) and the C compiler's time [s] for it (0 when its libraries were cached)."""
     name: str
     simulation: Simulation
     wall_time: float
+    compile_time: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -40,7 +42,10 @@ class Study:
     torques tau_p of the ideal mechanism; preload: the PreloadSolution (None without a
     preload arm); arms: name -> StudyArm, keys from :data:`ARMS`; preload_warning: the
     infeasibility report of the preload ('' if feasible); refinement: a driven scene's
-    clearance arm rerun at half the step (None otherwise).
+    clearance arm rerun at half the step (None otherwise); skip [s]: the start-up window the
+    metrics over the output samples discard (:mod:`rrr4.results.metrics`); overrides: what the
+    caller set instead of the scene (t_end_s, integrator, step_s, output_rate_Hz, skip_s), as
+    given, for summary.json.
     """
     scene: Scene
     t_path: np.ndarray
@@ -51,6 +56,8 @@ class Study:
     t_end: float
     step: float
     refinement: StudyArm | None = None
+    skip: float = 0.0
+    overrides: dict = field(default_factory=dict)
 
     @property
     def problem(self) -> Problem:

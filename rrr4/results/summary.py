@@ -20,7 +20,7 @@ from ..problem import Problem
 from ..scene import Scene
 from ..scene.vocabulary import CONTACT_LAW_KEYS, FRICTION_LAW_KEYS
 from ..trajectory import sample_path
-from .metrics import arm_metrics, driven_metrics
+from .metrics import SETTLING_MARGIN, SETTLING_TAIL, WHOLE_RUN, WINDOWED, arm_metrics, driven_metrics
 from .study import PRELOAD_ARMS, Study
 
 __all__ = ["scene_summary", "scene_check", "study_summary", "target_checks", "contact_numbers", "preload_lines",
@@ -141,9 +141,19 @@ def study_summary(study: Study) -> dict:
     if sc.actuation.mode == "torque" and model.n_actuators:  # a controller ran: its gains, and how each arm ran it
         out.update(gains={"kp_Nm_per_rad": sc.actuation.kp, "kd_Nms_per_rad": sc.actuation.kd},
                    controller=_controller(study))
+    out["overrides"] = dict(study.overrides)  # what the command line set instead of the scene
+    out["metrics_window"] = {
+        "skip_s": study.skip, "over_window": list(WINDOWED), "over_whole_run": list(WHOLE_RUN),
+        "settling_time": f"the first instant from which on the platform error stays within its range over the last "
+                         f"{SETTLING_TAIL:.0%} of the run, widened by {SETTLING_MARGIN:.0%} of its largest value "
+                         "there; near 75 % of the run it has not settled: run longer",
+        "note": "a seated start puts the platform on the path at t = 0 and its offset builds over 0.1 to 0.5 s: "
+                "short runs mislead; skip the settling time (rrr4 run --skip, a sweep spec's skip:)"}
+    out["compile_time_s"] = float(sum(a.compile_time for a in study.arms.values())
+                                  + (study.refinement.compile_time if study.refinement is not None else 0.0))
     out.update({k: None for k in PRELOAD_ARMS})
     for name, arm in study.arms.items():
-        out[name] = arm_metrics(arm.simulation, arm.wall_time)
+        out[name] = arm_metrics(arm.simulation, arm.wall_time, study.skip, arm.compile_time)
     if "ideal" in study.arms:
         for k in PRELOAD_ARMS:
             out.pop(k)
@@ -165,17 +175,18 @@ def _controller(study: Study) -> dict:
 
 def _driven(study: Study, out: dict) -> dict:
     """Driven scene: the clearance arm (and its half-step rerun) against the ideal twin, after
-    the first driver revolution (the start transient from centred journals)."""
+    the first driver revolution (the start transient from centred journals), or after the
+    study's skip when one is given."""
     ideal = study.arms["ideal"].simulation
     speed = abs(study.scene.graph.drivers[0].speed) if study.scene.graph.drivers else 0.0
     revolution = 2 * np.pi / speed if speed > 0 else study.t_end
-    t_from = revolution if revolution < 0.75 * study.t_end else 0.0
+    t_from = study.skip if study.skip > 0 else revolution if revolution < 0.75 * study.t_end else 0.0
     res = {"revolution_s": revolution}
     for name in ("with_clearance", "ideal"):
         res[name] = {**out[name], **driven_metrics(study.arms[name].simulation, ideal, t_from, revolution)}
     if study.refinement is not None:
         ref = study.refinement
-        fine = {**arm_metrics(ref.simulation, ref.wall_time),
+        fine = {**arm_metrics(ref.simulation, ref.wall_time, study.skip, ref.compile_time),
                 **driven_metrics(ref.simulation, _ideal_at(ref.simulation, ideal), t_from, revolution)}
         res["half_step"] = fine
         coarse = res["with_clearance"]

@@ -19,8 +19,11 @@ def write_timeseries_csv(study: Study, path: Path, rate: float | None = None) ->
     Columns: t_s, x_ref_m, y_ref_m, theta_ref_rad, alpha_Nm (preload, if any), then per arm
     (prefix ``<arm>_``, e.g. ``with_preload_``): x_m, y_m, theta_rad, error_m,
     tau_<actuator>_Nm (or _N for a prismatic actuator), theta_<actuator>_rad (its coordinate;
-    _m for a prismatic one), and per clearance joint Fn_<J>_N,
-    penetration_<J>_m, ex_<J>_m, ey_<J>_m.
+    _m for a prismatic one), per clearance joint Fn_<J>_N (normal force), Ft_<J>_N (friction
+    force on the journal along the tangent, the contact normal e/|e| rotated by +90 deg; 0
+    without friction), penetration_<J>_m, ex_<J>_m, ey_<J>_m, and per ideal passive revolute
+    joint Rx_<J>_N, Ry_<J>_N (its reaction, the force of the joint's first body on its second,
+    global frame).
     A driven scene (no task; arms ``with_clearance_`` / ``ideal_``) has instead, per body B,
     B_x_m, B_y_m, B_theta_rad, B_ax_m_s2, B_ay_m_s2 and per driver D, D_effort_Nm (or _N on a
     prismatic joint).
@@ -59,9 +62,13 @@ def write_timeseries_csv(study: Study, path: Path, rate: float | None = None) ->
             cols[f"{name}_theta_{a}_{'rad' if revolute else 'm'}"] = theta[:, i]
         for k, j in enumerate(sim.clearance_joints):
             cols[f"{name}_Fn_{j}_N"] = sim.normal_force[rows, k]
+            cols[f"{name}_Ft_{j}_N"] = sim.friction_force[rows, k]
             cols[f"{name}_penetration_{j}_m"] = sim.penetration[rows, k]
             cols[f"{name}_ex_{j}_m"] = sim.eccentricity[rows, k, 0]
             cols[f"{name}_ey_{j}_m"] = sim.eccentricity[rows, k, 1]
+        for k, j in enumerate(sim.ideal_passive_joints):
+            cols[f"{name}_Rx_{j}_N"] = sim.reaction[rows, k, 0]
+            cols[f"{name}_Ry_{j}_N"] = sim.reaction[rows, k, 1]
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(cols)
@@ -96,6 +103,7 @@ def report_markdown(summary: dict) -> str:
     row("smallest contact force [N]", lambda m: _fmt(min(m["min_contact_force_N"].values(), default=None)))
     row("platform error RMS [um]", lambda m: _fmt(m["platform_error_rms_m"], 1e6))
     row("platform error max [um]", lambda m: _fmt(m["platform_error_max_m"], 1e6))
+    row("platform error settling time [s]", lambda m: _fmt(m.get("settling_time_s")))
     row("torque RMS [N m]", lambda m: _fmt(m["torque_rms_Nm"]))
     row("largest share of time at an effort limit", lambda m: _fmt(max(m.get("effort_at_limit_fraction", {}).values(),
                                                                        default=None)))
@@ -103,6 +111,7 @@ def report_markdown(summary: dict) -> str:
     row("simulated time [s]", lambda m: _fmt(m["simulated_time_s"]))
     row("integrator, step [s]", lambda m: f"{m['integrator']}, {m['step_s']:g}")
     row("wall time [s]", lambda m: _fmt(m["wall_time_s"], 1.0, 3))
+    row("C compile time [s] (not in the wall time)", lambda m: _fmt(m.get("compile_time_s", 0.0), 1.0, 3))
 
     joints = list(arms[0][1]["contact_loss_events"])
     per = ["", "| joint | " + " | ".join(f"losses {k.replace('_', ' ')}" for k, _ in arms) + " |",
@@ -124,7 +133,7 @@ def report_markdown(summary: dict) -> str:
     else:
         pre_line = f"No preload arm: {pre['reason']}."
     lines = [f"# Study of `{summary['scene']}`", "", summary["description"], "", pre_line, "", *_contact(summary),
-             *rows, *per]
+             *_window(summary), *rows, *per]
     tg = summary.get("targets") or {}
     if tg:
         lines += ["", "Targets: zero losses with preload over the whole run: "
@@ -140,6 +149,15 @@ def report_markdown(summary: dict) -> str:
               + (" (each clearance journal rests on its bearing wall under the ideal reaction at t = 0; "
                  "with no load, as without preload at rest, it stays centred)." if journals == "seated" else ".")]
     return "\n".join(lines) + "\n"
+
+
+def _window(summary: dict) -> list[str]:
+    """The start-up window the metrics discard, when one is set, then a blank line."""
+    w = summary.get("metrics_window") or {}
+    if not w.get("skip_s"):
+        return []
+    return [f"Metrics over the output samples ({', '.join(w['over_window'])}) are taken after the start-up window "
+            f"t >= {w['skip_s']:g} s; the others ({', '.join(w['over_whole_run'])}) are over the whole run.", ""]
 
 
 def _contact(summary: dict) -> list[str]:

@@ -47,6 +47,7 @@ class Outputs:
         n, k = eqs.n_actuators, len(eqs.passive_ideal_joints)
         self.arrays = {"q": (N, nq), "qd": (N, nq), "qdd": (N, nq), "pose": (N, 3), "pose_ref": (N, 3),
                        "platform_error": (N,), "tau": (N, n), "contact_force": (N, nc, 2), "normal_force": (N, nc),
+                       "friction_force": (N, nc),
                        "eccentricity": (N, nc, 2), "penetration": (N, nc), "reaction": (N, k, 2),
                        "driver_effort": (N, eqs.acceleration.size1_out("driver_effort")),
                        "film_force": (N, nc, 2)}  # zeros at dry joints (rrr4.contact.lubrication)
@@ -114,7 +115,8 @@ class Outputs:
         out["qdd"][:], out["tau"][:] = acc["qdd"].T, acc["tau"].T
         out["driver_effort"][:] = acc["driver_effort"].T.reshape(m, -1)
         if nc:
-            for name, rows in (("contact_force", 2), ("normal_force", 1), ("eccentricity", 2), ("penetration", 1)):
+            for name, rows in (("contact_force", 2), ("normal_force", 1), ("friction_force", 1), ("eccentricity", 2),
+                               ("penetration", 1)):
                 out[name][:] = per_joint(acc[name], rows)
             if "film_force" in eqs.acceleration.name_out():
                 out["film_force"][:] = per_joint(acc["film_force"], 2)

@@ -21,7 +21,10 @@ class Simulation:
     without one); platform_error (N,) [m] (position distance to the commanded path); tau
     (N, n) [N m or N]; contact_force (N, nc, 2) [N] on the journal body, global frame (the
     reaction convention when the journal sits on the joint's second body, as in every
-    n-RRR); normal_force (N, nc) [N]; eccentricity (N, nc, 2) [m]; penetration (N, nc) [m];
+    n-RRR); normal_force (N, nc) [N]; friction_force (N, nc) [N]: the dry friction force on
+    the journal along the tangent t (the contact normal e/|e| rotated by +90 deg), so that
+    contact_force = -normal_force n + friction_force t (+ film_force); eccentricity (N, nc,
+    2) [m]; penetration (N, nc) [m];
     reaction (N, k, 2) [N] of the k ideal passive revolute joints (force of the first body
     on the second); driver_effort (N, n_drivers) [N m or N]; contact_loss_events: passive
     joint -> count of contact -> free-flight transitions (0 for ideal joints); energy: dict of (N,) arrays [J] (see
@@ -59,6 +62,7 @@ class Simulation:
     extremes: dict
     stats: dict = field(default_factory=dict)
     film_force: np.ndarray | None = None
+    friction_force: np.ndarray | None = None
 
     def body(self, name: str) -> np.ndarray:
         """(N, 3) pose [x, y, theta] [m, m, rad] of the centre of mass of the body `name`."""

@@ -45,13 +45,16 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..checks import argument
+from ..checks import argument, unknown_value
+from ..codegen.build import compile_time
 from ..control import pointwise_controller
 from ..errors import SceneError
 from ..files import c_compiler
+from ..integrators import METHODS
 from ..preload import solve_preload
 from ..preload.solve import PreloadWarning
 from ..problem import Problem
+from ..results.metrics import check_skip
 from ..results.study import Study, StudyArm
 from ..results.summary import preload_lines
 from ..scene import MAX_SAMPLES, Scene
@@ -93,21 +96,37 @@ def _min_norm_torques(problem: Problem, t_path: np.ndarray) -> np.ndarray:
 
 
 def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float | None = None,
-              integrator: str | None = None, progress: bool = False, log=None) -> Study:
+              integrator: str | None = None, output_rate: float | None = None, skip: float = 0.0,
+              progress: bool = False, log=None) -> Study:
     """Run the study of `scene`.
 
     t_end [s]: simulated time (default the path duration); step [s]: integrator step
-    (default the scene's); integrator: method name (default the scene's); progress: show
-    the simulations' progress bars; log: callable taking one line of text per stage.
+    (default the scene's); integrator: method name (default the scene's); output_rate [Hz]:
+    outputs kept per second (default every step, so that losses are located to a step; at
+    most 1/step); skip [s]: the start-up window the metrics discard (0 <= skip < t_end, see
+    :mod:`rrr4.results.metrics`); progress: show the simulations' progress bars; log:
+    callable taking one line of text per stage. What is given is recorded in
+    ``Study.overrides``.
     """
     say = log or (lambda _msg: None)
     problem = Problem.from_scene(scene)
     scene = problem.scene
+    given = {"t_end_s": t_end, "integrator": integrator, "step_s": step, "output_rate_Hz": output_rate,
+             "skip_s": skip or None}
     t_end = scene.path.duration if t_end is None else argument("t_end", t_end)
     h = scene.integrator.step if step is None else argument("step", step)
-    if t_end / h > MAX_SAMPLES:  # the study keeps every step: refuse before the preload is computed
+    if integrator is not None and integrator not in METHODS:
+        raise unknown_value("integrator", "integrator", integrator, METHODS)
+    if output_rate is not None and argument("output_rate", output_rate) > 1.0 / h * (1 + 1e-9):
+        raise SceneError(f"output_rate: {output_rate:g} Hz is not allowed at step {h:g} s (at most one output per "
+                         f"step: <= {1.0 / h:g} Hz)")
+    skip = check_skip(skip, t_end)
+    rate = 1.0 / h if output_rate is None else float(output_rate)
+    if t_end * rate > MAX_SAMPLES:  # refuse before the preload is computed
         raise SceneError(f"t_end: {t_end:g} s is not allowed at step {h:g} s (the study keeps every step: at most "
-                         f"{MAX_SAMPLES:g} steps)")
+                         f"{MAX_SAMPLES:g} steps)" if output_rate is None else
+                         f"t_end: {t_end:g} s is not allowed at output rate {rate:g} Hz (at most {MAX_SAMPLES:g} "
+                         "outputs)")
     t_path = sample_path(scene.path).t
     if problem.model.task is not None:
         say(f"inverse dynamics of the ideal mechanism at {len(t_path)} path samples")
@@ -128,10 +147,11 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
     def arm(name, sc, step=h, controller="python"):
         say(f"simulate {name.replace('_', ' ')}: {t_end:g} s, step {step:g} s"
             + (", generated controller in the loop" if controller == "generated" else ""))
-        wall = time.perf_counter()
-        sim = simulate(sc, integrator, t_end=t_end, step=step, output_rate=1.0 / step, progress=progress,
-                       controller=controller)
-        return StudyArm(name, sim, time.perf_counter() - wall)
+        wall, compiling = time.perf_counter(), compile_time()
+        sim = simulate(sc, integrator, t_end=t_end, step=step, output_rate=1.0 / step if output_rate is None
+                       else rate, progress=progress, controller=controller)
+        compiling = compile_time() - compiling
+        return StudyArm(name, sim, time.perf_counter() - wall - compiling, compiling)
 
     arms, refinement = {}, None
     if problem.model.task is None:
@@ -147,4 +167,5 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
             arms[name] = arm(name, sc, controller=study_controller(Problem.from_scene(sc)))
         arms["without_preload"] = arm("without_preload", arm_scene(problem, "without_preload"))
     return Study(scene=scene, t_path=t_path, tau_min_norm=tau_min_norm, preload=preload,
-                 preload_warning=preload_warning, arms=arms, t_end=t_end, step=h, refinement=refinement)
+                 preload_warning=preload_warning, arms=arms, t_end=t_end, step=h, refinement=refinement, skip=skip,
+                 overrides={k: v for k, v in given.items() if v is not None})

@@ -1,7 +1,9 @@
 """Parameter sweeps and tolerance Monte Carlo of the study, on Dask (DESIGN section 8).
 
 A spec (YAML) names a base ``scene`` (a path relative to the spec file, or absolute), an
-optional ``t_end`` [s], the ``arms`` to run (from :data:`rrr4.results.study.PRELOAD_ARMS`), and
+optional ``t_end`` [s], an optional ``skip`` [s] (the start-up window the windowed metrics
+discard, 0 <= skip < t_end of every case; see :mod:`rrr4.results.metrics`), the ``arms``
+to run (from :data:`rrr4.results.study.PRELOAD_ARMS`), and
 
 - ``grid``: scene key paths -> lists of values, run as their Cartesian product, e.g.
   ``joints.radial_clearance: [5.0e-5, 1.0e-4]``;
@@ -42,7 +44,7 @@ from ..checks import describe
 from ..errors import Rrr4Error, SceneError
 from ..files import check_writable
 from ..mechanism import check_scene
-from ..results.metrics import SCALAR_METRICS, scalar_metrics
+from ..results.metrics import SCALAR_METRICS, check_skip, scalar_metrics
 from ..results.study import PRELOAD_ARMS
 from ..scene import get_key, key_steps, parse_scene, read_yaml, set_key
 
@@ -50,7 +52,7 @@ __all__ = ["sweep", "load_spec", "SweepSpec", "METRICS", "DISTRIBUTIONS", "case_
 
 METRICS = (*SCALAR_METRICS, "wall_time_s")  # the CSV columns of each arm
 DISTRIBUTIONS = ("normal", "uniform")
-SPEC_KEYS = ("scene", "t_end", "arms", "grid", "monte_carlo")
+SPEC_KEYS = ("scene", "t_end", "skip", "arms", "grid", "monte_carlo")
 MAX_CASES = 100_000
 MAX_WORKERS_PER_CORE = 4  # local worker processes a machine holds per core (each a Python with CasADi)
 # a case's scene text, read in the worker with libyaml's parser where PyYAML has it (about 8x
@@ -61,7 +63,8 @@ CASE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 @dataclass(frozen=True)
 class SweepSpec:
     """A validated sweep: the base scene's YAML data and path, t_end (None: the path's
-    duration), the arms, the varied keys, and the cases (key -> value dicts, in order)."""
+    duration), the arms, the varied keys, the cases (key -> value dicts, in order), and the
+    start-up window skip [s] the metrics discard."""
     base: dict
     scene_path: Path
     t_end: float | None
@@ -70,6 +73,7 @@ class SweepSpec:
     cases: tuple[dict, ...]
     grid_keys: tuple[str, ...] = ()
     mc_keys: tuple[str, ...] = ()
+    skip: float = 0.0
 
 
 def _number(key: str, v, what: str) -> float:
@@ -103,6 +107,10 @@ def parse_spec(data: dict, root: Path = Path(".")) -> SweepSpec:
         t_end = _number("t_end", t_end, "t_end [s]")
         if t_end <= 0:
             raise SceneError(f"t_end: {t_end:g} is not allowed (must be > 0 s)")
+    skip = data.get("skip", 0.0)
+    if isinstance(skip, bool) or not isinstance(skip, (int, float)):
+        raise SceneError(f"skip: {describe(skip)} is not allowed (the start-up window [s] the metrics discard, "
+                         "a number with 0 <= skip < t_end)")
     arms = data.get("arms", ["with_preload", "without_preload"])
     if not isinstance(arms, list) or not arms:
         raise SceneError(f"arms: {describe(arms)} is not allowed (a list of: {', '.join(PRELOAD_ARMS)})")
@@ -131,9 +139,10 @@ def parse_spec(data: dict, root: Path = Path(".")) -> SweepSpec:
         samples, mc_keys = _monte_carlo(mc, base)
     cases = tuple({**pt, **smp} for pt in points for smp in samples)
     keys = tuple(grid) + tuple(k for k in mc_keys if k not in grid)
-    for case in cases:  # every case is a valid scene before anything runs
-        case_scene(base, scene_path, case)
-    return SweepSpec(base, scene_path, t_end, tuple(arms), keys, cases, tuple(grid), tuple(mc_keys))
+    for case in cases:  # every case is a valid scene before anything runs, and runs longer than skip
+        scene, _ = case_scene(base, scene_path, case)
+        skip = check_skip(skip, scene.path.duration if t_end is None else t_end)
+    return SweepSpec(base, scene_path, t_end, tuple(arms), keys, cases, tuple(grid), tuple(mc_keys), float(skip))
 
 
 SCHEDULER_TIMEOUT = 20.0  # [s] an address that is not a Dask scheduler answering within this ends in one line
@@ -252,9 +261,10 @@ def case_scene(base: dict, scene_path: Path, case: dict):
     return scene, text
 
 
-def case_id(text: str, t_end, arms) -> str:
-    """Hash of a case: its scene's YAML text, t_end and arms."""
-    return hashlib.sha256(json.dumps([text, t_end, list(arms)]).encode()).hexdigest()[:16]
+def case_id(text: str, t_end, arms, skip: float = 0.0) -> str:
+    """Hash of a case: its scene's YAML text, t_end, arms and skip (left out when 0, so the
+    cases of specs without one keep their ids)."""
+    return hashlib.sha256(json.dumps([text, t_end, list(arms), *([skip] if skip else [])]).encode()).hexdigest()[:16]
 
 
 # Keys of the mechanism's geometry and masses. A spec that varies one runs every case with
@@ -294,10 +304,10 @@ def _built(problems) -> list[tuple[bool, ...]]:
     return [tuple(bool(p.structure(k).memoized()) for k in STRUCTURES) for p in problems]
 
 
-def run_case(text: str, name: str, t_end, arms, jit: bool = False, options: dict | None = None
-             ) -> tuple[list[dict], int, tuple[str, ...]]:
+def run_case(text: str, name: str, t_end, arms, jit: bool = False, options: dict | None = None,
+             skip: float = 0.0) -> tuple[list[dict], int, tuple[str, ...]]:
     """(the rows (one per arm) of one case: metrics of each arm's simulation
-    (:func:`rrr4.results.metrics.scalar_metrics` and its wall time), or status
+    (:func:`rrr4.results.metrics.scalar_metrics` after `skip` [s], and its wall time), or status
     'failed' with the error; the C libraries this case compiled; the STRUCTURES it reused: those
     that every arm which uses one found built by an earlier case in this worker). jit: step in
     compiled C (the shared on-disk cache; RRR4_JIT=0 still says no); options: :func:`case_options`.
@@ -321,7 +331,7 @@ def run_case(text: str, name: str, t_end, arms, jit: bool = False, options: dict
         except Exception as e:  # recorded, the sweep goes on
             rows.append({"arm": arm, "status": "failed", "error": f"{type(e).__name__}: {str(e).splitlines()[0]}"})
             continue
-        rows.append({"arm": arm, "status": "ok", "error": "", **scalar_metrics(sim),
+        rows.append({"arm": arm, "status": "ok", "error": "", **scalar_metrics(sim, skip),
                      "wall_time_s": time.perf_counter() - wall})
     used = _built(problems)
     reused = tuple(k for i, k in enumerate(STRUCTURES)
@@ -399,7 +409,7 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
     todo = []
     for case in spec.cases:
         _, text = case_scene(spec.base, spec.scene_path, case)
-        cid = case_id(text, spec.t_end, spec.arms)
+        cid = case_id(text, spec.t_end, spec.arms, spec.skip)
         if cid not in done:
             todo.append((cid, case, text))
             done.add(cid)  # a duplicate case runs once
@@ -420,7 +430,7 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
         bar = None
         try:
             futures = {client.submit(run_case, text, spec.scene_path.stem, spec.t_end, spec.arms, jit, options,
-                                     pure=False):
+                                     spec.skip, pure=False):
                        (cid, c) for cid, c, text in todo}
             if progress:
                 from tqdm import tqdm
