@@ -226,8 +226,15 @@ def test_sigint_during_a_simulation_ends_in_the_interrupt_line(tmp_path):
     import time
     out = tmp_path / "res"
     p = subprocess.Popen([sys.executable, "-m", "rrr4.cli", "run", str(PAPER), "--out", str(out)],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env={**os.environ, "RRR4_JIT": "0"})
-    time.sleep(8.0)   # past loading and the preload: the first simulation runs for tens of seconds in the VM
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         env={**os.environ, "RRR4_JIT": "0", "PYTHONUNBUFFERED": "1"})
+    # wait for the first simulation to start (past loading and the preload, whatever the
+    # machine's load): it runs for tens of seconds in the VM
+    deadline = time.monotonic() + 180
+    line = ""
+    while "simulate with" not in line and time.monotonic() < deadline and p.poll() is None:
+        line = p.stdout.readline()
+    time.sleep(0.5)
     assert p.poll() is None
     p.send_signal(signal.SIGINT)
     _, err = p.communicate(timeout=120)
