@@ -169,8 +169,8 @@ def optimal_time_law(scene, objective: str = "time", *, points: int = 1000, cont
     """The optimal time law along the scene's path (see the module docstring).
 
     scene: a Scene, a Problem or a scene file's path. objective: 'time', 'effort' (needs
-    `duration` [s]) or 'time+effort' (time + effort_weight [1/(N m)^2 s]... the effort
-    integral). points: grid intervals N. contact: keep the contact condition (needs a
+    `duration` [s]) or 'time+effort' (the duration [s] plus effort_weight times the effort
+    integral ∫ tau^T W tau dt [(N m)^2 s]). points: grid intervals N. contact: keep the contact condition (needs a
     redundant mechanism with a preload's f_min > 0). null_space: alpha free (else 0).
     sign: +1 / -1 for the contact condition (default: both, the better kept). max_speed
     [1/s] on s_dot; max_task_speed [m/s], max_task_acceleration [m/s^2] of the task point.
@@ -204,10 +204,10 @@ def optimal_time_law(scene, objective: str = "time", *, points: int = 1000, cont
     if contact and (m < 1 or f_min <= 0):
         raise SceneError(f"contact: True is not allowed for this scene (the contact condition needs actuation "
                          f"redundancy and f_min > 0; redundancy {m}, f_min {f_min:g} N): pass contact=False")
-    fam = path_family(problem, np.linspace(0.0, 1.0, N + 1))
-    _check_path(problem, fam)
     if sign is not None and sign not in (1, -1):
         raise SceneError(f"sign: {sign!r} is not allowed (+1 or -1)")
+    fam = path_family(problem, np.linspace(0.0, 1.0, N + 1))
+    _check_path(problem, fam)
     signs = (sign,) if sign is not None else ((1, -1) if contact else (1,))
     setup = _Setup(problem, fam, objective, contact, null_space, duration, effort_weight, bounds, ends, f_min)
     results, failures = {}, {}
