@@ -405,3 +405,12 @@ def test_an_arm_of_the_other_scene_kind_is_refused_in_one_line_naming_the_allowe
                                          r"\(choose from: with_clearance, ideal\)$") as e:
         parse_spec(spec)
     assert "\n" not in str(e.value)
+
+
+def test_a_driven_clearance_arm_alone_is_still_measured_against_its_ideal_twin():
+    from rrr4.studies.sweeps import run_case
+    spec = parse_spec({"scene": DRIVEN, "t_end": 0.002, "arms": ["with_clearance"], "grid": {CLEARANCE_B: [5.0e-4]}})
+    _, text = case_scene(spec.base, spec.scene_path, spec.cases[0])
+    rows, _, _ = run_case(text, "flores_slider_crank", spec.t_end, spec.arms)
+    assert [r["arm"] for r in rows] == ["with_clearance"] and rows[0]["status"] == "ok"
+    assert rows[0]["acceleration_deviation_rms_m_s2"] > 0
