@@ -145,6 +145,7 @@ def test_monte_carlo_is_reproducible_from_its_seed(tmp_path):
     ({"skip": "1 ms"}, "skip: '1 ms' is not allowed"),
     ({"t_end": None, "skip": 2.0}, r"skip: 2 s is not allowed .* t_end = 1 s"),
     ({"scenery": 1}, "scenery: unknown key of a sweep spec"),
+    ({"scene": "\x00"}, r"scene: '\\x00' is not allowed \(the base scene's YAML file\)"),
     # round two: keys that are not strings, no case at all, a grid counted before it is expanded,
     # a case that does not assemble (as rrr4 check says), all refused before any work
     ({"grid": {None: [1]}}, "grid: key None is not allowed"),

@@ -122,7 +122,7 @@ def parse_spec(data: dict, root: Path = Path(".")) -> SweepSpec:
     bad = sorted(set(data) - set(SPEC_KEYS))
     if bad:
         raise SceneError(f"{bad[0]}: unknown key of a sweep spec (allowed: {', '.join(SPEC_KEYS)})")
-    if not isinstance(data.get("scene"), str):
+    if not isinstance(data.get("scene"), str) or "\0" in data["scene"]:  # a NUL is no path
         raise SceneError(f"scene: {describe(data.get('scene'))} is not allowed (the base scene's YAML file)")
     scene_path = (root / data["scene"]).resolve()
     base = read_yaml(scene_path, "scene")
