@@ -13,10 +13,12 @@ import pytest
 import yaml
 
 from rrr4 import SceneError, build
-from rrr4.studies.sweeps import METRICS, case_scene, load_spec, parse_spec, sweep
+from rrr4.studies.sweeps import DRIVEN_METRICS, METRICS, case_scene, load_spec, parse_spec, sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = str(ROOT / "problems" / "paper_circle.yaml")
+DRIVEN = str(ROOT / "problems" / "flores_slider_crank.yaml")
+CLEARANCE_B = "mechanism.joints[2].clearance.radial_clearance"  # the slider-crank's clearance joint B
 
 
 def _spec(tmp_path, **extra) -> Path:
@@ -127,7 +129,9 @@ def test_monte_carlo_is_reproducible_from_its_seed(tmp_path):
 
 
 @pytest.mark.parametrize("change, match", [
-    ({"arms": ["with_preloads"]}, "arms: unknown value 'with_preloads'"),
+    ({"arms": ["with_preloads"]}, r"arms: 'with_preloads' is not allowed on a scene with a task body \(choose from: "
+                                  "with_preload, with_preload_compensated, without_preload\\)"),
+    ({"arms": ["ideal"]}, "arms: 'ideal' is not allowed on a scene with a task body"),
     ({"grid": {"joints.radial_clearance": [-1.0e-4]}}, r"joints.radial_clearance: .* \(in the case joints"),
     ({"grid": {"joints..x": [1]}}, "key 'joints..x' is not allowed"),
     ({"grid": {"joints.radial_clearance": []}}, "grid.joints.radial_clearance: .* non-empty list"),
@@ -141,6 +145,7 @@ def test_monte_carlo_is_reproducible_from_its_seed(tmp_path):
     ({"skip": "1 ms"}, "skip: '1 ms' is not allowed"),
     ({"t_end": None, "skip": 2.0}, r"skip: 2 s is not allowed .* t_end = 1 s"),
     ({"scenery": 1}, "scenery: unknown key of a sweep spec"),
+    ({"scene": "\x00"}, r"scene: '\\x00' is not allowed \(the base scene's YAML file\)"),
     # round two: keys that are not strings, no case at all, a grid counted before it is expanded,
     # a case that does not assemble (as rrr4 check says), all refused before any work
     ({"grid": {None: [1]}}, "grid: key None is not allowed"),
@@ -357,3 +362,56 @@ def test_warm_cases_reuse_their_structures_and_give_the_rows_of_a_fresh_process(
         for a, b in zip(sorted(warm, key=lambda x: x["arm"]), sorted(fresh, key=lambda x: x["arm"]), strict=True):
             assert a["status"] == "ok" and a.pop("wall_time_s") > 0 and b.pop("wall_time_s") > 0
             assert a == b
+
+
+def test_a_driven_sweep_runs_the_scene_against_its_ideal_twin_and_reports_its_metrics(tmp_path):
+    """The slider-crank (no task body, a crank driver): the arms of `rrr4 run`, its metrics, and
+    no placeholder: a metric that does not apply is an empty cell, never 0 or NaN."""
+    spec = {"scene": DRIVEN, "t_end": 0.004, "grid": {CLEARANCE_B: [5.0e-4, 2.5e-4]}}
+    assert parse_spec(spec).arms == ("with_clearance", "ideal")  # the default arms follow the scene kind
+    r = sweep(spec, out=tmp_path / "o", workers=2)
+    rows = _rows(r["csv"])
+    assert r["failed"] == 0 and len(rows) == 4 and all(row["status"] == "ok" for row in rows)
+    assert list(rows[0]) == ["case", CLEARANCE_B, "arm", "status", "error", *DRIVEN_METRICS]
+    for row in rows:
+        for k, v in row.items():
+            assert v.lower() not in ("nan", "inf", "-inf", "0", "0.0", "-0.0"), (row["arm"], k, v)
+    clearance = [row for row in rows if row["arm"] == "with_clearance"]
+    ideal = [row for row in rows if row["arm"] == "ideal"]
+    assert len(clearance) == len(ideal) == 2
+    for row in clearance:  # the journal rattles in its bore: impacts, penetration, forces, deviation
+        assert int(row["contact_loss_events"]) > 0 and float(row["impacts_per_revolution"]) > 0
+        assert 0 < float(row["max_penetration_m"]) < 1e-3
+        assert float(row["peak_contact_force_N"]) > 100
+        assert 0 < float(row["acceleration_deviation_rms_m_s2"]) < float(row["acceleration_deviation_max_m_s2"])
+        assert 0 < float(row["driver_effort_rms_Nm"]) < float(row["driver_effort_peak_Nm"])
+    for row in ideal:  # no clearance joint and no twin to deviate from: those cells are empty
+        assert all(row[k] == "" for k in ("contact_loss_events", "impacts_per_revolution", "max_penetration_m",
+                                          "peak_contact_force_N", "acceleration_deviation_rms_m_s2",
+                                          "acceleration_deviation_max_m_s2"))
+        assert 0 < float(row["driver_effort_rms_Nm"]) < float(row["driver_effort_peak_Nm"])
+    for row in rows:  # a crank driver is revolute: no effort in N
+        assert row["driver_effort_peak_N"] == row["driver_effort_rms_N"] == ""
+    # the ideal twin does not depend on the clearance; the rattling does
+    assert ideal[0]["driver_effort_peak_Nm"] == ideal[1]["driver_effort_peak_Nm"]
+    assert clearance[0]["peak_contact_force_N"] != clearance[1]["peak_contact_force_N"]
+    assert {f.name for f in r["figures"]} == {"acceleration_deviation_rms_m_s2.png", "impacts_per_revolution.png",
+                                              "peak_contact_force_N.png"}
+
+
+@pytest.mark.parametrize("arms", [["with_preload"], ["with_clearance", "without_preload"]])
+def test_an_arm_of_the_other_scene_kind_is_refused_in_one_line_naming_the_allowed_arms(arms):
+    spec = {"scene": DRIVEN, "t_end": 0.004, "arms": arms, "grid": {CLEARANCE_B: [5.0e-4]}}
+    with pytest.raises(SceneError, match=r"arms: '\w+' is not allowed on a driven scene \(no task body\) "
+                                         r"\(choose from: with_clearance, ideal\)$") as e:
+        parse_spec(spec)
+    assert "\n" not in str(e.value)
+
+
+def test_a_driven_clearance_arm_alone_is_still_measured_against_its_ideal_twin():
+    from rrr4.studies.sweeps import run_case
+    spec = parse_spec({"scene": DRIVEN, "t_end": 0.002, "arms": ["with_clearance"], "grid": {CLEARANCE_B: [5.0e-4]}})
+    _, text = case_scene(spec.base, spec.scene_path, spec.cases[0])
+    rows, _, _ = run_case(text, "flores_slider_crank", spec.t_end, spec.arms)
+    assert [r["arm"] for r in rows] == ["with_clearance"] and rows[0]["status"] == "ok"
+    assert rows[0]["acceleration_deviation_rms_m_s2"] > 0

@@ -32,10 +32,15 @@ from ..problem import Problem
 from ..simulation import Simulation
 
 __all__ = ["scalar_metrics", "SCALAR_METRICS", "arm_metrics", "loss_times", "contact_onsets", "driven_metrics",
+           "driven_window", "driven_scalar_metrics", "DRIVEN_SCALAR_METRICS",
            "settling_time", "check_skip", "window", "WINDOWED", "WHOLE_RUN", "SETTLING_TAIL", "SETTLING_MARGIN"]
 
 SCALAR_METRICS = ("contact_loss_events", "platform_error_rms_m", "platform_error_max_m", "min_contact_force_N",
                   "peak_contact_force_N", "torque_rms_Nm")
+# the flat metrics of a driven scene's arm (no task body): :func:`driven_scalar_metrics`
+DRIVEN_SCALAR_METRICS = ("contact_loss_events", "impacts_per_revolution", "acceleration_deviation_rms_m_s2",
+                         "acceleration_deviation_max_m_s2", "driver_effort_peak_Nm", "driver_effort_rms_Nm",
+                         "driver_effort_peak_N", "driver_effort_rms_N", "max_penetration_m", "peak_contact_force_N")
 # metrics over the output samples at t >= skip, and those over the whole run whatever the skip
 WINDOWED = ("platform_error_rms_m", "platform_error_max_m", "torque_rms_Nm", "free_flight_fraction",
             "effort_at_limit_fraction", "peak_contact_force_N (ideal joints)", "min_contact_force_N (ideal joints)",
@@ -212,3 +217,41 @@ def driven_metrics(sim: Simulation, ideal: Simulation, t_from: float, revolution
         "acceleration_deviation_max_m_s2": {b: float(np.max(v)) for b, v in dev.items()},
         **efforts,
     }
+
+
+def driven_window(scene, t_end: float, skip: float = 0.0) -> tuple[float, float]:
+    """(t_from, revolution) [s] of a driven scene's metrics over a run of t_end [s]:
+    revolution is the first driver's period (t_end without a turning driver); the metrics
+    start after `skip` when one is given, else after the first revolution (the start
+    transient from centred journals) when it takes less than 3/4 of the run, else at 0."""
+    speed = abs(scene.graph.drivers[0].speed) if scene.graph.drivers else 0.0
+    revolution = 2 * np.pi / speed if speed > 0 else float(t_end)
+    t_from = skip if skip > 0 else revolution if revolution < 0.75 * t_end else 0.0
+    return float(t_from), float(revolution)
+
+
+def driven_scalar_metrics(sim: Simulation, ideal: Simulation | None, t_from: float, revolution: float) -> dict:
+    """The metrics of :data:`DRIVEN_SCALAR_METRICS` that apply to a driven simulation, one
+    number each (units in the names), from :func:`driven_metrics` (t >= t_from [s]) and the
+    extremes tracked at every integrator step. With clearance joints: contact_loss_events and
+    impacts_per_revolution (summed over them), max_penetration_m and peak_contact_force_N
+    (over them and every step of the whole run). Against the ideal twin `ideal` (None: the
+    simulation is the twin itself, and the deviation does not apply):
+    acceleration_deviation_rms_m_s2 / _max_m_s2 (the largest body's). Per driver unit that
+    the scene has: driver_effort_peak_Nm / _rms_Nm (revolute) and driver_effort_peak_N /
+    _rms_N (prismatic), the largest driver's. A metric that does not apply is absent."""
+    m = driven_metrics(sim, sim if ideal is None else ideal, t_from, revolution)
+    out: dict = {}
+    if sim.clearance_joints:
+        ext = sim.extremes
+        out.update(contact_loss_events=int(sum(sim.contact_loss_events.values())),
+                   impacts_per_revolution=float(sum(m["impacts_per_revolution"].values())),
+                   max_penetration_m=float(np.max(ext["penetration_max"])),
+                   peak_contact_force_N=float(np.max(ext["normal_force_max"])))
+    if ideal is not None and m["acceleration_deviation_rms_m_s2"]:
+        out["acceleration_deviation_rms_m_s2"] = max(m["acceleration_deviation_rms_m_s2"].values())
+        out["acceleration_deviation_max_m_s2"] = max(m["acceleration_deviation_max_m_s2"].values())
+    for k in DRIVEN_SCALAR_METRICS:
+        if k.startswith("driver_effort_") and k in m:
+            out[k] = max(m[k].values())
+    return {k: out[k] for k in DRIVEN_SCALAR_METRICS if k in out}

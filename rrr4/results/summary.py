@@ -20,7 +20,7 @@ from ..problem import Problem
 from ..scene import Scene
 from ..scene.vocabulary import CONTACT_LAW_KEYS, FRICTION_LAW_KEYS
 from ..trajectory import sample_path
-from .metrics import SETTLING_MARGIN, SETTLING_TAIL, WHOLE_RUN, WINDOWED, arm_metrics, driven_metrics
+from .metrics import SETTLING_MARGIN, SETTLING_TAIL, WHOLE_RUN, WINDOWED, arm_metrics, driven_metrics, driven_window
 from .study import PRELOAD_ARMS, Study
 
 __all__ = ["scene_summary", "scene_check", "study_summary", "target_checks", "contact_numbers", "preload_lines",
@@ -178,9 +178,7 @@ def _driven(study: Study, out: dict) -> dict:
     the first driver revolution (the start transient from centred journals), or after the
     study's skip when one is given."""
     ideal = study.arms["ideal"].simulation
-    speed = abs(study.scene.graph.drivers[0].speed) if study.scene.graph.drivers else 0.0
-    revolution = 2 * np.pi / speed if speed > 0 else study.t_end
-    t_from = study.skip if study.skip > 0 else revolution if revolution < 0.75 * study.t_end else 0.0
+    t_from, revolution = driven_window(study.scene, study.t_end, study.skip)
     res = {"revolution_s": revolution}
     for name in ("with_clearance", "ideal"):
         res[name] = {**out[name], **driven_metrics(study.arms[name].simulation, ideal, t_from, revolution)}

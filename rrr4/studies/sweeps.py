@@ -3,7 +3,7 @@
 A spec (YAML) names a base ``scene`` (a path relative to the spec file, or absolute), an
 optional ``t_end`` [s], an optional ``skip`` [s] (the start-up window the windowed metrics
 discard, 0 <= skip < t_end of every case; see :mod:`rrr4.results.metrics`), the ``arms``
-to run (from :data:`rrr4.results.study.PRELOAD_ARMS`), and
+to run, and
 
 - ``grid``: scene key paths -> lists of values, run as their Cartesian product, e.g.
   ``joints.radial_clearance: [5.0e-5, 1.0e-4]``;
@@ -11,7 +11,17 @@ to run (from :data:`rrr4.results.study.PRELOAD_ARMS`), and
   or ``{uniform: [low, high]}`` (``mean`` defaults to the base scene's value at that key).
 
 Key paths are dotted, with ``[i]`` for list items: ``mechanism.chains[0].base[1]``. A grid
-and a Monte Carlo together run every Monte Carlo sample at every grid point. Every case is
+and a Monte Carlo together run every Monte Carlo sample at every grid point.
+
+The arms are those ``rrr4 run`` runs for the scene's kind (:mod:`rrr4.studies.study`): on a
+scene with a task body :data:`rrr4.results.study.PRELOAD_ARMS` (default ``with_preload`` and
+``without_preload``), with the columns :data:`METRICS`; on a driven scene (no task body,
+drivers set the motion) :data:`rrr4.results.study.DRIVEN_ARMS` (default both: the scene
+and its ideal twin), with the columns :data:`DRIVEN_METRICS`
+(:func:`rrr4.results.metrics.driven_scalar_metrics`: impacts per driver revolution, the
+acceleration deviation against the ideal twin, which a ``with_clearance`` arm simulates
+even when the spec does not ask for its row, the driver efforts, penetration and peak
+contact force). A metric that does not apply to an arm is an empty cell. Every case is
 built and validated as a scene before anything runs; a bad spec or case value is one
 :class:`~rrr4.errors.SceneError` line naming the key.
 
@@ -44,13 +54,22 @@ from ..checks import describe
 from ..errors import Rrr4Error, SceneError
 from ..files import check_writable
 from ..mechanism import check_scene
-from ..results.metrics import SCALAR_METRICS, check_skip, scalar_metrics
-from ..results.study import PRELOAD_ARMS
+from ..results.metrics import (
+    DRIVEN_SCALAR_METRICS,
+    SCALAR_METRICS,
+    check_skip,
+    driven_scalar_metrics,
+    driven_window,
+    scalar_metrics,
+)
+from ..results.study import DRIVEN_ARMS, PRELOAD_ARMS
 from ..scene import get_key, key_steps, parse_scene, read_yaml, set_key
 
-__all__ = ["sweep", "load_spec", "SweepSpec", "METRICS", "DISTRIBUTIONS", "case_options", "GEOMETRY_KEYS", "PATH_KEYS"]
+__all__ = ["sweep", "load_spec", "SweepSpec", "METRICS", "DRIVEN_METRICS", "spec_arms", "DISTRIBUTIONS", "case_options",
+           "GEOMETRY_KEYS", "PATH_KEYS"]
 
-METRICS = (*SCALAR_METRICS, "wall_time_s")  # the CSV columns of each arm
+METRICS = (*SCALAR_METRICS, "wall_time_s")  # the CSV columns of each arm, scene with a task body
+DRIVEN_METRICS = (*DRIVEN_SCALAR_METRICS, "wall_time_s")  # those of a driven scene
 DISTRIBUTIONS = ("normal", "uniform")
 SPEC_KEYS = ("scene", "t_end", "skip", "arms", "grid", "monte_carlo")
 MAX_CASES = 100_000
@@ -64,7 +83,8 @@ CASE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 class SweepSpec:
     """A validated sweep: the base scene's YAML data and path, t_end (None: the path's
     duration), the arms, the varied keys, the cases (key -> value dicts, in order), and the
-    start-up window skip [s] the metrics discard."""
+    start-up window skip [s] the metrics discard; driven: the scene has no task body (its
+    drivers set the motion), so its arms are DRIVEN_ARMS."""
     base: dict
     scene_path: Path
     t_end: float | None
@@ -74,6 +94,12 @@ class SweepSpec:
     grid_keys: tuple[str, ...] = ()
     mc_keys: tuple[str, ...] = ()
     skip: float = 0.0
+    driven: bool = False
+
+
+def spec_arms(driven: bool) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(allowed arms, default arms) of a sweep on a driven scene or on one with a task body."""
+    return (DRIVEN_ARMS, DRIVEN_ARMS) if driven else (PRELOAD_ARMS, ("with_preload", "without_preload"))
 
 
 def _number(key: str, v, what: str) -> float:
@@ -96,12 +122,13 @@ def parse_spec(data: dict, root: Path = Path(".")) -> SweepSpec:
     bad = sorted(set(data) - set(SPEC_KEYS))
     if bad:
         raise SceneError(f"{bad[0]}: unknown key of a sweep spec (allowed: {', '.join(SPEC_KEYS)})")
-    if not isinstance(data.get("scene"), str):
+    if not isinstance(data.get("scene"), str) or "\0" in data["scene"]:  # a NUL is no path
         raise SceneError(f"scene: {describe(data.get('scene'))} is not allowed (the base scene's YAML file)")
     scene_path = (root / data["scene"]).resolve()
     base = read_yaml(scene_path, "scene")
     # the base itself is a valid scene that assembles along its path
-    check_scene(parse_scene(copy.deepcopy(base), name=scene_path.stem, source=str(scene_path)))
+    driven = check_scene(parse_scene(copy.deepcopy(base), name=scene_path.stem,
+                                     source=str(scene_path))).graph.task is None
     t_end = data.get("t_end")
     if t_end is not None:
         t_end = _number("t_end", t_end, "t_end [s]")
@@ -111,12 +138,14 @@ def parse_spec(data: dict, root: Path = Path(".")) -> SweepSpec:
     if isinstance(skip, bool) or not isinstance(skip, (int, float)):
         raise SceneError(f"skip: {describe(skip)} is not allowed (the start-up window [s] the metrics discard, "
                          "a number with 0 <= skip < t_end)")
-    arms = data.get("arms", ["with_preload", "without_preload"])
+    allowed, default = spec_arms(driven)
+    kind = "a driven scene (no task body)" if driven else "a scene with a task body"
+    arms = data.get("arms", list(default))
     if not isinstance(arms, list) or not arms:
-        raise SceneError(f"arms: {describe(arms)} is not allowed (a list of: {', '.join(PRELOAD_ARMS)})")
+        raise SceneError(f"arms: {describe(arms)} is not allowed (a list of: {', '.join(allowed)})")
     for a in arms:
-        if a not in PRELOAD_ARMS:
-            raise SceneError(f"arms: unknown value {describe(a)} (choose from: {', '.join(PRELOAD_ARMS)})")
+        if a not in allowed:
+            raise SceneError(f"arms: {describe(a)} is not allowed on {kind} (choose from: {', '.join(allowed)})")
     grid = data.get("grid") or {}
     mc = data.get("monte_carlo")
     if not isinstance(grid, dict):
@@ -141,8 +170,13 @@ def parse_spec(data: dict, root: Path = Path(".")) -> SweepSpec:
     keys = tuple(grid) + tuple(k for k in mc_keys if k not in grid)
     for case in cases:  # every case is a valid scene before anything runs, and runs longer than skip
         scene, _ = case_scene(base, scene_path, case)
+        if (scene.graph.task is None) != driven:
+            values = ", ".join(f"{k} = {describe(v)}" for k, v in case.items())
+            raise SceneError(f"grid: the case {values} is not allowed (it makes {kind} into another kind; the arms "
+                             "of a sweep follow its base scene's kind)")
         skip = check_skip(skip, scene.path.duration if t_end is None else t_end)
-    return SweepSpec(base, scene_path, t_end, tuple(arms), keys, cases, tuple(grid), tuple(mc_keys), float(skip))
+    return SweepSpec(base, scene_path, t_end, tuple(arms), keys, cases, tuple(grid), tuple(mc_keys), float(skip),
+                     driven)
 
 
 SCHEDULER_TIMEOUT = 20.0  # [s] an address that is not a Dask scheduler answering within this ends in one line
@@ -307,8 +341,9 @@ def _built(problems) -> list[tuple[bool, ...]]:
 def run_case(text: str, name: str, t_end, arms, jit: bool = False, options: dict | None = None,
              skip: float = 0.0) -> tuple[list[dict], int, tuple[str, ...]]:
     """(the rows (one per arm) of one case: metrics of each arm's simulation
-    (:func:`rrr4.results.metrics.scalar_metrics` after `skip` [s], and its wall time), or status
-    'failed' with the error; the C libraries this case compiled; the STRUCTURES it reused: those
+    (:func:`rrr4.results.metrics.scalar_metrics` after `skip` [s], or on a driven scene
+    :func:`rrr4.results.metrics.driven_scalar_metrics` against its ideal twin, and its wall
+    time), or status 'failed' with the error; the C libraries this case compiled; the STRUCTURES it reused: those
     that every arm which uses one found built by an earlier case in this worker). jit: step in
     compiled C (the shared on-disk cache; RRR4_JIT=0 still says no); options: :func:`case_options`.
     Runs in a Dask worker; imports nothing Dask."""
@@ -322,17 +357,29 @@ def run_case(text: str, name: str, t_end, arms, jit: bool = False, options: dict
         problem = Problem.from_scene(parse_scene(yaml.load(text, Loader=CASE_LOADER), name=name, source=""))
     except Rrr4Error as e:
         return [{"arm": a, "status": "failed", "error": str(e).splitlines()[0]} for a in arms], 0, ()
-    problems = [Problem.from_scene(arm_scene(problem, arm)) for arm in arms]
+    driven = problem.model.task is None
+    # a driven scene's clearance arm is measured against its ideal twin, run even without its row
+    runs = [*arms, *(["ideal"] if driven and "with_clearance" in arms and "ideal" not in arms else [])]
+    problems = [Problem.from_scene(arm_scene(problem, arm)) for arm in runs]
     found = _built(problems)
-    for arm, arm_problem in zip(arms, problems, strict=True):
+    sims: dict = {}
+    for arm, arm_problem in zip(runs, problems, strict=True):
         wall = time.perf_counter()
         try:
-            sim = simulate(arm_problem, t_end=t_end, jit=None if jit else False, **(options or {}))
+            sims[arm] = simulate(arm_problem, t_end=t_end, jit=None if jit else False, **(options or {}))
         except Exception as e:  # recorded, the sweep goes on
             rows.append({"arm": arm, "status": "failed", "error": f"{type(e).__name__}: {str(e).splitlines()[0]}"})
             continue
-        rows.append({"arm": arm, "status": "ok", "error": "", **scalar_metrics(sim, skip),
-                     "wall_time_s": time.perf_counter() - wall})
+        rows.append({"arm": arm, "status": "ok", "error": "", "wall_time_s": time.perf_counter() - wall})
+    if driven:
+        t_from, revolution = driven_window(problem.scene, problem.scene.path.duration if t_end is None else t_end,
+                                           skip)
+    for row in rows:
+        if row["status"] == "ok":
+            sim = sims[row["arm"]]
+            row.update(driven_scalar_metrics(sim, None if row["arm"] == "ideal" else sims.get("ideal"), t_from,
+                                             revolution) if driven else scalar_metrics(sim, skip))
+    rows = [r for r in rows if r["arm"] in arms]
     used = _built(problems)
     reused = tuple(k for i, k in enumerate(STRUCTURES)
                    if any(u[i] for u in used) and all(f[i] for f, u in zip(found, used, strict=True) if u[i]))
@@ -340,7 +387,7 @@ def run_case(text: str, name: str, t_end, arms, jit: bool = False, options: dict
 
 
 def _columns(spec: SweepSpec) -> list[str]:
-    return ["case", *spec.keys, "arm", "status", "error", *METRICS]
+    return ["case", *spec.keys, "arm", "status", "error", *(DRIVEN_METRICS if spec.driven else METRICS)]
 
 
 def _done(csv_path: Path, columns: list[str]) -> set[str]:

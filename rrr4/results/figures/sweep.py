@@ -12,17 +12,29 @@ import numpy as np
 
 from .base import STYLE, save_figure
 
-__all__ = ["sweep_figures", "FIGURE_METRICS"]
+__all__ = ["sweep_figures", "FIGURE_METRICS", "DRIVEN_FIGURE_METRICS"]
 
 # metric -> (axis label, scale)
 FIGURE_METRICS = {"platform_error_rms_m": ("platform error RMS [um]", 1e6),
                   "contact_loss_events": ("contact-loss events, all joints", 1.0),
                   "min_contact_force_N": ("smallest contact force [N]", 1.0)}
+# those of a driven scene's sweep (its CSV has no platform error); the first is the heat map's
+DRIVEN_FIGURE_METRICS = {"acceleration_deviation_rms_m_s2": ("acceleration deviation RMS [m/s^2]", 1.0),
+                         "impacts_per_revolution": ("impacts per revolution", 1.0),
+                         "peak_contact_force_N": ("peak contact force [N]", 1.0)}
 
 
 def _read(csv_path: Path) -> list[dict]:
     with Path(csv_path).open(newline="") as f:
         return [r for r in csv.DictReader(f) if r["status"] == "ok"]
+
+
+def _values(rows: list[dict], metric: str, scale: float = 1.0, key: str | None = None):
+    """(x, y): the `key` column (or zeros) and metric * scale of the rows where the metric
+    applies (a metric that does not apply to an arm is an empty cell)."""
+    sel = [r for r in rows if r.get(metric, "") != ""]
+    x = np.array([float(r[key]) if key else 0.0 for r in sel])
+    return x, np.array([float(r[metric]) for r in sel]) * scale
 
 
 def sweep_figures(csv_path, keys, grid_keys, mc_keys, out_dir, title: str = "") -> list[Path]:
@@ -34,7 +46,9 @@ def sweep_figures(csv_path, keys, grid_keys, mc_keys, out_dir, title: str = "") 
     if not rows:
         return files
     arms = list(dict.fromkeys(r["arm"] for r in rows))
-    for metric, (label, scale) in FIGURE_METRICS.items():
+    metrics = FIGURE_METRICS if "platform_error_rms_m" in rows[0] else DRIVEN_FIGURE_METRICS
+    heat, (heat_label, heat_scale) = next(iter(metrics.items()))
+    for metric, (label, scale) in metrics.items():
         cols = min(len(keys), 4)
         nrows = -(-len(keys) // cols)
         fig, axes = plt.subplots(nrows, cols, figsize=(3.8 * cols, 3.0 * nrows + 0.5), squeeze=False)
@@ -42,9 +56,9 @@ def sweep_figures(csv_path, keys, grid_keys, mc_keys, out_dir, title: str = "") 
             ax.axis("off")
         for ax, key in zip(axes.ravel(), keys, strict=False):
             for arm in arms:
-                sel = [r for r in rows if r["arm"] == arm]
-                x = np.array([float(r[key]) for r in sel])
-                y = np.array([float(r[metric]) for r in sel]) * scale
+                x, y = _values([r for r in rows if r["arm"] == arm], metric, scale, key)
+                if not y.size:
+                    continue
                 ax.plot(x, y, "o", ms=4, alpha=0.7, color=STYLE[arm]["color"], label=STYLE[arm]["label"])
             ax.set_xlabel(key, fontsize=8)
             ax.set_ylabel(label, fontsize=8)
@@ -55,19 +69,20 @@ def sweep_figures(csv_path, keys, grid_keys, mc_keys, out_dir, title: str = "") 
         fig.suptitle(f"{title}: {label} against each varied key (every case)", fontsize=10)
         fig.tight_layout()
         files.append(save_figure(fig, out_dir / f"{metric}.png", dpi=110))
-    if len(grid_keys) >= 2:
+    heat_arms = [a for a in arms if _values([r for r in rows if r["arm"] == a], heat)[1].size]
+    if len(grid_keys) >= 2 and heat_arms:
         kx, ky = grid_keys[0], grid_keys[1]
         xs = sorted({float(r[kx]) for r in rows})
         ys = sorted({float(r[ky]) for r in rows})
-        fig, axes = plt.subplots(1, len(arms), figsize=(4.2 * len(arms), 3.6), squeeze=False)
-        for ax, arm in zip(axes[0], arms, strict=True):
+        fig, axes = plt.subplots(1, len(heat_arms), figsize=(4.2 * len(heat_arms), 3.6), squeeze=False)
+        for ax, arm in zip(axes[0], heat_arms, strict=True):
             z = np.full((len(ys), len(xs)), np.nan)
             for i, yv in enumerate(ys):
                 for j, xv in enumerate(xs):
-                    v = [float(r["platform_error_rms_m"]) for r in rows
-                         if r["arm"] == arm and float(r[kx]) == xv and float(r[ky]) == yv]
-                    if v:
-                        z[i, j] = np.median(v) * 1e6
+                    _, v = _values([r for r in rows if r["arm"] == arm and float(r[kx]) == xv
+                                    and float(r[ky]) == yv], heat, heat_scale)
+                    if v.size:
+                        z[i, j] = np.median(v)
             im = ax.imshow(z, origin="lower", aspect="auto", cmap="viridis",
                            norm=matplotlib.colors.LogNorm() if np.nanmin(z) > 0 else None)
             for (i, j), v in np.ndenumerate(z):
@@ -78,20 +93,22 @@ def sweep_figures(csv_path, keys, grid_keys, mc_keys, out_dir, title: str = "") 
             ax.set_xlabel(kx)
             ax.set_ylabel(ky)
             ax.set_title(STYLE[arm]["label"], fontsize=9)
-            fig.colorbar(im, ax=ax, label="error RMS [um], median of the other keys")
-        fig.suptitle(f"{title}: platform error over {kx} and {ky}", fontsize=10)
+            fig.colorbar(im, ax=ax, label=f"{heat_label}, median of the other keys")
+        fig.suptitle(f"{title}: {heat_label} over {kx} and {ky}", fontsize=10)
         fig.tight_layout()
         files.append(save_figure(fig, out_dir / "heatmap.png", dpi=110))
     if mc_keys:
         fig, axes = plt.subplots(1, 2, figsize=(9.0, 3.4))
-        for ax, metric, scale in ((axes[0], "platform_error_rms_m", 1e6), (axes[1], "contact_loss_events", 1.0)):
-            vals = {arm: [float(r[metric]) * scale for r in rows if r["arm"] == arm] for arm in arms}
-            every = np.concatenate([v for v in vals.values() if v])
-            bins = np.linspace(every.min() - 0.5 * scale * (metric == "contact_loss_events"), every.max() + 1e-12, 40)
+        for ax, (metric, (label, scale)) in zip(axes, list(metrics.items())[:2], strict=True):
+            vals = {arm: _values([r for r in rows if r["arm"] == arm], metric, scale)[1] for arm in arms}
+            vals = {arm: v for arm, v in vals.items() if v.size}
+            if vals:
+                every = np.concatenate(list(vals.values()))
+                bins = np.linspace(every.min() - 0.5 * scale * (metric == "contact_loss_events"),
+                                   every.max() + 1e-12, 40)
             for arm, v in vals.items():
                 ax.hist(v, bins=bins, alpha=0.7, color=STYLE[arm]["color"], label=STYLE[arm]["label"])
-        axes[0].set_xlabel("platform error RMS [um]")
-        axes[1].set_xlabel("contact-loss events, all joints")
+            ax.set_xlabel(label)
         for ax in axes:
             ax.set_ylabel("cases")
             ax.legend(fontsize=7)
