@@ -201,3 +201,16 @@ def test_a_body_with_several_other_joints_needs_its_reference_point():
     assert "\n" not in msg
     assert msg.startswith("mechanism.assembly[0].points: missing; distal_3 has 3 joints besides B3") or \
         msg.startswith("mechanism.assembly[0].points: missing; distal_3 has 2 joints besides B3"), msg
+
+
+def test_a_mode_the_motion_does_not_keep_is_refused_in_one_line():
+    """The slider-crank's stretch at the crank pin A is + at 0 deg and - at 90 deg: not a
+    branch's property; the slider's side of the pin (stretch + at B against the slide) is."""
+    data = yaml.safe_load((ROOT / "problems" / "flores_slider_crank_ideal.yaml").read_text())
+    data["path"]["duration"] = 0.012  # one crank revolution at 5000 rpm
+    check_scene(parse_scene(data))
+    data["mechanism"]["assembly"] = [{"joint": "A", "stretch": "+"}]
+    with pytest.raises(SceneError) as err:
+        check_scene(parse_scene(data))
+    msg = str(err.value)
+    assert "\n" not in msg and msg.startswith("mechanism.assembly[0]: stretch + at A does not hold along the motion")
