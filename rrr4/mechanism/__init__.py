@@ -4,8 +4,8 @@ closed-form n-RRR as a specialisation; :mod:`.mechanism`), the n-RRR's closed fo
 (:mod:`.kinematics`), tree coordinates (:mod:`.tree`) and the checks of a scene against
 its model (:mod:`.workspace`)."""
 
-from .mechanism import Mechanism, NRRRMechanism
+from .mechanism import Mechanism, NRRRMechanism, wrap_angle
 from .model import Model, geometry_parameters
 from .workspace import check_scene, load_scene
 
-__all__ = ["Model", "Mechanism", "NRRRMechanism", "geometry_parameters", "check_scene", "load_scene"]
+__all__ = ["Model", "Mechanism", "NRRRMechanism", "wrap_angle", "geometry_parameters", "check_scene", "load_scene"]

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+from dataclasses import replace
 
 import casadi as ca
 import numpy as np
@@ -21,11 +22,11 @@ import numpy as np
 from ..checks import describe
 from ..errors import KinematicsError, SceneError
 from ..functions import QUIET
-from ..scene import NRRRSpec, Scene, bare_nrrr_graph
+from ..scene import GROUND, AssemblyMode, NRRRSpec, Scene, bare_nrrr_graph
 from . import kinematics as kin
 from .model import Model
 
-__all__ = ["Mechanism", "NRRRMechanism"]
+__all__ = ["Mechanism", "NRRRMechanism", "wrap_angle"]
 
 NEWTON = {"abstol": 1e-13, "max_iter": 60, "error_on_fail": False, **QUIET}
 
@@ -92,6 +93,13 @@ class Mechanism:
                                            ["q", "target_d", "target_dd"], ["qd", "qdd", "theta_d", "theta_dd"])
         self._n_rows = rows.numel()
         self._clearance_rows = [2 * self.joint_names.index(j) + k for j in model.clearance_joints for k in (0, 1)]
+        # assembly: the residual's Jacobian (least squares from seeded starts) and the named mode
+        p = ca.vertcat(target, offset)
+        self._residual_jacobian = ca.Function("assembly_jacobian", [q, p], [residual, Jf])
+        self.assembly = g.assembly
+        self.mode_function = ca.Function("assembly_mode", [q], [_mode_values(model, q, g.assembly)], ["q"], ["mode"])
+        self.assembled_branch = None  # the branch the last assembly without a guess chose, see assemble
+        self._rng_scale = _scene_scale(model)
 
     # ------------------------------------------------------------------ construction
 
@@ -108,21 +116,130 @@ class Mechanism:
     def assemble(self, target, offsets=None, guess=None) -> np.ndarray:
         """q (nq,) closing every joint (clearance joint k opened by offsets (nc, 2) [m], its
         second point minus its first: the eccentricity when the journal sits on the second
-        body, minus it otherwise) with the task rows at `target`; Newton from `guess`
-        (default: the bodies' pose guesses). Raises KinematicsError if it does not close."""
+        body, minus it otherwise) with the task rows at `target`.
+
+        With a `guess`: Newton from it (continuation; the caller owns the branch). Without:
+        the scene's assembly, robust and on the named branch (``mechanism.assembly``): Newton
+        from the bodies' pose guesses if the scene gives any (not all zero), then, unless that
+        closed in the named mode, damped least squares from seeded starts (deterministic)
+        polished by Newton, keeping the first closure in the named mode; angles wrapped to
+        (-pi, pi]. Raises KinematicsError if it does not close."""
         target = _vector("target", target, self.n_task)
         off = np.zeros(self._n_rows)
         if offsets is not None:
             off[self._clearance_rows] = _vector("offsets", offsets, len(self._clearance_rows))
-        guess = self.model.pose_guess if guess is None else _vector("guess", guess, self.nq)
         p = np.r_[target, off]
-        q = np.array(self.assemble_function(guess, p)).ravel()
+        if guess is not None:
+            q, res = self._newton(_vector("guess", guess, self.nq), p)
+            if res > 1e-9:
+                raise KinematicsError(f"the mechanism does not assemble at target {np.round(target, 6).tolist()} "
+                                      f"(constraint residual {res:.3g} after Newton from the given guess)")
+            return q
+        return self._assemble_robust(target, p)
+
+    # number of seeded starts the robust assembly tries before it gives up
+    STARTS = 200
+
+    def _newton(self, q0, p) -> tuple[np.ndarray, float]:
+        """(q, max |residual|) by Newton from q0; inf when it fails or leaves finite numbers."""
+        q = np.array(self.assemble_function(q0, p)).ravel()
+        if not np.all(np.isfinite(q)):
+            return q, np.inf
         res = np.array(self.closure_function(q, p)).ravel()
-        if not (np.all(np.isfinite(q)) and np.max(np.abs(res), initial=0.0) <= 1e-9):
-            raise KinematicsError(f"the mechanism does not assemble at target {np.round(target, 6).tolist()} "
-                                  f"(constraint residual {np.max(np.abs(res)):.3g} after Newton from the pose "
-                                  "guesses; check the geometry, or give bodies[].pose closer to an assembly)")
+        return q, float(np.max(np.abs(res), initial=0.0))
+
+    def _least_squares(self, q0, p) -> np.ndarray:
+        """Levenberg-Marquardt on the residual from q0 (robust far from a solution: no
+        singular Newton step, no NaN), a few dozen iterations at most."""
+        q, lam = np.array(q0, float), 1e-3
+        r, J = (np.array(v) for v in self._residual_jacobian(q, p))
+        r = r.ravel()
+        cost = r @ r
+        for _ in range(100):
+            if cost < 1e-20:
+                break
+            JtJ, g = J.T @ J, J.T @ r
+            step = np.linalg.solve(JtJ + lam * (np.diag(np.diag(JtJ)) + 1e-9 * np.eye(self.nq)), -g)
+            r1, J1 = (np.array(v) for v in self._residual_jacobian(q + step, p))
+            r1 = r1.ravel()
+            c1 = r1 @ r1
+            if np.isfinite(c1) and c1 < cost:
+                q, r, J, cost, lam = q + step, r1, J1, c1, max(lam / 3, 1e-12)
+            else:
+                lam *= 4
+                if lam > 1e12:
+                    break
         return q
+
+    def mode_values(self, q) -> np.ndarray:
+        """The measures of the scene's assembly conditions at q (one per mechanism.assembly
+        entry): the normalised cross (bend) or dot (stretch) product, in [-1, 1]."""
+        return np.array(self.mode_function(np.asarray(q, float))).ravel()
+
+    def in_mode(self, q) -> bool:
+        """True if q is on the named branch: every condition's measure has its sign (|measure| > 1e-6)."""
+        signs = np.array([m.sign for m in self.assembly], float)
+        return bool(np.all(self.mode_values(q) * signs > 1e-6))
+
+    def _assemble_robust(self, target, p) -> np.ndarray:
+        found = []
+        best = np.inf
+        if np.any(self.model.pose_guess != 0.0):
+            q, res = self._newton(self.model.pose_guess, p)
+            best = min(best, res)
+            if res <= 1e-9:
+                if self.in_mode(q):
+                    return self._chosen(q)
+                found.append(q)
+        rng = np.random.default_rng(20260)
+        L, centre = self._rng_scale
+        for _ in range(self.STARTS):
+            q0 = np.empty(self.nq)
+            q0.reshape(-1, 3)[:, :2] = centre + L * rng.uniform(-1.0, 1.0, (self.nq // 3, 2))
+            q0.reshape(-1, 3)[:, 2] = rng.uniform(-np.pi, np.pi, self.nq // 3)
+            q, res = self._newton(self._least_squares(q0, p), p)
+            best = min(best, res)
+            if res <= 1e-9:
+                if self.in_mode(q):
+                    return self._chosen(q)
+                found.append(q)
+        where = f"at target {np.round(target, 6).tolist()}"
+        if not found:
+            raise KinematicsError(f"the mechanism does not assemble {where} (smallest constraint residual "
+                                  f"{best:.3g} from the pose guesses and {self.STARTS} seeded starts; check the "
+                                  "geometry: link lengths that cannot close the loops, or a target out of reach)")
+        seen = sorted({self.branch_text(f) for f in found})
+        raise KinematicsError(f"the mechanism does not assemble in the named mode {where} "
+                              f"({self.mode_text()}); it closes only in {len(seen)} other branch(es): "
+                              f"{'; '.join(seen)} (check mechanism.assembly)")
+
+    def _chosen(self, q) -> np.ndarray:
+        q = q.copy()
+        q[2::3] = wrap_angle(q[2::3])
+        self.assembled_branch = self.branch_text(q)
+        return q
+
+    def mode_text(self) -> str:
+        """The named mode, e.g. 'bend + at C' (or 'none named')."""
+        return ", ".join(f"{m.measure} {'+' if m.sign > 0 else '-'} at {m.joint}" for m in self.assembly) \
+            or "none named"
+
+    def branch_text(self, q) -> str:
+        """The branch of q: at each joint of the named mode (with no mode named, at every
+        revolute joint between two bodies with one other joint each, the loops' knees) the
+        signs of bend and stretch and the angle from the first body's line to the second's,
+        e.g. 'C: bend +, stretch - (+131.2 deg)'."""
+        conds = {m.joint: m for m in self.assembly or _default_conditions(self.model)}
+        if not conds:
+            return "the only one (no loop)"
+        both = tuple(replace(m, measure=k) for m in conds.values() for k in ("bend", "stretch"))
+        v = np.array(_mode_function(self.model, both)(np.asarray(q, float))).ravel().reshape(-1, 2)
+
+        def sign(x):
+            return "+" if x > 1e-6 else "-" if x < -1e-6 else "0"
+
+        return ", ".join(f"{j}: bend {sign(b)}, stretch {sign(d)} ({np.degrees(np.arctan2(b, d)):+.1f} deg)"
+                         for j, (b, d) in zip(conds, v, strict=True))
 
     def tracked_coordinates(self, targets, q0) -> tuple[np.ndarray, np.ndarray]:
         """(q (N, nq), closed (N,) bool) along targets (N, n_task), by continuation from q0:
@@ -200,8 +317,8 @@ class Mechanism:
         return np.array(self.model.actuator_coordinates_function(np.asarray(q, float))[0]).ravel()
 
     def ik(self, pose, modes=None) -> np.ndarray:
-        """Actuator coordinates theta (n,) for a task pose (3,) (a point task: its x, y), by
-        Newton on the constraints from the bodies' pose guesses (modes: not used by a general graph)."""
+        """Actuator coordinates theta (n,) for a task pose (3,) (a point task: its x, y), on
+        the scene's assembly mode (see :meth:`assemble`; modes: not used by a general graph)."""
         return self.actuator_coordinates(self.assemble(np.asarray(pose, float)[:self.n_task]))
 
     def jacobian(self, pose) -> np.ndarray:
@@ -410,6 +527,65 @@ class NRRRMechanism(Mechanism):
                        for f in found):
                 found.append(p)
         return np.array(found).reshape(-1, 3)
+
+
+def wrap_angle(a):
+    """a wrapped to (-pi, pi]."""
+    a = np.asarray(a, float)
+    return np.pi - np.mod(np.pi - a, 2 * np.pi)
+
+
+def _mode_values(model: Model, q, conditions) -> ca.SX:
+    """The normalised cross (bend) or dot (stretch) product of u = joint - a's reference and
+    v = b's reference - joint at each condition's joint (see :class:`rrr4.scene.AssemblyMode`)."""
+    out = []
+    for m in conditions:
+        j = model.graph.joint(m.joint)
+        a, b = j.bodies
+        joint = model.point(q, a, j.points[0])
+        u = joint - model.point(q, a, m.points[0])
+        v = model.point(q, b, m.points[1]) - joint
+        num = u[0] * v[1] - u[1] * v[0] if m.measure == "bend" else u[0] * v[0] + u[1] * v[1]
+        out.append(num / ca.sqrt(ca.sumsqr(u) * ca.sumsqr(v) + 1e-300))
+    return ca.vertcat(*out) if out else ca.SX(0, 1)
+
+
+@functools.cache
+def _mode_function(model: Model, conditions) -> ca.Function:
+    q = ca.SX.sym("q", model.nq)
+    return ca.Function("branch", [q], [_mode_values(model, q, conditions)])
+
+
+@functools.cache
+def _default_conditions(model: Model) -> tuple:
+    """bend at every revolute joint between two bodies that each have one other joint (the
+    knees of the loops: a four-bar's coupler-rocker joint, an RRR chain's elbow)."""
+    joints = model.graph.joints
+    out = []
+    for j in joints:
+        if j.type != "revolute" or GROUND in j.bodies:
+            continue
+        refs = []
+        for k, body in enumerate(j.bodies):
+            other = [o for o in joints if o.name != j.name and body in o.bodies]
+            if len(other) == 1 and np.hypot(*np.subtract(other[0].points[other[0].bodies.index(body)],
+                                                          j.points[k])) > 1e-12:
+                refs.append(tuple(other[0].points[other[0].bodies.index(body)]))
+        if len(refs) == 2:
+            out.append(AssemblyMode(j.name, "bend", 1, (refs[0], refs[1])))
+    return tuple(out)
+
+
+def _scene_scale(model: Model) -> tuple[float, np.ndarray]:
+    """(L, centre): a length [m] covering the mechanism (the sum of every body's point spans
+    and the ground points' spread) and the centre of the ground points, for seeded starts."""
+    ground = [p for j in model.graph.joints for b, p in zip(j.bodies, j.points, strict=True) if b == GROUND]
+    centre = np.mean(ground, axis=0) if ground else np.zeros(2)
+    L = sum(float(np.max(np.linalg.norm(np.array([p for _, p in b.points]), axis=1), initial=0.0))
+            for b in model.graph.bodies if b.points)
+    if ground:
+        L += float(np.max(np.linalg.norm(np.array(ground) - centre, axis=1)))
+    return max(L, 1e-3), centre
 
 
 @functools.cache

@@ -23,6 +23,7 @@ class PathKinematics:
     condition: np.ndarray                # (N,) 2-norm condition number of J (1 without a task)
     cos_arg: np.ndarray | None           # (N, n) n-RRR IK acos argument; |.| <= 1 where reachable
     sin_transmission: np.ndarray | None  # (N, n) n-RRR: sin of the angle between driving and following link
+    mode: np.ndarray | None = None       # (N, k) graph: the measures of the named assembly mode's k conditions
 
     @property
     def worst_condition(self) -> tuple[float, float]:
@@ -46,10 +47,17 @@ def path_kinematics(mech: Mechanism, s: PathSamples) -> PathKinematics:
         J = np.array(J).T.reshape(N, 3, mech.n).transpose(0, 2, 1)
         return PathKinematics(s.t, condition_number(J), np.array(cos_arg).T, np.array(sin_tr).T)
     if mech.model.task is None:
-        mech.path_coordinates(mech.driver_targets(s.t))
-        return PathKinematics(s.t, np.ones(N), None, None)
-    J = mech.path_jacobians(mech.path_coordinates(s.pose[:, :mech.n_task]))
-    return PathKinematics(s.t, condition_number(J), None, None)
+        Q = mech.path_coordinates(mech.driver_targets(s.t))
+        return PathKinematics(s.t, np.ones(N), None, None, _mode_along(mech, Q))
+    Q = mech.path_coordinates(s.pose[:, :mech.n_task])
+    return PathKinematics(s.t, condition_number(mech.path_jacobians(Q)), None, None, _mode_along(mech, Q))
+
+
+def _mode_along(mech: Mechanism, Q: np.ndarray) -> np.ndarray | None:
+    """(N, k) the named assembly mode's measures at the states Q (N, nq), None if none is named."""
+    if not mech.assembly:
+        return None
+    return np.array(mech.mode_function.map(len(Q))(Q.T)).T
 
 
 def near_singular(path: PathSpec, pk: PathKinematics) -> np.ndarray:
@@ -95,6 +103,15 @@ def check_scene(scene: Scene) -> Scene:
             raise SceneError(f"path: passes through a serial singularity at t = {pk.t[k]:.4g} s, chain {i + 1} "
                              f"(|sin| of the link angle {abs(pk.sin_transmission[k, i]):.3g}, "
                              f"allowed >= path.min_transmission = {p.min_transmission:g})")
+    if pk.mode is not None:
+        signs = np.array([m.sign for m in mech.assembly], float)
+        off = ~(pk.mode * signs > 1e-6)
+        if off.any():
+            k, i = np.argwhere(off)[0]
+            m = mech.assembly[i]
+            raise SceneError(f"mechanism.assembly[{i}]: {m.measure} {'+' if m.sign > 0 else '-'} at {m.joint} does "
+                             f"not hold along the motion (it is {pk.mode[k, i]:+.3g} at t = {pk.t[k]:.4g} s; a mode "
+                             "must hold on the whole branch: choose a joint and points whose sign the motion keeps)")
     cond, t = pk.worst_condition
     if not cond <= p.max_condition_number:
         raise SceneError(f"path: passes through a parallel singularity at t = {t:.4g} s "

@@ -14,12 +14,13 @@ import numpy as np
 from ..contact import V_MIN, hysteresis_factor
 from ..dynamics.builder import lubricated_joints
 from ..functions import graph_size
+from ..mechanism import wrap_angle
 from ..mechanism.workspace import path_kinematics
 from ..preload import PreloadSolution, PreloadWarning, solve_preload
 from ..problem import Problem
 from ..scene import Scene
 from ..scene.vocabulary import CONTACT_LAW_KEYS, FRICTION_LAW_KEYS
-from ..trajectory import sample_path
+from ..trajectory import sample_path, trajectory_function
 from .metrics import SETTLING_MARGIN, SETTLING_TAIL, WHOLE_RUN, WINDOWED, arm_metrics, driven_metrics, driven_window
 from .study import PRELOAD_ARMS, Study
 
@@ -263,6 +264,31 @@ def scene_summary(scene: Scene | Problem) -> str:
     return scene_check(scene)[0]
 
 
+def _assembly_lines(problem: Problem) -> list[str]:
+    """The assembled pose of every body at t = 0 (the path's start, or the drivers' initial
+    values) and the branch the assembly chose (the named mechanism.assembly, or which one)."""
+    scene, mech = problem.scene, problem.mechanism
+    if problem.model.task is not None:
+        target = np.array(trajectory_function(scene.path)(0.0)[0]).ravel()[:mech.n_task]
+    else:
+        target = mech.driver_targets(0.0)[0]
+    z = np.zeros(len(target))
+    q = problem.body_motion(target, z, z)[0]
+    if problem.closed_form:
+        branch = "working modes " + " ".join(f"{c.name}:{'+' if c.working_mode > 0 else '-'}"
+                                             for c in scene.mechanism.chains) + " (the chains' working_mode)"
+    else:
+        named = "named in mechanism.assembly" if mech.assembly else \
+            "none named: mechanism.assembly fixes it, see the README"
+        branch = f"{mech.branch_text(q)} ({named})"
+    lines = ["assembled at t = 0 (x, y in mm, theta in deg, wrapped to (-180, 180]):"]
+    for k, b in enumerate(problem.model.body_names):
+        x, y, th = q[3 * k:3 * k + 3]
+        lines.append(f"  {b}: ({x * 1e3:+.3f}, {y * 1e3:+.3f}) mm, {math.degrees(wrap_angle(th)):+.3f} deg")
+    lines.append(f"  branch: {branch}")
+    return lines
+
+
 def _scene_text(problem: Problem) -> str:
     """The bodies, joints, effects, equations and path of a problem's scene."""
     scene, model = problem.scene, problem.model
@@ -290,6 +316,7 @@ def _scene_text(problem: Problem) -> str:
         what = (f"{math.degrees(d.initial):g} deg at {d.speed * 30 / math.pi:g} rpm" if rev
                 else f"{d.initial:g} m at {d.speed:g} m/s")
         lines.append(f"driver {d.name}: joint {d.joint} from {what}")
+    lines += _assembly_lines(problem)
     lines.append("")
     ideal = [j for j in model.joint_names if j not in model.clearance_joints]
     lines.append(f"ideal joints ({len(ideal)}): {' '.join(ideal)}")

@@ -16,6 +16,7 @@ import yaml
 
 from ..checks import describe, unknown_value
 from ..errors import SceneError
+from .assembly import read_assembly
 from .fields import MAX_SAMPLES, Section
 from .lubrication import read_lubrication
 from .nrrr import expand_nrrr
@@ -343,8 +344,9 @@ def _graph(sec: Section) -> Graph:
                          "(their joints connect them only to each other, neither to the ground nor to the task "
                          "body, so nothing fixes where they are: join one of them to the ground or to a connected "
                          "body)")
+    assembly = read_assembly(sec, joints, points)
     sec.done()
-    return Graph(tuple(bodies), tuple(joints), tuple(actuators), tuple(drivers), task, task_point)
+    return Graph(tuple(bodies), tuple(joints), tuple(actuators), tuple(drivers), task, task_point, assembly)
 
 
 def _floating_bodies(bodies: list[str], joints, task: str | None) -> list[str]:

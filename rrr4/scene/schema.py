@@ -10,9 +10,9 @@ from ..errors import SceneError
 from .time_table import check_time_table
 from .vocabulary import GROUND
 
-__all__ = ["Link", "Chain", "Platform", "NRRRSpec", "Material", "JointSpec", "Body", "ActuatorSpec", "DriverSpec",
-           "Graph", "ContactEffect", "FrictionEffect", "LubricationEffect", "Effects", "PreloadSettings", "Actuation",
-           "PathSpec", "Initial", "IntegratorSettings", "Scene", "PASSIVE_JOINTS"]
+__all__ = ["Link", "Chain", "Platform", "NRRRSpec", "Material", "JointSpec", "Body", "AssemblyMode", "ActuatorSpec",
+           "DriverSpec", "Graph", "ContactEffect", "FrictionEffect", "LubricationEffect", "Effects", "PreloadSettings",
+           "Actuation", "PathSpec", "Initial", "IntegratorSettings", "Scene", "PASSIVE_JOINTS"]
 
 @dataclass(frozen=True)
 class Link:
@@ -125,6 +125,19 @@ class Body:
 
 
 @dataclass(frozen=True)
+class AssemblyMode:
+    """One condition of a graph's assembly mode, at a revolute joint between bodies a and b
+    (the joint's order): u = joint point - a reference point of a, v = a reference point of b
+    - joint point (reference points in the bodies' frames, global on the ground). measure
+    'bend': sign of u x v (+1: v turns counter-clockwise from u); 'stretch': sign of u . v
+    (+1: b continues a's line, -1: it folds back). sign +1 or -1."""
+    joint: str
+    measure: str
+    sign: int
+    points: tuple[tuple[float, float], tuple[float, float]]
+
+
+@dataclass(frozen=True)
 class ActuatorSpec:
     """An actuator on a joint: a torque [N m] on a revolute, a force [N] on a prismatic,
     limited to +-limit."""
@@ -154,6 +167,7 @@ class Graph:
     drivers: tuple[DriverSpec, ...]
     task: str | None
     task_point: tuple[float, float] | None = None
+    assembly: tuple[AssemblyMode, ...] = ()
 
     @property
     def passive_joints(self) -> tuple[str, ...]:

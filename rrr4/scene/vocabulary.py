@@ -9,7 +9,7 @@ registry agree. Imports nothing.
 from __future__ import annotations
 
 __all__ = ["MECHANISM_KINDS", "JOINT_TYPES", "PATH_TYPES", "TIME_LAWS", "ACTUATION_MODES", "CONTACT_LAWS",
-           "FRICTION_LAWS", "LUBRICATION_LAWS", "CONTACT_LAW_KEYS", "FRICTION_LAW_KEYS",
+           "FRICTION_LAWS", "LUBRICATION_LAWS", "ASSEMBLY_MEASURES", "CONTACT_LAW_KEYS", "FRICTION_LAW_KEYS",
            "LUBRICATION_LAW_KEYS", "INTEGRATORS", "ERROR_CONTROLLED", "NEWTON",
            "COORDINATES", "PRELOAD_METHODS", "COMPENSATIONS", "QP_SOLVERS", "JOURNAL_STARTS", "OBJECTIVES", "MATERIALS",
            "GROUND", "choices", "registry"]
@@ -17,6 +17,9 @@ __all__ = ["MECHANISM_KINDS", "JOINT_TYPES", "PATH_TYPES", "TIME_LAWS", "ACTUATI
 GROUND = "ground"  # the fixed frame's name in a graph
 MECHANISM_KINDS = ("n-rrr", "graph")
 JOINT_TYPES = ("revolute", "prismatic")
+# mechanism.assembly[].<measure>: the sign of the cross (bend) or dot (stretch) product of the
+# two bodies' lines at a revolute joint
+ASSEMBLY_MEASURES = ("bend", "stretch")
 PATH_TYPES = ("circle", "line", "waypoints", "none")  # none: no task, the drivers set the motion
 TIME_LAWS = ("quintic", "cycloidal", "linear", "table")  # table: path.time_table, e.g. an optimal one
 ACTUATION_MODES = ("torque", "prescribed", "free")  # free: zero actuator torque
