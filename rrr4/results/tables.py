@@ -104,7 +104,7 @@ def report_markdown(summary: dict) -> str:
     row("platform error RMS [um]", lambda m: _fmt(m["platform_error_rms_m"], 1e6))
     row("platform error max [um]", lambda m: _fmt(m["platform_error_max_m"], 1e6))
     row("platform error settling time [s]", lambda m: _fmt(m.get("settling_time_s")))
-    row("torque RMS [N m]", lambda m: _fmt(m["torque_rms_Nm"]))
+    row("effort RMS [N m; N at a prismatic actuator]", lambda m: _fmt(m["torque_rms_Nm"]))
     row("largest share of time at an effort limit", lambda m: _fmt(max(m.get("effort_at_limit_fraction", {}).values(),
                                                                        default=None)))
     row("energy audit residual", lambda m: _fmt(m["energy_audit_residual"], 1.0, 3))
@@ -115,7 +115,7 @@ def report_markdown(summary: dict) -> str:
 
     joints = list(arms[0][1]["contact_loss_events"])
     per = ["", "| joint | " + " | ".join(f"losses {k.replace('_', ' ')}" for k, _ in arms) + " |",
-           "|---" * (len(arms) + 1) + "|"]
+           "|---" * (len(arms) + 1) + "|"] if joints else []  # no table without a passive revolute joint
     for j in joints:
         per.append(f"| {j} | " + " | ".join(str(m["contact_loss_events"][j]) for _, m in arms) + " |")
 
