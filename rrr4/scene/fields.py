@@ -6,11 +6,12 @@ from __future__ import annotations
 
 import difflib
 import math
+from contextlib import contextmanager
 
 from ..checks import describe, unknown_value
 from ..errors import SceneError
 
-__all__ = ["Section", "MAX_MAGNITUDE", "BIG", "MAX_SAMPLES"]
+__all__ = ["Section", "MAX_MAGNITUDE", "BIG", "MAX_SAMPLES", "recording"]
 
 
 # largest magnitude a scene number may have (SI units); larger is a unit mistake or an
@@ -19,6 +20,36 @@ MAX_MAGNITUDE, BIG = 1e6, 1e15
 # most path samples / output frames a scene may ask for (each frame holds the full state)
 MAX_SAMPLES = 5_000_000
 
+
+
+# the keys read while `recording()` runs: full key path -> what the reader asked of it
+_RECORD: dict | None = None
+
+
+@contextmanager
+def recording():
+    """Record every key any :class:`Section` reads (or allows) while the block runs, into the
+    dict it yields: full key path -> {'kind', 'defaults' (the defaults asked with), 'rule'
+    (the range or the choices allowed)}. The scene reference (:mod:`rrr4.scene.reference`) is
+    made from it, so its defaults and allowed values are the reader's own."""
+    global _RECORD
+    outer, _RECORD = _RECORD, {}
+    try:
+        yield _RECORD
+    finally:
+        _RECORD = outer
+
+
+def _note(key: str, kind: str | None = None, default=None, rule: str | None = None) -> None:
+    if _RECORD is None:
+        return
+    e = _RECORD.setdefault(key, {"kind": "value", "defaults": [], "rule": None})
+    if kind is not None:
+        e["kind"] = kind
+    if default is not None and default not in e["defaults"]:
+        e["defaults"].append(default)
+    if rule is not None:
+        e["rule"] = rule
 
 
 class Section:
@@ -39,6 +70,7 @@ class Section:
 
     def raw(self, k, default=None):
         self.used.add(k)
+        _note(self.key(k), default=default)
         return self.data.get(k, default)
 
     def section(self, k: str) -> Section:
@@ -55,6 +87,7 @@ class Section:
                lo_open=False, hi_open=False, big=False):
         v = self.raw(k, default)
         key = self.key(k)
+        _note(key, "number", rule=_rule(positive, nonneg, lo, hi, lo_open, hi_open))
         if v is None:
             raise self.missing(k, "a number")
         if isinstance(v, str) and _looks_numeric(v):
@@ -80,6 +113,7 @@ class Section:
 
     def integer(self, k, default=None, *, positive=False):
         v = self.raw(k, default)
+        _note(self.key(k), "integer", rule="> 0" if positive else None)
         if isinstance(v, bool) or not isinstance(v, int):
             raise SceneError(f"{self.key(k)}: {describe(v)} is not an integer")
         if positive and v <= 0:
@@ -89,6 +123,7 @@ class Section:
     def vector(self, k, n, default=None, *, scalar_ok=False):
         v = self.raw(k, default)
         key = self.key(k)
+        _note(key, f"list of {n} numbers" + (" or one number" if scalar_ok else ""))
         if v is None:
             raise self.missing(k, f"a list of {n} numbers")
         if scalar_ok and isinstance(v, (int, float)) and not isinstance(v, bool):
@@ -106,12 +141,14 @@ class Section:
 
     def string(self, k, default=None):
         v = self.raw(k, default)
+        _note(self.key(k), "text")
         if not isinstance(v, str):
             raise SceneError(f"{self.key(k)}: {describe(v)} is not a string")
         return v
 
     def choice(self, k, allowed, default=None):
         v = self.raw(k, default)
+        _note(self.key(k), "choice", rule=", ".join(map(str, allowed)))
         v = v.lower() if isinstance(v, str) else v
         if v is None:
             raise SceneError(f"{self.key(k)}: missing (choose one of: {', '.join(allowed)})")
@@ -121,12 +158,20 @@ class Section:
 
     def done(self, allowed=None):
         allowed = sorted(set(allowed or ()) | self.used)
+        for k in allowed:
+            _note(self.key(str(k)))
         for k in self.data:
             if k not in allowed:
                 near = difflib.get_close_matches(str(k), allowed, n=1)
                 hint = f"did you mean '{near[0]}'? " if near else ""
                 raise SceneError(f"{self.key(str(k))}: unknown key ({hint}"
                                  f"allowed keys: {', '.join(allowed)})")
+
+
+def _rule(positive, nonneg, lo, hi, lo_open, hi_open) -> str | None:
+    if lo is not None or hi is not None:
+        return _interval(lo, hi, lo_open, hi_open)
+    return "> 0" if positive else ">= 0" if nonneg else None
 
 
 def _interval(lo, hi, lo_open, hi_open):
