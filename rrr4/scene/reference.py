@@ -161,7 +161,7 @@ def reference_markdown(keys: dict | None = None, docs: dict | None = None) -> st
              "`<name>` any name you choose. A key a scene does not need is refused in one line, naming",
              "the key, the value and what is allowed.", ""]
     sections: dict[str, list[str]] = {}
-    for k, e in keys.items():
+    for k in keys:
         sections.setdefault(re.split(r"[.\[]", k)[0], []).append(k)
     for top, ks in sections.items():
         lines += [f"## `{top}`", "", "| key | type | unit | default | allowed | meaning |", "|---|---|---|---|---|---|"]
