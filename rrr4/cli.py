@@ -214,6 +214,18 @@ def _identify(args) -> int:
     return 0
 
 
+def _compare(args) -> int:
+    """Exit 0 when every number of the two results agrees within --rtol, 1 when some differ."""
+    from .results.compare import RUN_SPECIFIC, compare_results
+    argument("--rtol", args.rtol, allow_zero=True)
+    n, diffs = compare_results(args.first, args.second, rtol=args.rtol)
+    print(f"{n} values of summary.json compared (not {', '.join(RUN_SPECIFIC)}); "
+          f"{len(diffs)} differ beyond rtol {args.rtol:g}")
+    for key, a, b in diffs:
+        print(f"  {key}: {a} | {b}")
+    return 1 if diffs else 0
+
+
 def _map(args) -> int:
     from pathlib import Path
 
@@ -357,6 +369,14 @@ def build_parser() -> argparse.ArgumentParser:
     mp.add_argument("--out", help="directory (default results/<scene name>_map/)")
     mp.add_argument("--grid", type=int, default=101, help="points per axis (default 101)")
     mp.set_defaults(func=_map)
+    cp = sub.add_parser("compare", help="compare two results of rrr4 run (their summary.json, without wall and "
+                                         "compile times): exit 0 when they agree within --rtol, 1 when not")
+    cp.add_argument("first", help="a result directory, e.g. results/paper_circle (the committed result)")
+    cp.add_argument("second", help="another, e.g. runs/paper_circle (your run)")
+    cp.add_argument("--rtol", type=float, default=1e-2,
+                    help="relative tolerance (default 0.01: rattling without preload is chaotic, so its counts and "
+                         "peaks move with the last bits of the arithmetic)")
+    cp.set_defaults(func=_compare)
     b = sub.add_parser("bench", help="what accuracy costs in time")
     bsub = b.add_subparsers(dest="bench", metavar="BENCH", required=True)
     a = bsub.add_parser("accuracy", help="work-precision diagram (error vs CPU time per integrator) and CSV")
