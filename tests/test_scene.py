@@ -153,7 +153,8 @@ def test_a_key_the_law_does_not_use_is_refused_naming_the_law_and_its_keys(paper
     # the same key under a law that uses it is read
     paper_data["effects"][section] = {"law": next(k for k, v in (CONTACT_LAW_KEYS if section == "contact"
                                                                  else FRICTION_LAW_KEYS).items() if key in v),
-                                      key: value, **({"coefficient": 0.1} if section == "friction" else {})}
+                                      key: value, **({"coefficient": 0.1} if section == "friction" else
+                                                     {"stiffness": 1e9})}
     parse_scene(paper_data)
 
 
@@ -184,3 +185,13 @@ def test_check_prints_every_derived_contact_number(paper_scene):
     text = scene_summary(problem)
     assert f"{k:.4g} N/m^1.5" in text and "chi = 0.1425" in text and f"v_min = {V_MIN:g} m/s" in text
     assert "v0 = 0.0001 m/s, v1 = 0.0002 m/s" in text
+
+
+@pytest.mark.parametrize("contact", [{"law": "kelvin-voigt"}, {"law": "hertz", "exponent": 1.0},
+                                     {"law": "lankarani-nikravesh", "exponent": 2.0, "stiffness": "auto"}])
+def test_auto_stiffness_only_with_the_exponent_it_is_derived_for(paper_data, contact):
+    paper_data["effects"]["contact"] = contact
+    with pytest.raises(SceneError, match=r"effects\.contact\.stiffness: 'auto' is not allowed with exponent"):
+        parse_scene(paper_data)
+    paper_data["effects"]["contact"] = {**contact, "stiffness": 1e9}
+    assert parse_scene(paper_data).effects.contact.stiffness == 1e9

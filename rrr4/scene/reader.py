@@ -387,6 +387,10 @@ def _effects(sec: Section) -> Effects:
     else:
         stiffness = c.number("stiffness", positive=True, big=True)
     damping = c.number("damping", 0.0, nonneg=True)
+    if stiffness is None and exponent != 1.5:
+        raise SceneError(f"{c.key('stiffness')}: 'auto' is not allowed with exponent {exponent:g} (auto is the Hertz "
+                         "line-contact stiffness from the radii and materials, in N/m^1.5, for exponent 1.5 only: "
+                         f"give stiffness in N/m^{exponent:g}, or exponent 1.5)")
     c.done()
     f = sec.section("friction")
     flaw = f.choice("law", choices("friction law"), "none")
