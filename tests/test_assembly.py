@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import yaml
 
+import rrr4
 from rrr4 import Mechanism, SceneError, check_scene
 from rrr4.results.summary import scene_summary
 from rrr4.scene import parse_scene
@@ -214,3 +215,33 @@ def test_a_mode_the_motion_does_not_keep_is_refused_in_one_line():
         check_scene(parse_scene(data))
     msg = str(err.value)
     assert "\n" not in msg and msg.startswith("mechanism.assembly[0]: stretch + at A does not hold along the motion")
+
+
+TASK_SCENES = [p for p in GRAPH_SCENES if parse_scene(yaml.safe_load(p.read_text())).graph.task is not None
+               and parse_scene(yaml.safe_load(p.read_text())).graph.actuators]
+
+
+@pytest.mark.parametrize("path", TASK_SCENES, ids=[p.stem for p in TASK_SCENES])
+def test_forward_kinematics_without_guesses_lands_on_the_pose(path, capfd):
+    """fk with no guess (no pose guesses in the scene either) finds the pose whose IK gave the
+    actuator coordinates, on the named mode, at the path's samples, without NaN warnings."""
+    scene = parse_scene(_without_guesses(yaml.safe_load(path.read_text())))
+    mech = Mechanism.from_scene(scene)
+    poses = sample_path(scene.path).pose[::250, :mech.n_task]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for pose in poses:
+            got = mech.fk(mech.ik(np.r_[pose, np.zeros(3 - len(pose))]))
+            np.testing.assert_allclose(got[:mech.n_task], pose, atol=1e-9)
+    out = capfd.readouterr()
+    assert "nan" not in (out.out + out.err).lower()
+
+
+def test_forward_kinematics_of_coordinates_no_closure_takes_is_one_line():
+    scene = parse_scene(_without_guesses(yaml.safe_load((ROOT / "problems" / "redundant_five_bar.yaml").read_text())))
+    mech = Mechanism.from_scene(scene)
+    theta = mech.ik(np.r_[sample_path(scene.path).pose[0, :2], 0.0])
+    theta[2] += 1.0  # the third (redundant) actuator disagrees with the other two
+    with pytest.raises(rrr4.KinematicsError, match="forward kinematics found no closure") as e:
+        mech.fk(theta)
+    assert "\n" not in str(e.value)

@@ -148,11 +148,13 @@ class Mechanism:
         res = np.array(self.closure_function(q, p)).ravel()
         return q, float(np.max(np.abs(res), initial=0.0))
 
-    def _least_squares(self, q0, p) -> np.ndarray:
+    def _least_squares(self, q0, p, residual_jacobian=None) -> np.ndarray:
         """Levenberg-Marquardt on the residual from q0 (robust far from a solution: no
-        singular Newton step, no NaN), a few dozen iterations at most."""
+        singular Newton step, no NaN), a few dozen iterations at most; the assembly's residual
+        unless `residual_jacobian` (q, p -> r, dr/dq) is given."""
+        f = residual_jacobian or self._residual_jacobian
         q, lam = np.array(q0, float), 1e-3
-        r, J = (np.array(v) for v in self._residual_jacobian(q, p))
+        r, J = (np.array(v) for v in f(q, p))
         r = r.ravel()
         cost = r @ r
         for _ in range(100):
@@ -160,7 +162,7 @@ class Mechanism:
                 break
             JtJ, g = J.T @ J, J.T @ r
             step = np.linalg.solve(JtJ + lam * (np.diag(np.diag(JtJ)) + 1e-9 * np.eye(self.nq)), -g)
-            r1, J1 = (np.array(v) for v in self._residual_jacobian(q + step, p))
+            r1, J1 = (np.array(v) for v in f(q + step, p))
             r1 = r1.ravel()
             c1 = r1 @ r1
             if np.isfinite(c1) and c1 < cost:
@@ -191,12 +193,7 @@ class Mechanism:
                 if self.in_mode(q):
                     return self._chosen(q)
                 found.append(q)
-        rng = np.random.default_rng(20260)
-        L, centre = self._rng_scale
-        for _ in range(self.STARTS):
-            q0 = np.empty(self.nq)
-            q0.reshape(-1, 3)[:, :2] = centre + L * rng.uniform(-1.0, 1.0, (self.nq // 3, 2))
-            q0.reshape(-1, 3)[:, 2] = rng.uniform(-np.pi, np.pi, self.nq // 3)
+        for q0 in self._seeds():
             q, res = self._newton(self._least_squares(q0, p), p)
             best = min(best, res)
             if res <= 1e-9:
@@ -212,6 +209,17 @@ class Mechanism:
         raise KinematicsError(f"the mechanism does not assemble in the named mode {where} "
                               f"({self.mode_text()}); it closes only in {len(seen)} other branch(es): "
                               f"{'; '.join(seen)} (check mechanism.assembly)")
+
+    def _seeds(self):
+        """The seeded starts of the robust position analyses: :attr:`STARTS` configurations,
+        every body at a random place of the scene's extent and a random angle (deterministic)."""
+        rng = np.random.default_rng(20260)
+        L, centre = self._rng_scale
+        for _ in range(self.STARTS):
+            q0 = np.empty(self.nq)
+            q0.reshape(-1, 3)[:, :2] = centre + L * rng.uniform(-1.0, 1.0, (self.nq // 3, 2))
+            q0.reshape(-1, 3)[:, 2] = rng.uniform(-np.pi, np.pi, self.nq // 3)
+            yield q0
 
     def _chosen(self, q) -> np.ndarray:
         q = q.copy()
@@ -335,11 +343,41 @@ class Mechanism:
         return ns[:, 0] if ns.shape[1] == 1 else ns
 
     def fk(self, theta, guess=None, tol: float = 1e-9) -> np.ndarray:
-        """Task pose (3,) for actuator coordinates theta, by Newton on the constraints with
-        the first actuators held; the others are checked (|residual| <= tol)."""
-        theta = np.asarray(theta, float).ravel()
-        q0 = self.model.pose_guess if guess is None else self.assemble(guess)
-        return self._fk_newton(theta, q0, tol)
+        """Task pose for actuator coordinates theta: Newton on the constraints with the first
+        actuators held, the others checked (|residual| <= tol). From the assembly at the task
+        pose `guess` if one is given (continuation; the caller owns the branch); without one,
+        as the n-RRR's closed form does, from the mechanism assembled with the task at the
+        centre of the ground points (angle 0), then from the bodies' pose guesses, then from
+        seeded starts (damped least squares on every constraint and actuator row, polished by
+        Newton), keeping the first closure on the scene's named assembly mode (a parallel
+        mechanism may close in several assembly modes for the same actuator coordinates: give
+        `guess` to choose). Raises KinematicsError."""
+        theta = _vector("theta", theta, self.n)
+        if guess is not None:
+            return self._fk_pose(self._fk_newton(theta, self.assemble(guess), tol))
+        best, other = np.inf, 0
+        starts = [q for q in (self._fk_start, self.model.pose_guess) if q is not None and np.any(q != 0.0)]
+        for q0 in itertools.chain(starts, (self._least_squares(q, theta, self._fk_residual_jacobian)
+                                           for q in self._seeds())):
+            q, res = self._fk_solve(theta, q0)
+            best = min(best, res)
+            if res <= tol:
+                if self.in_mode(q):
+                    return self._fk_pose(q)
+                other += 1
+        raise KinematicsError(f"forward kinematics found no closure for theta {np.round(theta, 6).tolist()} "
+                              + (f"on the named mode ({self.mode_text()}); {other} start(s) closed on another branch"
+                                 if other else f"(smallest residual {best:.3g} from {self.STARTS} seeded starts: "
+                                               "actuator coordinates the mechanism cannot take?)"))
+
+    @functools.cached_property
+    def _fk_start(self) -> np.ndarray | None:
+        """The assembly with the task at the centre of the ground points (angle 0), or None
+        where it does not assemble: fk's first start (built once)."""
+        try:
+            return self.assemble(np.r_[self._rng_scale[1], 0.0][:self.n_task])
+        except KinematicsError:
+            return None
 
     @functools.cached_property
     def _fk_function(self):
@@ -348,15 +386,30 @@ class Mechanism:
         s, _ = self.model.actuator_coordinates_function(q)
         k = self.nq - rows.numel()
         f = ca.Function("fk_residual", [q, th], [ca.vertcat(rows, s[:k] - th[:k])])
-        return ca.rootfinder("fk", "newton", f, NEWTON), ca.Function("all", [q, th], [ca.vertcat(rows, s - th)])
+        every = ca.vertcat(rows, s - th)
+        return (ca.rootfinder("fk", "newton", f, NEWTON), ca.Function("all", [q, th], [every]),
+                ca.Function("fk_jacobian", [q, th], [every, ca.jacobian(every, q)]))
+
+    @property
+    def _fk_residual_jacobian(self):
+        return self._fk_function[2]
+
+    def _fk_solve(self, theta, q0) -> tuple[np.ndarray, float]:
+        """(q, max |residual| over every row) by Newton from q0; inf when not finite."""
+        solve, check, _ = self._fk_function
+        q = np.array(solve(q0, theta)).ravel()
+        if not np.all(np.isfinite(q)):
+            return q, np.inf
+        return q, float(np.abs(np.array(check(q, theta)).ravel()).max())
 
     def _fk_newton(self, theta, q0, tol):
-        solve, check = self._fk_function
-        q = np.array(solve(q0, theta)).ravel()
-        res = np.abs(np.array(check(q, theta)).ravel())
-        if not (np.all(np.isfinite(q)) and res.max() <= tol):
+        q, res = self._fk_solve(theta, q0)
+        if not res <= tol:
             raise KinematicsError(f"forward kinematics did not converge for theta {np.round(theta, 6).tolist()} "
-                                  f"(residual {res.max():.3g} > {tol:g}); try another guess")
+                                  f"(residual {res:.3g} > {tol:g}); try another guess")
+        return q
+
+    def _fk_pose(self, q) -> np.ndarray:
         pose = np.array(self.model.task_pose_function(q)).ravel()
         pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
         return pose[:self.n_task]
