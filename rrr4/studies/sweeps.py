@@ -342,11 +342,12 @@ def run_case(text: str, name: str, t_end, arms, jit: bool = False, options: dict
              skip: float = 0.0) -> tuple[list[dict], int, tuple[str, ...]]:
     """(the rows (one per arm) of one case: metrics of each arm's simulation
     (:func:`rrr4.results.metrics.scalar_metrics` after `skip` [s], or on a driven scene
-    :func:`rrr4.results.metrics.driven_scalar_metrics` against its ideal twin, and its wall
-    time), or status 'failed' with the error; the C libraries this case compiled; the STRUCTURES it reused: those
-    that every arm which uses one found built by an earlier case in this worker). jit: step in
-    compiled C (the shared on-disk cache; RRR4_JIT=0 still says no); options: :func:`case_options`.
-    Runs in a Dask worker; imports nothing Dask."""
+    :func:`rrr4.results.metrics.driven_scalar_metrics` against its ideal twin, from outputs
+    at every step as in `rrr4 run`, and its wall time), or status 'failed' with the error;
+    the C libraries this case compiled; the STRUCTURES it reused: those that every arm which
+    uses one found built by an earlier case in this worker). jit: step in compiled C (the
+    shared on-disk cache; RRR4_JIT=0 still says no); options: :func:`case_options`. Runs in a
+    Dask worker; imports nothing Dask."""
     from ..integrators.compiled import compilations
     from ..problem import Problem
     from ..simulation import simulate
@@ -362,11 +363,14 @@ def run_case(text: str, name: str, t_end, arms, jit: bool = False, options: dict
     runs = [*arms, *(["ideal"] if driven and "with_clearance" in arms and "ideal" not in arms else [])]
     problems = [Problem.from_scene(arm_scene(problem, arm)) for arm in runs]
     found = _built(problems)
+    options = dict(options or {})
+    if driven:  # impacts and deviations are counted on the outputs: keep every step, as `rrr4 run` does
+        options.setdefault("output_rate", 1.0 / options.get("step", problem.scene.integrator.step))
     sims: dict = {}
     for arm, arm_problem in zip(runs, problems, strict=True):
         wall = time.perf_counter()
         try:
-            sims[arm] = simulate(arm_problem, t_end=t_end, jit=None if jit else False, **(options or {}))
+            sims[arm] = simulate(arm_problem, t_end=t_end, jit=None if jit else False, **options)
         except Exception as e:  # recorded, the sweep goes on
             rows.append({"arm": arm, "status": "failed", "error": f"{type(e).__name__}: {str(e).splitlines()[0]}"})
             continue
