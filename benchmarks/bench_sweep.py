@@ -3,6 +3,7 @@ minute of `rrr4 sweep` on 1 and 2 local Dask workers, in one run on one machine.
 
     .venv/bin/python benchmarks/bench_sweep.py [--cases 12] [--t-end 0.2] [--repeat 3]
         [--before CHECKOUT] [--warm-only]
+    .venv/bin/python benchmarks/bench_sweep.py --spec problems/sweeps/tolerances_2000.yaml [--repeat 1]
 
 Warm case: the sweep's case function (``run_case``, both preload arms, `--t-end` s each) on
 `--cases` clearances in one fresh process, the median time of the cases after the first two
@@ -17,6 +18,10 @@ stepping in compiled C (the sweep's default: the clearance is an input of the co
 so the first run compiles each arm's stepping once into a fresh cache and the later runs find
 it there) and once in CasADi's virtual machine (RRR4_JIT=0 in the workers). Prints the C
 libraries each run compiled.
+
+With `--spec SPEC` the cluster part runs that sweep spec instead (e.g. the 2 000-case
+tolerance Monte Carlo), compiled, on 1 and on 2 local workers, and prints cases per minute
+and the ratio; the warm-case part is skipped.
 
 Measured on a 2-core AMD EPYC (load average 2.2 from other sessions), 12 cases of 0.2 s per
 arm, medians of 3 alternated processes: a warm case took 0.220 s at cef457d (8.3x its
@@ -82,11 +87,14 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--before", type=Path, help="a checkout of an earlier commit to measure the warm case on too")
     ap.add_argument("--warm-only", action="store_true", help="the warm case only, no cluster")
+    ap.add_argument("--spec", type=Path, help="a sweep spec to time on 1 and 2 local workers instead")
     ap.add_argument("--warm-json", action="store_true", help=argparse.SUPPRESS)  # one measurement, as JSON
     args = ap.parse_args(argv)
     if args.warm_json:
         print(json.dumps(warm_case(args.cases, args.t_end)))
         return 0
+    if args.spec:
+        return scale_out(args.spec, args.repeat)
     from rrr4.codegen.build import machine
     trees = {"this tree": ROOT, **({"before": args.before.resolve()} if args.before else {})}
     warm = {name: [] for name in trees}
@@ -132,6 +140,38 @@ def main(argv=None) -> int:
     print(f"  compiled / vm: {rate['compiled', 1] / rate['vm', 1]:.2f}x on 1 worker, "
           f"{rate['compiled', 2] / rate['vm', 2]:.2f}x on 2")
     print(f"load average at the end {', '.join(f'{v:.1f}' for v in os.getloadavg())}")
+    return 0
+
+
+def scale_out(spec_path: Path, repeat: int) -> int:
+    """`spec_path` swept on 1 and 2 local workers (compiled, start-up included, the C cache
+    warm after a first untimed run of 2 cases): cases per minute and the 2 / 1 ratio."""
+    import yaml
+
+    from rrr4.codegen.build import machine
+    from rrr4.studies.sweeps import parse_spec, sweep
+    spec = yaml.safe_load(spec_path.read_text())
+    spec["scene"] = str((spec_path.parent / spec["scene"]).resolve())
+    n = len(parse_spec(spec).cases)
+    os.environ["RRR4_JIT"] = "1"
+    with tempfile.TemporaryDirectory() as tmp:  # compile once, untimed
+        few = {**spec, "monte_carlo": {**spec["monte_carlo"], "samples": 2}} if "monte_carlo" in spec else spec
+        sweep(few, out=Path(tmp) / "warm", workers=1)
+    times = {1: [], 2: []}
+    print(f"machine: {machine()}, load average {', '.join(f'{v:.1f}' for v in os.getloadavg())}")
+    for _ in range(repeat):
+        for w in times:
+            with tempfile.TemporaryDirectory() as tmp:
+                t0 = time.perf_counter()
+                r = sweep(spec, out=Path(tmp) / "o", workers=w, progress=False)
+                times[w].append(time.perf_counter() - t0)
+                assert r["failed"] == 0, r
+    rate = {w: n / (np.median(t) / 60) for w, t in times.items()}
+    for w, t in times.items():
+        print(f"{spec_path.name}: {n} cases, {w} worker{'s' if w > 1 else ''}: {np.median(t):.0f} s, "
+              f"{rate[w]:.0f} cases per minute (runs: {', '.join(f'{x:.0f}' for x in t)} s)")
+    print(f"2 workers / 1 worker: {rate[2] / rate[1]:.2f}x; load average at the end "
+          f"{', '.join(f'{v:.1f}' for v in os.getloadavg())}")
     return 0
 
 
