@@ -41,7 +41,7 @@ from .schema import (
     PreloadSettings,
     Scene,
 )
-from .time_table import read_time_table
+from .time_table import check_time_table, read_time_table
 from .vocabulary import (
     ACTUATION_MODES,
     CONTACT_LAW_KEYS,
@@ -463,11 +463,14 @@ def _path(sec: Section, task: bool = True, base: Path = Path()) -> PathSpec:
     law = sec.choice("time_law", TIME_LAWS, "quintic")
     table = ()
     if law == "table":
-        if sec.raw("time_table") is None:
+        raw = sec.raw("time_table")
+        if raw is None:
             raise SceneError(f"{sec.key('time_table')}: missing (time_law 'table' reads a CSV file with columns "
-                             "t,s,s_dot, relative to the scene file)")
-        name = sec.string("time_table")
-        table = read_time_table(base / name, sec.key("time_table"))
+                             "t,s,s_dot, relative to the scene file, or a list of [t, s, s_dot] rows)")
+        if isinstance(raw, list):  # the rows themselves (a sweep's cases carry their table so)
+            table = check_time_table(raw, sec.key("time_table"))
+        else:
+            table = read_time_table(base / sec.string("time_table"), sec.key("time_table"))
     elif sec.raw("time_table") is not None:
         raise SceneError(f"{sec.key('time_table')}: not allowed with time_law {law!r} (only with time_law: table)")
     if table and sec.raw("duration") is None:

@@ -63,7 +63,7 @@ from ..results.metrics import (
     scalar_metrics,
 )
 from ..results.study import DRIVEN_ARMS, PRELOAD_ARMS
-from ..scene import get_key, key_steps, parse_scene, read_yaml, set_key
+from ..scene import get_key, key_steps, parse_scene, read_time_table, read_yaml, set_key
 
 __all__ = ["sweep", "load_spec", "SweepSpec", "METRICS", "DRIVEN_METRICS", "spec_arms", "DISTRIBUTIONS", "case_options",
            "GEOMETRY_KEYS", "PATH_KEYS"]
@@ -126,6 +126,9 @@ def parse_spec(data: dict, root: Path = Path(".")) -> SweepSpec:
         raise SceneError(f"scene: {describe(data.get('scene'))} is not allowed (the base scene's YAML file)")
     scene_path = (root / data["scene"]).resolve()
     base = read_yaml(scene_path, "scene")
+    table = (base.get("path") or {}).get("time_table") if isinstance(base.get("path"), dict) else None
+    if isinstance(table, str):  # the cases carry the rows: a worker (on any machine) reads no file
+        base["path"]["time_table"] = [list(r) for r in read_time_table(scene_path.parent / table, "path.time_table")]
     # the base itself is a valid scene that assembles along its path
     driven = check_scene(parse_scene(copy.deepcopy(base), name=scene_path.stem,
                                      source=str(scene_path))).graph.task is None
