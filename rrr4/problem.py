@@ -126,6 +126,17 @@ class Problem:
     def joint(self, name: str) -> JointSpec:
         return self.scene.graph.joint(name)
 
+    @functools.cached_property
+    def effort_units(self) -> tuple[str, ...]:
+        """The unit of each actuator's effort: 'N m' on a revolute joint, 'N' on a prismatic one."""
+        return tuple("N m" if self.joint(j).type == "revolute" else "N" for j in self.model.actuated_joints)
+
+    @property
+    def effort_unit(self) -> str:
+        """The actuators' effort unit: 'N m', 'N', or 'N m or N' for a mix (and the null-space
+        coordinate's)."""
+        return " or ".join(dict.fromkeys(self.effort_units)) or "N m"
+
     # ------------------------------------------------------------------ parameters
 
     def joint_stiffness(self, name: str) -> float:

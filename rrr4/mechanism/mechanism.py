@@ -206,9 +206,10 @@ class Mechanism:
                                   f"{best:.3g} from the pose guesses and {self.STARTS} seeded starts; check the "
                                   "geometry: link lengths that cannot close the loops, or a target out of reach)")
         seen = sorted({self.branch_text(f) for f in found})
+        more = f"; and {len(seen) - 3} more" if len(seen) > 3 else ""
         raise KinematicsError(f"the mechanism does not assemble in the named mode {where} "
                               f"({self.mode_text()}); it closes only in {len(seen)} other branch(es): "
-                              f"{'; '.join(seen)} (check mechanism.assembly)")
+                              f"{'; '.join(seen[:3])}{more} (check mechanism.assembly)")
 
     def _seeds(self):
         """The seeded starts of the robust position analyses: :attr:`STARTS` configurations,

@@ -340,8 +340,11 @@ def _scene_text(problem: Problem) -> str:
                else "no preload")
         comp = ", clearance compensation" if a.compensation == "clearance" else ""
         rate = f"sampled at {a.control_rate:g} Hz" if a.control_rate else "continuous"
-        lines.append(f"  actuation: controller = feed-forward + {pre}{comp} + PD (kp = {a.kp:g} N m/rad, kd = "
-                     f"{a.kd:g} N m s/rad), |tau| <= {max(scene.torque_limit):g} N m, {rate}")
+        effort = problem.effort_unit
+        kp, kd = (" or ".join(dict.fromkeys(pair[u == "N"] for u in problem.effort_units)) or pair[0]
+                  for pair in (("N m/rad", "N/m"), ("N m s/rad", "N s/m")))
+        lines.append(f"  actuation: controller = feed-forward + {pre}{comp} + PD (kp = {a.kp:g} {kp}, kd = "
+                     f"{a.kd:g} {kd}), |effort| <= {max(scene.torque_limit):g} {effort}, {rate}")
     elif not model.n_actuators:
         lines.append("  actuation: none (no actuators" + ("; the drivers set the motion)" if scene.graph.drivers
                                                           else ")"))

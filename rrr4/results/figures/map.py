@@ -15,16 +15,18 @@ __all__ = ["plot_map"]
 
 
 def plot_map(m: dict, problem: Problem, path: Path) -> Path:
-    """Four heat maps (condition number, smallest transmission (n-RRR only), preload torque at
-    rest and under the peak acceleration, blank where it cannot hold f_min) with the scene's path
-    on top."""
+    """Four heat maps (condition number, smallest transmission (n-RRR only), preload effort at
+    rest and under the peak acceleration (N m, or N for prismatic actuators), blank where it
+    cannot hold f_min) with the scene's path on top."""
     s = sample_path(problem.path)
+    unit = problem.effort_unit
+    word = "torque" if unit == "N m" else "effort"
     ext = (m["x"][0] * 1e3, m["x"][-1] * 1e3, m["y"][0] * 1e3, m["y"][-1] * 1e3)
     panels = [("condition", "cond(J) [-] (log10)", np.log10(m["condition"]), "viridis_r"),
               ("min_transmission", "smallest transmission |sin| [-]", m["min_transmission"], "viridis"),
-              ("torque_rest_Nm", "preload torque at rest, max |tau| [N m]",
+              ("torque_rest_Nm", f"preload {word} at rest, max |tau| [{unit}]",
                np.where(m["feasible_rest"], m["torque_rest_Nm"], np.nan), "magma_r"),
-              ("torque_peak_Nm", f"... under the path's peak acceleration ({m['a_peak']:.2g} m/s^2) [N m]",
+              ("torque_peak_Nm", f"... under the path's peak acceleration ({m['a_peak']:.2g} m/s^2) [{unit}]",
                np.where(m["feasible_peak"], m["torque_peak_Nm"], np.nan), "magma_r")]
     if np.all(np.isnan(m["min_transmission"])):  # a graph: no transmission angle defined
         panels.pop(1)

@@ -144,7 +144,8 @@ def platform_error(study: Study, path: Path) -> Path | None:
 
 
 def torques(study: Study, path: Path) -> Path | None:
-    """Actuator torques [N m] against time, both arms, with their feed-forward references."""
+    """Actuator efforts (torques [N m], forces [N]) against time, every arm, with their
+    feed-forward references."""
     model = study.problem.model
     names = model.actuator_names
     n = len(names)
@@ -161,13 +162,15 @@ def torques(study: Study, path: Path) -> Path | None:
             ax.plot(study.preload.t, study.preload.tau[:, i], "k--", lw=0.8, label="preload feed-forward")
         ax.set_title(f"actuator {names[i]}")
         ax.set_xlabel("t [s]")
-        ax.set_ylabel("torque [N m]")
+        unit = study.problem.effort_units[i]
+        ax.set_ylabel(f"{'torque' if unit == 'N m' else 'force'} [{unit}]")
         ax.set_xlim(0, study.t_end)
     return _finish(fig, axes, n, _title(study, "actuator torques (feed-forward + PD)"), path)
 
 
 def preload_alpha(study: Study, path: Path) -> Path | None:
-    """Null-space coordinate alpha(t) [N m] and the smallest reaction margin [N]."""
+    """Null-space coordinate alpha(t) [N m, or N with prismatic actuators] and the smallest
+    reaction margin [N]."""
     sol = study.preload
     if sol is None:
         return None
@@ -175,7 +178,7 @@ def preload_alpha(study: Study, path: Path) -> Path | None:
     alpha = np.asarray(sol.alpha).reshape(len(sol.t), -1)
     for k in range(alpha.shape[1]):
         a1.plot(sol.t, alpha[:, k], lw=1.0, label=f"alpha{'' if alpha.shape[1] == 1 else k + 1} ({sol.method})")
-    a1.set_ylabel("alpha [N m]")
+    a1.set_ylabel(f"alpha [{study.problem.effort_unit}]")
     a1.set_title(_title(study, f"preload along the null space, tau = tau_p + alpha n ({sol.method})"))
     a1.legend()
     a1.grid(alpha=0.3)
