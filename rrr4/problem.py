@@ -186,18 +186,26 @@ class Problem:
         """The constant loads on the task body as the closed-form inverse dynamics takes them
         (point, (fx, fy), tz, in_body_frame): what the n-RRR's controller and preload balance."""
         return tuple((e.points[0], e.force, e.torque, e.frame == "body") for e in self.scene.forces
-                     if e.type == "load" and not e.table and e.bodies[0] == self.model.task)
+                     if e.type == "load" and e.known and not e.table and e.bodies[0] == self.model.task)
 
     @functools.cached_property
     def element_forces(self):
         """'force_elements' Function (q, qd, t -> Q) of the time-independent force elements
-        (spring-dampers and constant loads), or None without any: what the effort family of a
-        graph balances besides gravity (tabulated loads are not in the controller's model)."""
-        known = [i for i, e in enumerate(self.scene.forces) if not e.table]
-        if not known:
+        (spring-dampers and the known constant loads), or None without any: what the effort family
+        of a graph balances besides gravity (tabulated loads are not in the controller's model)."""
+        return self._forces_function([i for i, e in enumerate(self.scene.forces) if e.known and not e.table])
+
+    @functools.cached_property
+    def plant_forces(self):
+        """'force_elements' Function (q, qd, t -> Q) of every force element, as the plant
+        feels them (the journals' initial seats take them in), or None without any."""
+        return self._forces_function(list(range(len(self.scene.forces))))
+
+    def _forces_function(self, which: list[int]):
+        if not which:
             return None
-        p = self.force_parameters.reshape(-1, 4)[known].ravel()
-        return element_forces_function(self.model, tuple(self.scene.forces[i] for i in known), p)
+        p = self.force_parameters.reshape(-1, 4)[which].ravel()
+        return element_forces_function(self.model, tuple(self.scene.forces[i] for i in which), p)
 
     def equation_parameters(self, geometry: bool = False) -> np.ndarray:
         """The values of the equations' input ``parameters``: the contact numbers, the force

@@ -7,12 +7,16 @@ spring-dampers and external loads, read into :class:`ForceElement`::
       - {type: rotational_spring_damper, joint: B1, stiffness: 0.5, damping: 0.01}
       - {type: load, body: platform, point: [0, 0], force: [-20.0, 0.0], torque: 0.0, frame: ground}
       - {type: load, body: platform, table: cutting.csv}       # columns t,fx,fy,tz
+      - {type: load, body: platform, force: [0.0, 5.0], known: false}  # a disturbance
 
 Units: stiffness N/m (translational) or N m/rad (rotational), damping N s/m or N m s/rad,
 free_length m, free_angle rad, preload N (translational) or N m (rotational), force N,
 torque N m, table rows t [s], fx, fy [N], tz [N m]. A spring's free length (free angle)
 defaults to its length (angle) in the assembled initial pose; body and joint names, and
-named points, are checked against the mechanism. A tabulated load is interpolated linearly
+named points, are checked against the mechanism. A load is ``known`` (default true) to the
+controller's model, which then balances it in the feed-forward and the preload (a constant
+load on the task body of an n-RRR, or any constant load of a graph); false makes it a
+disturbance. A tabulated load is interpolated linearly
 in t and holds its first row before its first time and its last row after its last time.
 Plain data and the reader only; :mod:`rrr4.dynamics.elements` builds their forces.
 """
@@ -42,7 +46,7 @@ FORCE_PARAMETERS = {
 _KEYS = {
     "spring_damper": ("bodies", "points", "stiffness", "damping", "free_length", "preload"),
     "rotational_spring_damper": ("joint", "bodies", "stiffness", "damping", "free_angle", "preload"),
-    "load": ("body", "point", "force", "torque", "frame", "table"),
+    "load": ("body", "point", "force", "torque", "frame", "table", "known"),
 }
 
 
@@ -53,7 +57,9 @@ class ForceElement:
     (x, y) [m] in each body's frame (ground: global); free_length [m] or free angle [rad],
     None: from the assembled initial pose; preload [N or N m]: a constant force along the
     spring (positive pushes the points apart) or torque; force (fx, fy) [N] in `frame`,
-    torque [N m]; table: rows (t, fx, fy, tz) of a tabulated load, () for a constant one."""
+    torque [N m]; table: rows (t, fx, fy, tz) of a tabulated load, () for a constant one;
+    known: whether the controller's model (feed-forward and preload) balances the element
+    (a load it does not know is a disturbance only the feedback meets)."""
     name: str
     type: str
     bodies: tuple[str, ...]
@@ -66,6 +72,7 @@ class ForceElement:
     torque: float = 0.0
     frame: str = "ground"
     table: tuple[tuple[float, float, float, float], ...] = ()
+    known: bool = True
 
     def values(self, free_length: float | None = None) -> tuple[float, float, float, float]:
         """The element's numbers in the order of :data:`FORCE_PARAMETERS` (`free_length`
@@ -214,5 +221,9 @@ def _load(s: Section, name: str, bodies, points, base: Path) -> ForceElement:
             raise SceneError(f"{s.key('force')}: missing (a load needs force [fx, fy] in N, torque in N m, or a "
                              "table file with columns t,fx,fy,tz)")
         force, torque = s.vector("force", 2, [0.0, 0.0]), s.number("torque", 0.0)
+    known = s.raw("known", True)
+    if not isinstance(known, bool):
+        raise SceneError(f"{s.key('known')}: {describe(known)} is not allowed (true or false)")
     s.done()
-    return ForceElement(name, "load", (body,), (point,), force=force, torque=torque, frame=frame, table=table)
+    return ForceElement(name, "load", (body,), (point,), force=force, torque=torque, frame=frame, table=table,
+                        known=known)
