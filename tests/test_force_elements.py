@@ -142,7 +142,8 @@ def test_constant_load_deflects_the_spring_by_f_over_k():
 def test_energy_audit_counts_spring_energy_damper_dissipation_and_the_work_of_loads(tmp_path):
     """A spring with preload, a damper, a constant force and torque in the body frame and a
     tabulated load: W_in (the loads' work) - dE - D closes to the integrator's error (RK4 at
-    1 ms, measured 4.9e-10 relative, set by the table's kinks; 2e-14 with constant loads only), the damper's dissipation is positive and growing, and the
+    1 ms, measured 4.9e-10 relative, set by the table's kinks; 2e-14 with constant loads only),
+    the damper's dissipation is positive and growing, and the
     potential at t = 0 is the spring's k (L - L0)^2 / 2 + F0 (L - L0)."""
     table = tmp_path / "push.csv"
     table.write_text("t,fx,fy,tz\n0.0,0.0,0.0,0.0\n0.3,5.0,-2.0,0.1\n0.6,-3.0,0.0,0.0\n")

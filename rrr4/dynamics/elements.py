@@ -34,7 +34,8 @@ from ..mechanism.model import Model, rotation
 from ..scene.forces import FORCE_PARAMETERS, ForceElement
 from ..scene.vocabulary import FORCE_ELEMENTS, registry
 
-__all__ = ["ForceTerms", "force_terms", "element_coordinate", "element_forces_function", "N_PARAMETERS", "EPS", "ELEMENT_TERMS"]
+__all__ = ["ForceTerms", "force_terms", "element_coordinate", "element_forces_function", "N_PARAMETERS", "EPS",
+           "ELEMENT_TERMS"]
 
 N_PARAMETERS = len(FORCE_PARAMETERS["spring_damper"])  # per element (every type has as many)
 EPS = 1e-9        # [m] guard of a spring's length
@@ -97,7 +98,8 @@ def force_terms(model: Model, forces: tuple[ForceElement, ...], q, qd, t, parame
     element, :data:`N_PARAMETERS`) the elements' numbers."""
     Q, V, pd, pl = ca.SX.zeros(model.nq), ca.SX(0), ca.SX(0), ca.SX(0)
     for i, e in enumerate(forces):
-        dQ, dV, dpd, dpl = ELEMENT_TERMS[e.type](model, e, q, qd, t, parameters[N_PARAMETERS * i:N_PARAMETERS * (i + 1)])
+        p = parameters[N_PARAMETERS * i:N_PARAMETERS * (i + 1)]
+        dQ, dV, dpd, dpl = ELEMENT_TERMS[e.type](model, e, q, qd, t, p)
         Q, V, pd, pl = Q + dQ, V + dV, pd + dpd, pl + dpl
     return ForceTerms(Q, V, pd, pl)
 
