@@ -6,8 +6,9 @@ Each spring-damper acts along a scalar coordinate s(q) of the mechanism: the dis
 
     f = -(k (s - s0) + F0 + c s_dot),    Q = f (ds/dq)^T,
 
-with stiffness k, damping c, free length (angle) s0 and preload F0 (positive pushes the
-points apart, or turns b against a counter-clockwise). The spring's energy is
+with stiffness k, damping c, free length (angle) s0 and preload F0 (positive is tension: it
+pulls the points together, or turns b clockwise against a, as a free length shorter by
+F0 / k would; Exudyn's SpringDamper ``force`` has the same sign). The spring's energy is
 V = k (s - s0)^2 / 2 + F0 (s - s0) (the preload is a constant force, so conservative), the
 damper dissipates P = c s_dot^2 >= 0. A load is a force F (N, in the ground frame or rotated
 with the body) at a point of a body, and a torque tz [N m]: Q = J_p^T F + tz e_theta, with

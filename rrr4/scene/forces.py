@@ -56,10 +56,11 @@ class ForceElement:
     (rotational) spring-damper (first may be 'ground'), or the loaded body alone; points
     (x, y) [m] in each body's frame (ground: global); free_length [m] or free angle [rad],
     None: from the assembled initial pose; preload [N or N m]: a constant force along the
-    spring (positive pushes the points apart) or torque; force (fx, fy) [N] in `frame`,
-    torque [N m]; table: rows (t, fx, fy, tz) of a tabulated load, () for a constant one;
-    known: whether the controller's model (feed-forward and preload) balances the element
-    (a load it does not know is a disturbance only the feedback meets)."""
+    spring (positive: tension, pulling the points together, as if the free length were
+    shorter by preload / stiffness) or torque (positive turns b clockwise against a); force
+    (fx, fy) [N] in `frame`, torque [N m]; table: rows (t, fx, fy, tz) of a tabulated load,
+    () for a constant one; known: whether the controller's model (feed-forward and preload)
+    balances a load (one it does not know is a disturbance only the feedback meets)."""
     name: str
     type: str
     bodies: tuple[str, ...]
@@ -83,7 +84,7 @@ class ForceElement:
         return self.stiffness, self.damping, float("nan") if free is None else free, self.preload
 
 
-def _point(sec: Section, raw, key: str, body: str, points: dict) -> tuple[float, float]:
+def _point(raw, key: str, body: str, points: dict) -> tuple[float, float]:
     if isinstance(raw, str):
         if raw not in points.get(body, {}):
             raise unknown_value(key, f"point of {body}", raw, list(points.get(body, {})) or ["(none)"])
@@ -192,7 +193,7 @@ def read_forces(raw, key: str, graph, base: Path = Path()) -> tuple[ForceElement
             if not isinstance(rp, list) or len(rp) != 2:
                 raise SceneError(f"{s.key('points')}: {describe(rp)} is not allowed (two points, one per body: a "
                                  "point name or [x, y] in m)")
-            pts = tuple(_point(s, p, f"{s.key('points')}[{k}]", b, points)
+            pts = tuple(_point(p, f"{s.key('points')}[{k}]", b, points)
                         for k, (b, p) in enumerate(zip(pair, rp, strict=True)))
         free_key = "free_angle" if rotational else "free_length"
         free = s.number(free_key, nonneg=not rotational) if s.raw(free_key) is not None else None
@@ -207,7 +208,7 @@ def read_forces(raw, key: str, graph, base: Path = Path()) -> tuple[ForceElement
 
 def _load(s: Section, name: str, bodies, points, base: Path) -> ForceElement:
     body = _body(s, "body", s.raw("body"), bodies[1:])
-    point = _point(s, s.raw("point", [0.0, 0.0]), s.key("point"), body, points)
+    point = _point(s.raw("point", [0.0, 0.0]), s.key("point"), body, points)
     frame = s.choice("frame", LOAD_FRAMES, "ground")
     table = ()
     if s.raw("table") is not None:
