@@ -182,11 +182,18 @@ class Problem:
         return np.array(out, float)
 
     @functools.cached_property
+    def controller_loads(self) -> tuple:
+        """The force elements the closed-form controller step of an n-RRR balances: the known
+        constant loads on the task body (none for a graph scene, whose references come from
+        :meth:`effort_family`)."""
+        return tuple(e for e in self.scene.forces if self.closed_form and e.type == "load" and e.known
+                     and not e.table and e.bodies[0] == self.model.task)
+
+    @property
     def platform_loads(self) -> tuple:
-        """The constant loads on the task body as the closed-form inverse dynamics takes them
-        (point, (fx, fy), tz, in_body_frame): what the n-RRR's controller and preload balance."""
-        return tuple((e.points[0], e.force, e.torque, e.frame == "body") for e in self.scene.forces
-                     if e.type == "load" and e.known and not e.table and e.bodies[0] == self.model.task)
+        """:attr:`controller_loads` as the closed-form inverse dynamics takes them: (point,
+        (fx, fy), tz, in_body_frame) each."""
+        return tuple((e.points[0], e.force, e.torque, e.frame == "body") for e in self.controller_loads)
 
     @functools.cached_property
     def element_forces(self):
@@ -233,7 +240,7 @@ class Problem:
         actuation = replace(a, kp=0.0, kd=0.0, control_rate=None, preload=preload)
         return replace(s, name="", description="", source="", path=None, integrator=None, initial=None,
                        graph=replace(_without_clearance_numbers(s.graph), actuators=actuators), effects=effects,
-                       actuation=actuation)
+                       actuation=actuation, forces=self.controller_loads)
 
     @functools.cached_property
     def plant_key(self) -> Scene:
@@ -242,7 +249,7 @@ class Problem:
         settings or the names does not rebuild them."""
         s = self.controller_key
         forces = tuple(replace(e, stiffness=1.0, damping=1.0, free_length=0.0, preload=0.0, force=(0.0, 0.0),
-                               torque=0.0) for e in s.forces)  # their numbers are inputs
+                               torque=0.0, known=True) for e in self.scene.forces)  # their numbers are inputs
         return replace(s, actuation=replace(s.actuation, preload=None, kp=0.0, kd=0.0,
                                             control_rate=None, compensation="none"), forces=forces)
 

@@ -79,6 +79,7 @@ def damped(t, x0, x_eq, m, k, c):
 
 SPRING = {"type": "spring_damper", "name": "spring", "bodies": ["ground", "mass"], "points": [[-0.4, 0.0], "tip"],
           "stiffness": 200.0, "damping": 2.0, "free_length": 0.4}
+SPRING_SCENE = parse_scene(oscillator([SPRING]))
 
 
 def test_the_registry_holds_exactly_the_vocabulary():
@@ -200,6 +201,20 @@ def test_force_numbers_are_inputs_so_scenes_differing_in_them_share_the_equation
     assert a.plant_key == b.plant_key
     assert a.equations().parametric is b.equations().parametric
     assert b.force_parameters[:2].tolist() == [300.0, 0.5]
+
+
+def test_the_controller_is_shared_unless_it_balances_the_load(paper_scene):
+    """An n-RRR's controller step depends only on the known constant loads on the platform:
+    an unknown load, or a spring, leaves it that of the scene without forces; a known load
+    makes it another (with the load folded in)."""
+    process = rrr4.load_scene(PROCESS)
+    unknown = replace(process, forces=tuple(replace(e, known=False) for e in process.forces))
+    spring = replace(process, forces=(replace(SPRING_SCENE.forces[0], bodies=("ground", "platform"),
+                                              points=((-0.3, 0.0), (0.0, 0.0))),))
+    plain = build(replace(process, forces=()))
+    assert build(unknown).controller_key == plain.controller_key == build(spring).controller_key
+    assert build(process).controller_key != plain.controller_key
+    assert build(unknown).plant_key == build(process).plant_key
 
 
 def test_the_effort_family_balances_a_process_load_closed_form_and_graph_agree():
