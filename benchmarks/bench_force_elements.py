@@ -46,7 +46,8 @@ def main() -> None:
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores; "
           f"uptime: {subprocess.run(['uptime'], capture_output=True, text=True).stdout.strip()}")
     for name, ts in times.items():
-        print(f"{name}: simulate median {np.median(ts):.3f} s over {len(ts)} repeats, ratio {np.median(ts) / base:.2f}")
+        print(f"{name}: simulate median {np.median(ts):.3f} s (min {min(ts):.3f}, max {max(ts):.3f}) over "
+              f"{len(ts)} repeats, ratio {np.median(ts) / base:.2f}")
 
 
 if __name__ == "__main__":
