@@ -30,16 +30,19 @@ import functools
 import os
 from dataclasses import replace
 
+import casadi as ca
 import numpy as np
 
 from .checks import argument, describe, unknown_value
 from .contact import V_MIN, joint_stiffness
 from .dynamics.builder import BAUMGARTE_OMEGA, EFFECT_PARAMETERS, INPUTS, Equations, build_equations, lubricated_joints
+from .dynamics.elements import element_coordinate, element_forces_function
 from .dynamics.family import EffortFamily, graph_family
 from .dynamics.inverse import inverse_dynamics_function
 from .errors import SceneError
 from .mechanism import Mechanism, Model, geometry_parameters, load_scene
 from .scene import JointSpec, Scene
+from .trajectory import trajectory_function
 
 __all__ = ["Problem", "build"]
 
@@ -162,10 +165,72 @@ class Problem:
         return np.array([*(v for row in per for v in row), *(values[k] for k in EFFECT_PARAMETERS),
                          *(v for row in films for v in row)], float)
 
+    @functools.cached_property
+    def start_coordinates(self) -> np.ndarray:
+        """q (nq,) of the ideal mechanism at t = 0: the task at the path's start, or the drivers
+        at their initial values (the pose a spring's default free length is measured in)."""
+        mech = self.mechanism
+        if self.model.task is not None:
+            target = np.array(trajectory_function(self.scene.path)(0.0)[0]).ravel()[:mech.n_task]
+        else:
+            target = mech.driver_targets(0.0)[0]
+        zero = np.zeros(len(target))
+        return np.asarray(self.body_motion(target, zero, zero)[0], float).ravel()
+
+    @functools.cached_property
+    def force_parameters(self) -> np.ndarray:
+        """The force elements' numbers the equations take as inputs, 4 per element in scene
+        order (:data:`rrr4.scene.forces.FORCE_PARAMETERS`): a spring's stiffness, damping, free
+        length or angle (its value in :attr:`start_coordinates` when the scene gives none) and
+        preload; a constant load's fx, fy, tz (a tabulated load's are zeros, its table is
+        structure). Empty without force elements."""
+        out = []
+        for e in self.scene.forces:
+            free = None
+            if e.type != "load" and e.free_length is None:
+                free = float(element_coordinate(self.model, e, ca.DM(self.start_coordinates)))
+            out += e.values(free)
+        return np.array(out, float)
+
+    @functools.cached_property
+    def controller_loads(self) -> tuple:
+        """The force elements the closed-form controller step of an n-RRR balances: the known
+        constant loads on the task body (none for a graph scene, whose references come from
+        :meth:`effort_family`)."""
+        return tuple(e for e in self.scene.forces if self.closed_form and e.type == "load" and e.known
+                     and not e.table and e.bodies[0] == self.model.task)
+
+    @property
+    def platform_loads(self) -> tuple:
+        """:attr:`controller_loads` as the closed-form inverse dynamics takes them: (point,
+        (fx, fy), tz, in_body_frame) each."""
+        return tuple((e.points[0], e.force, e.torque, e.frame == "body") for e in self.controller_loads)
+
+    @functools.cached_property
+    def element_forces(self):
+        """'force_elements' Function (q, qd, t -> Q) of the time-independent force elements
+        (spring-dampers and the known constant loads), or None without any: what the effort family
+        of a graph balances besides gravity (tabulated loads are not in the controller's model)."""
+        return self._forces_function([i for i, e in enumerate(self.scene.forces) if e.known and not e.table])
+
+    @functools.cached_property
+    def plant_forces(self):
+        """'force_elements' Function (q, qd, t -> Q) of every force element, as the plant
+        feels them (the journals' initial seats take them in), or None without any."""
+        return self._forces_function(list(range(len(self.scene.forces))))
+
+    def _forces_function(self, which: list[int]):
+        if not which:
+            return None
+        p = self.force_parameters.reshape(-1, 4)[which].ravel()
+        return element_forces_function(self.model, tuple(self.scene.forces[i] for i in which), p)
+
     def equation_parameters(self, geometry: bool = False) -> np.ndarray:
-        """The values of the equations' input ``parameters``: the contact numbers, then with
-        `geometry` masses, inertias and joint points (:func:`rrr4.mechanism.geometry_parameters`)."""
-        return np.r_[self.contact_parameters, geometry_parameters(self.scene.graph) if geometry else []]
+        """The values of the equations' input ``parameters``: the contact numbers, the force
+        elements' (:attr:`force_parameters`), then with `geometry` masses, inertias and joint
+        points (:func:`rrr4.mechanism.geometry_parameters`)."""
+        return np.r_[self.contact_parameters, self.force_parameters,
+                     geometry_parameters(self.scene.graph) if geometry else []]
 
     # ------------------------------------------------------------------ structure keys
 
@@ -186,7 +251,7 @@ class Problem:
         actuation = replace(a, kp=0.0, kd=0.0, control_rate=None, preload=preload)
         return replace(s, name="", description="", source="", path=None, integrator=None, initial=None,
                        graph=replace(_without_clearance_numbers(s.graph), actuators=actuators), effects=effects,
-                       actuation=actuation)
+                       actuation=actuation, forces=self.controller_loads)
 
     @functools.cached_property
     def plant_key(self) -> Scene:
@@ -194,8 +259,10 @@ class Problem:
         contact numbers: changing the path, the integrator, the initial state, the controller's
         settings or the names does not rebuild them."""
         s = self.controller_key
+        forces = tuple(replace(e, stiffness=1.0, damping=1.0, free_length=0.0, preload=0.0, force=(0.0, 0.0),
+                               torque=0.0, known=True) for e in self.scene.forces)  # their numbers are inputs
         return replace(s, actuation=replace(s.actuation, preload=None, kp=0.0, kd=0.0,
-                                            control_rate=None, compensation="none"))
+                                            control_rate=None, compensation="none"), forces=forces)
 
     @functools.cached_property
     def geometry_key(self) -> Scene:
@@ -215,7 +282,7 @@ class Problem:
         actuation, effects, integrator or initial state."""
         s = self.scene
         return replace(s, name="", description="", source="", integrator=None, initial=None, actuation=None,
-                       effects=None)
+                       effects=None, forces=())
 
     @functools.cached_property
     def preload_key(self) -> Scene:
@@ -262,18 +329,23 @@ class Problem:
         key = self.structure("geometry" if geometry else "plant")
         return self.memo(("equations", v_min, baumgarte, inputs), lambda: build_equations(
             key.model, key.scene.effects, key.mode, self.equation_parameters(geometry), v_min=v_min,
-            baumgarte=baumgarte, inputs=inputs))
+            baumgarte=baumgarte, inputs=inputs, forces=key.scene.forces))
 
     def inverse_dynamics(self, gravity=None):
         """The n-RRR's closed-form 'inverse_dynamics' Function (pose, pose_d, pose_dd ->
-        tau_p, tau_n, r_p, r_n) with the scene's gravity (or `gravity` (2,) [m/s^2])."""
-        return inverse_dynamics_function(self.mechanism, self.gravity if gravity is None else gravity)
+        tau_p, tau_n, r_p, r_n) with the scene's gravity and constant loads on the platform
+        (:attr:`platform_loads`), or with `gravity` (2,) [m/s^2] and no loads (the inertial part)."""
+        if gravity is None:
+            return inverse_dynamics_function(self.mechanism, self.gravity, self.platform_loads)
+        return inverse_dynamics_function(self.mechanism, gravity)
 
     def effort_family(self, pose, pose_d, pose_dd, q=None, gravity=None) -> EffortFamily:
         """The affine family of efforts and passive-joint reactions of the ideal mechanism at
         task poses (N, 3) and their rates: the closed form of an n-RRR, else the graph's SVD
         (q: the graph's coordinates at the poses, if known). gravity (2,) [m/s^2]: default
-        the scene's."""
+        the scene's, with the force elements the controller knows (an n-RRR: constant loads on
+        the platform; a graph: spring-dampers and constant loads, :attr:`element_forces`);
+        a given gravity means the inertial part with that gravity and no force elements."""
         pose, pose_d, pose_dd = (np.atleast_2d(np.asarray(v, float)) for v in (pose, pose_d, pose_dd))
         if self.closed_form:
             N = pose.shape[0]
@@ -281,8 +353,11 @@ class Problem:
         mech = self.mechanism
         k = mech.n_task
         q = mech.path_coordinates(pose[:, :k]) if q is None else np.asarray(q, float)
-        _, qdd, _, _ = mech.motion(q, pose_d[:, :k], pose_dd[:, :k])
-        return graph_family(mech, q, qdd, self.gravity if gravity is None else gravity)
+        qd, qdd, _, _ = mech.motion(q, pose_d[:, :k], pose_dd[:, :k])
+        external = None
+        if gravity is None and self.element_forces is not None:
+            external = np.array(self.element_forces.map(q.shape[0])(q.T, np.asarray(qd).T, 0.0)).T
+        return graph_family(mech, q, qdd, self.gravity if gravity is None else gravity, external)
 
     def path_coordinates(self, pose, pose_d, pose_dd) -> np.ndarray:
         """q (N, nq) of every body with the task at poses (N, 3) (rates (N, 3) for the closed

@@ -51,7 +51,13 @@ max(delta_dot, v_min) for a joint not yet flagged in contact, i.e. chi at onset.
 So delta_dot0 >= v_min > 0 always, and the force stays finite for grazing contact.
 A loss is a transition contact -> free flight.
 
-``energy``: q, qd -> kinetic [J], potential [J] = sum K delta^(n+1)/(n+1) + gravity.
+``energy``: q, qd -> kinetic [J], potential [J] = sum K delta^(n+1)/(n+1) + gravity + the
+force elements' springs.
+
+Force elements (``Scene.forces``, :mod:`rrr4.dynamics.elements`) exist only when the scene
+has them: their generalised forces join Q, their springs' energy the potential, their
+dampers' power ``power_damping`` and their loads' power ``power_in`` (the work done on the
+mechanism from outside); their numbers follow the contact numbers in ``parameters``.
 
 ``actuator_coordinates``: q -> s (n,) [rad or m], S = ds/dq.
 
@@ -94,6 +100,7 @@ from ..functions import fix_last_input
 from ..mechanism.model import Model, geometry_parameters
 from ..mechanism.tree import tree_map
 from ..scene import Effects
+from .elements import N_PARAMETERS, force_terms
 
 __all__ = ["Equations", "build_equations", "INPUTS", "lubricated_joints",
            "BAUMGARTE_OMEGA", "JOINT_PARAMETERS", "EFFECT_PARAMETERS", "LUBRICATION_PARAMETERS"]
@@ -153,7 +160,7 @@ def lubricated_joints(model: Model, effects: Effects) -> tuple:
 
 
 def build_equations(model: Model, effects: Effects, mode: str, parameters, v_min: float = V_MIN,
-                    baumgarte: float = BAUMGARTE_OMEGA, inputs: str = "contact") -> Equations:
+                    baumgarte: float = BAUMGARTE_OMEGA, inputs: str = "contact", forces: tuple = ()) -> Equations:
     """The equations of the structure (model, effects, actuation mode) with their input
     ``parameters`` fixed to `parameters` (``Problem.equation_parameters``); use
     :meth:`rrr4.problem.Problem.equations`, which passes its structure keys.
@@ -163,14 +170,15 @@ def build_equations(model: Model, effects: Effects, mode: str, parameters, v_min
     ``parameters``: 'contact' (default) or 'geometry' (the contact numbers, masses, inertias
     and joint points; about 20 % more instructions, since zeros and ones in the geometry no
     longer simplify, for sweeps over the mechanism). The parametric equations are built once
-    per structure and options. Raises SceneError if the actuation mode over-constrains the
-    mechanism.
+    per structure and options. forces: the scene's force elements (:mod:`rrr4.dynamics.elements`;
+    their numbers follow the contact numbers in ``parameters``). Raises SceneError if the
+    actuation mode over-constrains the mechanism.
     """
     v_min = argument("v_min", v_min)
     baumgarte = argument("baumgarte", baumgarte, allow_zero=True)
     if inputs not in INPUTS:
         raise unknown_value("inputs", "value", inputs, INPUTS)
-    par = _parametric(model, effects, mode, float(v_min), float(baumgarte), inputs == "geometry")
+    par = _parametric(model, effects, mode, float(v_min), float(baumgarte), inputs == "geometry", tuple(forces))
     p = np.asarray(parameters, float)
     nc = len(par.clearance_joints)
     k = len(JOINT_PARAMETERS)
@@ -182,7 +190,8 @@ def build_equations(model: Model, effects: Effects, mode: str, parameters, v_min
 
 
 @functools.lru_cache(maxsize=16)
-def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: float, geometry: bool) -> Equations:
+def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: float, geometry: bool,
+                forces: tuple = ()) -> Equations:
     """The equations of a structure (``Problem.plant_key``, or with `geometry`
     ``Problem.geometry_key``), every Function with the input ``parameters`` last."""
     graph = model.graph
@@ -206,8 +215,9 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
     films = dict(lubricated_joints(model, effects))
     nk0 = (len(JOINT_PARAMETERS) * nc + len(EFFECT_PARAMETERS)) if nc else 0
     nk = nk0 + len(LUBRICATION_PARAMETERS) * len(films)
-    P = ca.SX.sym("parameters", nk + (geometry_parameters(graph).size if geometry else 0))
-    G = P[nk:] if geometry else None  # masses, inertias, joint points (else constants)
+    nf = N_PARAMETERS * len(forces)
+    P = ca.SX.sym("parameters", nk + nf + (geometry_parameters(graph).size if geometry else 0))
+    G = P[nk + nf:] if geometry else None  # masses, inertias, joint points (else constants)
     m_diag = model.masses(G)[0]
     theta = ca.vertcat(*[model.joint_coordinate(q, a.joint, G) for a in graph.actuators]) if n else ca.SX(0, 1)
     S = ca.jacobian(theta, q)
@@ -286,6 +296,13 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
 
     contact_force, ecc = stack("f", 2), stack("e", 2)
     p_damp += p_film
+    # ---- force elements: spring-dampers and loads, only when the scene has them
+    elements = force_terms(model, forces, q, qd, t, P[nk:nk + nf])
+    if forces:
+        Q = Q + elements.Q
+        V_contact += elements.potential
+        p_damp += elements.power_damping
+        terms.append("force elements " + " ".join(f"{e.name} ({e.type})" for e in forces))
     fn_v, ft_v, delta_v, dd_v = (ca.vertcat(*cols[k]) if nc else ca.SX(0, 1)
                                  for k in ("fn", "ft", "delta", "delta_dot"))
 
@@ -322,6 +339,8 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
     driver_effort = -drv
     if nd:
         power_in = power_in + ca.dot(driver_effort, phi_q[2 * len(ideal):2 * len(ideal) + nd, :] @ qd)
+    if forces:
+        power_in = power_in + elements.power_load
 
     # ca.cse merges repeated subexpressions (each body's sin/cos is built once per joint point
     # otherwise): about 11 % fewer instructions on the reference scene.
@@ -381,6 +400,8 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
         if nd:
             k = 2 * len(tree.closures)
             power_t += ca.dot(-lam_t[k:k + nd], on_tree(phi_q[2 * len(ideal):2 * len(ideal) + nd, :] @ qd))
+        if forces:
+            power_t += on_tree(elements.power_load)
         coordinate = ca.substitute(tree.coordinate, tree.q_symbols, q)
         tree_fns = (
             ca.Function("tree_acceleration", [p, pd, *refs[2:], P],

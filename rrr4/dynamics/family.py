@@ -57,9 +57,11 @@ class EffortFamily:
                             rn.reshape(2, N, m, nj).transpose(1, 3, 0, 2))
 
 
-def graph_family(mech: Mechanism, q: np.ndarray, qdd: np.ndarray, gravity) -> EffortFamily:
+def graph_family(mech: Mechanism, q: np.ndarray, qdd: np.ndarray, gravity, external=None) -> EffortFamily:
     """The family of any graph from q, qdd (N, nq) of its ideal motion (all joints closed).
-    Without a task body the drivers' reactions join the joints' (their rows follow)."""
+    Without a task body the drivers' reactions join the joints' (their rows follow).
+    external (N, nq) [N, N m]: generalised forces of the force elements at the samples
+    (``Problem.element_forces``), balanced by the efforts and reactions like gravity."""
     model: Model = mech.model
     N, nq = q.shape
     n, m = model.n_actuators, model.redundancy
@@ -69,6 +71,8 @@ def graph_family(mech: Mechanism, q: np.ndarray, qdd: np.ndarray, gravity) -> Ef
     Phi_q = Phi_q[:, :rows]
     A = np.concatenate([Phi_q.transpose(0, 2, 1), -S.transpose(0, 2, 1)], axis=2)   # (N, nq, rows + n)
     b = model.gravity_forces(gravity)[None, :] - qdd * model.mass_diagonal[None, :]
+    if external is not None:
+        b = b + np.asarray(external, float)
     _, sv, Vt = np.linalg.svd(A)
     x0 = np.einsum("kij,kj->ki", np.linalg.pinv(A), b)
     Nsp = Vt[:, Vt.shape[1] - m:, :].transpose(0, 2, 1) if m else np.zeros((N, rows + n, 0))   # (N, rows + n, m)

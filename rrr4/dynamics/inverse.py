@@ -64,8 +64,20 @@ def actuator_motion_function(mech: Mechanism) -> ca.Function:
     return _actuator_motion(mech)
 
 
+def _platform_wrench(loads, pose):
+    """Force (2,) [N] and moment about the platform's centre [N m] of constant loads
+    (point, (fx, fy), tz, in_body_frame) on it."""
+    f, m = ca.SX.zeros(2), ca.SX(0)
+    R = ca.vertcat(ca.horzcat(ca.cos(pose[2]), -ca.sin(pose[2])), ca.horzcat(ca.sin(pose[2]), ca.cos(pose[2])))
+    for point, force, torque, body in loads:
+        fi = R @ ca.DM(force) if body else ca.DM(force)
+        f += fi
+        m += kin.cross(R @ ca.DM(point), fi) + torque
+    return f, m
+
+
 @functools.cache
-def _build(mech: Mechanism, gravity: tuple[float, float]) -> ca.Function:
+def _build(mech: Mechanism, gravity: tuple[float, float], loads: tuple = ()) -> ca.Function:
     data, n = mech.data, mech.n
     pose, pose_d, pose_dd = (ca.SX.sym(s, 3) for s in ("pose", "pose_d", "pose_dd"))
     g = ca.DM(gravity)
@@ -103,7 +115,8 @@ def _build(mech: Mechanism, gravity: tuple[float, float]) -> ca.Function:
     # platform Newton-Euler with the axial parts s_i of r_C as unknowns: W s = w0
     sum_f = sum(rC_fixed[1:], rC_fixed[0])
     sum_m = sum(kin.cross(Co[i], rC_fixed[i]) for i in range(n))
-    w0 = ca.vertcat(data.platform.mass * (ao[0:2] - g) - sum_f, data.platform.inertia * ao[2] - sum_m)
+    f_ext, m_ext = _platform_wrench(loads, pose)
+    w0 = ca.vertcat(data.platform.mass * (ao[0:2] - g) - sum_f - f_ext, data.platform.inertia * ao[2] - sum_m - m_ext)
     W = ca.horzcat(*[ca.vertcat(e[i], kin.cross(Co[i], e[i])) for i in range(n)])
     JT = W @ ca.diag(inv_T)  # = J^T
     tau_p = JT.T @ ca.solve(JT @ JT.T, w0 + JT @ t0)
@@ -134,22 +147,24 @@ def _build(mech: Mechanism, gravity: tuple[float, float]) -> ca.Function:
                        ["pose", "pose_d", "pose_dd"], ["tau_p", "tau_n", "r_p", "r_n", "transmission", "J"])
 
 
-def joint_reactions_function(mech: Mechanism, gravity=(0.0, 0.0)) -> ca.Function:
+def joint_reactions_function(mech: Mechanism, gravity=(0.0, 0.0), loads: tuple = ()) -> ca.Function:
     """SX Function 'joint_reactions': pose (3), pose_d (3), pose_dd (3) ->
     tau_p (n,) [N m], tau_n (n, n-3), r_p (2, 3n) [N], r_n (2, 3n (n-3)) [N],
     transmission (n,) [m] = (B_i - A_i) x e_i (0 at a serial singularity), J (n, 3): the
     Jacobian d theta = J d pose (from the same expressions, no angles).
 
     Reactions of all 3n ideal joints A1..An, B1..Bn, C1..Cn; column j + 3n k of r_n
-    belongs to null-space direction k. gravity (2,) [m/s^2] (``Problem.gravity``).
+    belongs to null-space direction k. gravity (2,) [m/s^2] (``Problem.gravity``); loads:
+    constant loads on the platform, ((x, y) [m] platform frame, (fx, fy) [N], tz [N m],
+    in_body_frame), as ``Problem.platform_loads``.
     """
-    return _build(mech, tuple(float(v) for v in gravity))
+    return _build(mech, tuple(float(v) for v in gravity), tuple(loads))
 
 
 @functools.cache
-def _passive(mech: Mechanism, gravity: tuple[float, float]) -> ca.Function:
+def _passive(mech: Mechanism, gravity: tuple[float, float], loads: tuple = ()) -> ca.Function:
     n = mech.n
-    f = _build(mech, gravity)
+    f = _build(mech, gravity, loads)
     pose, pose_d, pose_dd = (ca.SX.sym(s, 3) for s in ("pose", "pose_d", "pose_dd"))
     tau_p, tau_n, r_p, r_n = f(pose, pose_d, pose_dd)[:4]
     m = tau_n.shape[1]
@@ -159,7 +174,7 @@ def _passive(mech: Mechanism, gravity: tuple[float, float]) -> ca.Function:
                        ["pose", "pose_d", "pose_dd"], ["tau_p", "tau_n", "r_p", "r_n"])
 
 
-def inverse_dynamics_function(mech: Mechanism, gravity=(0.0, 0.0)) -> ca.Function:
+def inverse_dynamics_function(mech: Mechanism, gravity=(0.0, 0.0), loads: tuple = ()) -> ca.Function:
     """SX Function 'inverse_dynamics': pose (3) [m, m, rad], pose_d (3), pose_dd (3) ->
     tau_p (n,) [N m], tau_n (n, n-3), r_p (2, 2n) [N], r_n (2, 2n (n-3)) [N].
 
@@ -167,7 +182,9 @@ def inverse_dynamics_function(mech: Mechanism, gravity=(0.0, 0.0)) -> ca.Functio
     null-space direction k. For the 4-RRR: tau = tau_p + alpha tau_n and
     r_j = r_p[:, j] + alpha r_n[:, j], with tau_n = ``Mechanism.null_space(pose)``.
     r_j is the force the inboard body exerts on the outboard body (= -lambda_j).
-    gravity (2,) [m/s^2] (``Problem.gravity``; ``Problem.inverse_dynamics`` passes it).
-    Built once per (mechanism, gravity) and cached.
+    gravity (2,) [m/s^2] (``Problem.gravity``; ``Problem.inverse_dynamics`` passes it);
+    loads: the constant loads on the platform (as :func:`joint_reactions_function`; a
+    process load on the tool), which the efforts must balance. Built once per (mechanism,
+    gravity, loads) and cached.
     """
-    return _passive(mech, tuple(float(v) for v in gravity))
+    return _passive(mech, tuple(float(v) for v in gravity), tuple(loads))

@@ -1,13 +1,14 @@
 """Scenes: the YAML schema as frozen dataclasses (:mod:`.schema`), its reader and validation
 (:mod:`.reader`, :mod:`.fields`), the vocabulary of allowed names (:mod:`.vocabulary`), the
-n-RRR expansion into a graph (:mod:`.nrrr`), dotted key paths (:mod:`.keys`) and tabulated
-time laws (:mod:`.time_table`).
+n-RRR expansion into a graph (:mod:`.nrrr`), dotted key paths (:mod:`.keys`), tabulated
+time laws (:mod:`.time_table`) and force elements (:mod:`.forces`).
 
 Imports nothing of the package but :mod:`rrr4.errors` and :mod:`rrr4.checks`.
 """
 
 from ..errors import SceneError
 from .fields import MAX_SAMPLES
+from .forces import LOAD_TABLE_COLUMNS, ForceElement, read_load_table
 from .keys import get_key, key_steps, set_key
 from .nrrr import bare_nrrr_graph, expand_nrrr
 from .reader import MAX_BYTES, MAX_DEPTH, MAX_NODES, load_yaml, parse_scene, read_scene, read_yaml
@@ -46,5 +47,6 @@ __all__ = [
     "read_scene", "parse_scene", "read_yaml", "load_yaml",
     "expand_nrrr", "bare_nrrr_graph", "get_key", "set_key", "key_steps",
     "MAX_SAMPLES", "MAX_BYTES", "MAX_DEPTH", "MAX_NODES",
+    "ForceElement", "LOAD_TABLE_COLUMNS", "read_load_table",
     "TIME_TABLE_COLUMNS", "check_time_table", "read_time_table", "time_table_text",
 ]

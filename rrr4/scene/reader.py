@@ -18,6 +18,7 @@ from ..checks import describe, unknown_value
 from ..errors import SceneError
 from .assembly import read_assembly
 from .fields import MAX_SAMPLES, Section
+from .forces import read_forces
 from .lubrication import read_lubrication
 from .nrrr import expand_nrrr
 from .schema import (
@@ -569,6 +570,7 @@ def parse_scene(data, name: str = "scene", source: str = "") -> Scene:
         path=_path(top.section("path"), graph.task is not None, Path(source).parent if source else Path()),
         initial=_initial(top.section("initial")),
         integrator=_integrator(top.section("integrator")),
+        forces=read_forces(top.raw("forces"), "forces", graph, Path(source).parent if source else Path()),
         source=source,
     )
     top.done()

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field, replace
 
 from ..checks import argument, describe
 from ..errors import SceneError
+from .forces import ForceElement
 from .time_table import check_time_table
 from .vocabulary import GROUND
 
@@ -301,6 +302,7 @@ class Scene:
     path: PathSpec
     initial: Initial
     integrator: IntegratorSettings
+    forces: tuple[ForceElement, ...] = ()  # spring-dampers and loads (rrr4.scene.forces); () for none
     source: str = field(default="", compare=False)
 
     @property

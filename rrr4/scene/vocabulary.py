@@ -10,7 +10,7 @@ from __future__ import annotations
 
 __all__ = ["MECHANISM_KINDS", "JOINT_TYPES", "PATH_TYPES", "TIME_LAWS", "ACTUATION_MODES", "CONTACT_LAWS",
            "FRICTION_LAWS", "LUBRICATION_LAWS", "ASSEMBLY_MEASURES", "CONTACT_LAW_KEYS", "FRICTION_LAW_KEYS",
-           "LUBRICATION_LAW_KEYS", "INTEGRATORS", "ERROR_CONTROLLED", "NEWTON",
+           "LUBRICATION_LAW_KEYS", "FORCE_ELEMENTS", "LOAD_FRAMES", "INTEGRATORS", "ERROR_CONTROLLED", "NEWTON",
            "COORDINATES", "PRELOAD_METHODS", "COMPENSATIONS", "QP_SOLVERS", "JOURNAL_STARTS", "OBJECTIVES", "MATERIALS",
            "GROUND", "choices", "registry"]
 
@@ -45,6 +45,8 @@ LUBRICATION_LAW_KEYS = {
     "none": (),
     **{law: ("viscosity", "length", "threshold") for law in LUBRICATION_LAWS},
 }
+FORCE_ELEMENTS = ("spring_damper", "rotational_spring_damper", "load")  # forces[].type
+LOAD_FRAMES = ("ground", "body")  # forces[].frame of a load: the frame its force components are given in
 INTEGRATORS = ("bathe", "newmark", "generalized-alpha", "rk4", "erk", "rosenbrock", "cvodes", "idas", "rk45",
                "radau")
 ERROR_CONTROLLED = ("bathe", "newmark", "generalized-alpha")  # the methods integrator.tolerance applies to
@@ -75,6 +77,7 @@ _CHOICES = {
     "preload method": ("none", *PRELOAD_METHODS),
     "compensation": COMPENSATIONS,
     "qp solver": QP_SOLVERS,
+    "force element": FORCE_ELEMENTS,
 }
 
 
@@ -90,5 +93,5 @@ def registry(names: tuple[str, ...], implementations: dict) -> dict:
 
 def choices(what: str) -> tuple[str, ...]:
     """The allowed names of a scene setting: 'contact law', 'friction law', 'lubrication law', 'integrator',
-    'error control', 'coordinates', 'newton', 'preload method', 'compensation' or 'qp solver'."""
+    'error control', 'coordinates', 'newton', 'preload method', 'compensation', 'qp solver' or 'force element'."""
     return _CHOICES[what]

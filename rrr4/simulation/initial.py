@@ -20,9 +20,12 @@ __all__ = ["initial_state", "seated_offsets"]
 def seated_offsets(problem: Problem, eqs: Equations, q0, qdd0, tau0) -> np.ndarray:
     """Offsets (nc, 2) [m] (second joint point - first) of the clearance joints with each
     journal seated (:func:`rrr4.contact.seat_gap`, no friction) under the ideal reaction r_j
-    at the state (q0, qdd0) of the efforts tau0 (n,); joints carrying less than
+    at the state (q0, qdd0) of the efforts tau0 (n,) and the scene's force elements at t = 0
+    (dampers at rest); joints carrying less than
     ``SEAT_FORCE`` stay centred."""
-    fam = graph_family(problem.mechanism, np.atleast_2d(q0), np.atleast_2d(qdd0), problem.gravity)
+    loads = problem.plant_forces  # the force elements at t = 0 (the ideal motion's qd, 0 here, is not known)
+    external = None if loads is None else np.array(loads(q0, np.zeros_like(q0), 0.0)).T
+    fam = graph_family(problem.mechanism, np.atleast_2d(q0), np.atleast_2d(qdd0), problem.gravity, external)
     tau_n = fam.tau_n[0]
     alpha = np.linalg.pinv(tau_n) @ (tau0 - fam.tau_p[0]) if tau_n.size else np.zeros(0)
     r = fam.r_p[0] + (fam.r_n[0] @ alpha if alpha.size else 0.0)
