@@ -436,20 +436,23 @@ def test_a_driven_sweep_row_is_what_rrr4_run_reports_for_the_same_case():
         assert want and {k: row[k] for k in want} == want, row["arm"]
 
 
-def test_a_scene_with_a_time_table_sweeps_with_its_rows_carried_in_each_case(tmp_path):
-    """The cases carry the table's rows (path.time_table as a list), so a worker in any
-    directory, or on another machine, reads no file; the rows equal the CSV's."""
+def test_a_scene_with_tables_sweeps_with_their_rows_carried_in_each_case(tmp_path):
+    """The cases carry the tables' rows (path.time_table and a load's table as lists), so a
+    worker in any directory, or on another machine, reads no file; the rows equal the CSVs'."""
     from rrr4.scene.time_table import read_time_table
     from rrr4.studies.sweeps import run_case
     law = ROOT / "results" / "paper_circle_optimal" / "time_law.csv"
     data = yaml.safe_load((ROOT / "problems" / "paper_circle.yaml").read_text())
     data["path"].update(time_law="table", time_table="law.csv")
     del data["path"]["duration"]
+    data["forces"] = [{"type": "load", "body": "platform", "table": "cut.csv"}]
     (tmp_path / "law.csv").write_bytes(law.read_bytes())
+    (tmp_path / "cut.csv").write_text("t,fx,fy,tz\n0,0,0,0\n0.005,-1.5,0.5,0.01\n")
     (tmp_path / "tabled.yaml").write_text(yaml.safe_dump(data))
     spec = parse_spec({"scene": str(tmp_path / "tabled.yaml"), "t_end": 0.01, "arms": ["with_preload"],
                        "grid": {"joints.radial_clearance": [1e-4]}})
     scene, text = case_scene(spec.base, spec.scene_path, spec.cases[0])
     assert scene.path.time_table == read_time_table(law)
+    assert scene.forces[0].table == ((0.0, 0.0, 0.0, 0.0), (0.005, -1.5, 0.5, 0.01))
     rows, _, _ = run_case(text, "tabled", spec.t_end, spec.arms)  # from the test's directory, not the scene's
     assert rows[0]["status"] == "ok", rows

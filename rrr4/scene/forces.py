@@ -33,7 +33,8 @@ from ..errors import SceneError
 from .fields import MAX_MAGNITUDE, Section
 from .vocabulary import FORCE_ELEMENTS, GROUND, LOAD_FRAMES
 
-__all__ = ["ForceElement", "read_forces", "read_load_table", "LOAD_TABLE_COLUMNS", "FORCE_PARAMETERS"]
+__all__ = ["ForceElement", "read_forces", "read_load_table", "check_load_table", "LOAD_TABLE_COLUMNS",
+           "FORCE_PARAMETERS"]
 
 LOAD_TABLE_COLUMNS = ("t", "fx", "fy", "tz")
 MAX_LOAD_ROWS = 100_000
@@ -120,23 +121,32 @@ def read_load_table(path, key: str) -> tuple[tuple[float, float, float, float], 
                     raise SceneError(f"{key}: {p.name!r} has more than {MAX_LOAD_ROWS} rows (not allowed)")
     except (UnicodeDecodeError, csv.Error, OSError) as e:
         raise SceneError(f"{key}: {p.name!r} is not a readable CSV ({type(e).__name__})") from None
+    return check_load_table(raw, f"{key}: {p.name!r}")
+
+
+def check_load_table(raw, where: str) -> tuple[tuple[float, float, float, float], ...]:
+    """The rows (t, fx, fy, tz) of `raw` (a list of 4 numbers, or of their text) checked as
+    :func:`read_load_table` says; SceneError starting with `where` (the key, and the file)."""
+    if not isinstance(raw, (list, tuple)) or len(raw) > MAX_LOAD_ROWS:
+        raise SceneError(f"{where}: {describe(raw)} is not allowed (at most {MAX_LOAD_ROWS} rows t, fx, fy, tz)")
     rows = []
     for k, r in enumerate(raw):
         try:
+            if isinstance(r, (str, bytes)) or len(r) != 4:
+                raise TypeError
             v = tuple(float(x) for x in r)
         except (TypeError, ValueError):
-            raise SceneError(f"{key}: {p.name!r} row {k}: {describe(r)} is not allowed (four numbers t,fx,fy,tz)")\
-                from None
+            raise SceneError(f"{where} row {k}: {describe(r)} is not allowed (four numbers t,fx,fy,tz)") from None
         if not all(math.isfinite(x) and abs(x) <= MAX_MAGNITUDE for x in v):
-            raise SceneError(f"{key}: {p.name!r} row {k}: {describe(r)} is not allowed (finite numbers, "
+            raise SceneError(f"{where} row {k}: {describe(r)} is not allowed (finite numbers, "
                              f"|value| <= {MAX_MAGNITUDE:g})")
         if rows and not v[0] > rows[-1][0]:
-            raise SceneError(f"{key}: {p.name!r} row {k}: t = {v[0]:g} s is not allowed (t must increase)")
+            raise SceneError(f"{where} row {k}: t = {v[0]:g} s is not allowed (t must increase)")
         rows.append(v)
     if len(rows) < 2:
-        raise SceneError(f"{key}: {p.name!r} has {len(rows)} rows (at least 2 are required)")
+        raise SceneError(f"{where} has {len(rows)} rows (at least 2 are required)")
     if rows[0][0] < 0:
-        raise SceneError(f"{key}: {p.name!r} starts at t = {rows[0][0]:g} s (not allowed: t >= 0)")
+        raise SceneError(f"{where} starts at t = {rows[0][0]:g} s (not allowed: t >= 0)")
     return tuple(rows)
 
 
@@ -215,7 +225,9 @@ def _load(s: Section, name: str, bodies, points, base: Path) -> ForceElement:
         for k in ("force", "torque"):
             if s.has(k):
                 raise SceneError(f"{s.key(k)}: not allowed with table (the table gives fx, fy and tz)")
-        table = read_load_table(base / s.string("table"), s.key("table"))
+        rows = s.raw("table")  # a file, or its rows themselves (a sweep's cases carry them so)
+        table = (check_load_table(rows, s.key("table")) if isinstance(rows, list) else
+                 read_load_table(base / s.string("table"), s.key("table")))
         force, torque = (0.0, 0.0), 0.0
     else:
         if not (s.has("force") or s.has("torque")):

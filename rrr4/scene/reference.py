@@ -36,6 +36,12 @@ PROBES = {
                                  "lubrication": {"law": "short-bearing", "viscosity": 0.04, "length": 0.02}}},
         {"path.type": "waypoints", "path.points": [[0.25, 0.25, 0.0], [0.26, 0.25, 0.0]]},
         {"path.type": "line", "path.start": [0.25, 0.25, 0.0], "path.end": [0.26, 0.25, 0.0]},
+        {"forces": [{"type": "spring_damper", "name": "s", "bodies": ["ground", "platform"],
+                     "points": [[-0.3, 0.0], [0.0, 0.0]], "stiffness": 500.0, "damping": 2.0, "free_length": 0.3,
+                     "preload": 1.0},
+                    {"type": "rotational_spring_damper", "joint": "B1", "stiffness": 0.5, "damping": 0.01,
+                     "free_angle": 0.1, "preload": 0.0},
+                    {"type": "rotational_spring_damper", "bodies": ["driving_1", "following_1"], "stiffness": 0.5}]},
         {"actuation.control_rate": 1000.0, "integrator.tolerance": 1e-7,
          "joints.journal_material": {"name": "custom", "youngs_modulus": 2e11, "poisson_ratio": 0.3},
          "mechanism.chains[0].driving_link": {"length": 0.25, "mass": 0.4, "inertia": 0.002}},
@@ -60,7 +66,7 @@ def seed_scenes() -> list[Path]:
 
 def _normal(key: str) -> str:
     key = re.sub(r"\[\d+\]", "[]", key)
-    key = re.sub(r"\[\]\.p$", "[]", key)  # a list item read through a one-key wrapper
+    key = re.sub(r"\.p$", "", key)  # a list item or point read through a one-key wrapper
     for pattern, name in _NAMED:
         key = pattern.sub(name, key)
     return key
