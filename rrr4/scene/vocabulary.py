@@ -45,7 +45,7 @@ LUBRICATION_LAW_KEYS = {
     "none": (),
     **{law: ("viscosity", "length", "threshold") for law in LUBRICATION_LAWS},
 }
-INTEGRATORS = ("bathe", "newmark", "generalized-alpha", "rk4", "erk", "rosenbrock", "cvodes", "idas", "rk45",
+INTEGRATORS = ("bathe", "newmark", "generalized-alpha", "ros2", "rk4", "erk", "rosenbrock", "cvodes", "idas", "rk45",
                "radau")
 ERROR_CONTROLLED = ("bathe", "newmark", "generalized-alpha")  # the methods integrator.tolerance applies to
 NEWTON = ("simplified", "full")  # integrator.newton of the implicit methods
