@@ -14,7 +14,8 @@ max platform-position error against RK4 at 1e-6 s of the same physics and contro
 stepping time, RTF, and Jacobians per step. Next to them the physical floor: one controller
 step plus one held-effort right-hand side per control period, each timed compiled in a
 chain of K dependent calls on a state and references of the run (as benchmarks/bench_rhs.py
-does), medians of repeats.
+does), medians of repeats. Then ROS2 where journals fly (the scene without preload, 0.08 s):
+error and contact losses against RK4 at 1e-6 s, with Bathe for scale.
 
     python benchmarks/bench_default.py [SCENE] [--repeat 3] [--work-precision]
 """
@@ -126,11 +127,32 @@ def work_precision(scene, repeat: int) -> None:
           f"(compiled chains of 2000, medians of 21) = RTF {floor_rtf:.0f}")
 
 
+def impacts(repeat: int) -> None:
+    """ROS2 where journals fly: 0.08 s of problems/no_preload_circle.yaml (journals centred, no
+    preload), error against RK4 at 1e-6 s and contact losses, against Bathe at 1e-4 s."""
+    scene = rrr4.load_scene(ROOT / "problems" / "no_preload_circle.yaml")
+    t_end = 0.08
+    ref = rrr4.simulate(scene, "rk4", step=1e-6, t_end=t_end)
+    runs = {"bathe at 1e-4 s": ("bathe", 1e-4), "ros2 at 1e-4 s": (Ros2(jit=True), 1e-4),
+            "ros2 at 1e-4 s, refine 4": (Ros2(jit=True, refine=4), 1e-4), "ros2 at 2.5e-5 s": (Ros2(jit=True), 2.5e-5)}
+    print(f"\nimpacts: {scene.name}, {t_end:g} s; error against RK4 at 1e-6 s "
+          f"({sum(ref.contact_loss_events.values())} contact losses)")
+    print("| run | error [m] | contact losses | stepping [s] |")
+    print("|---|---|---|---|")
+    for k, (method, step) in runs.items():
+        rrr4.simulate(scene, method, step=step, t_end=t_end)  # warm-up: build and compile
+        sims = [rrr4.simulate(scene, method, step=step, t_end=t_end) for _ in range(repeat)]
+        e = float(np.max(np.linalg.norm(sims[-1].pose[:, :2] - ref.pose[:, :2], axis=1)))
+        print(f"| {k} | {e:.2e} | {sum(sims[-1].contact_loss_events.values())} | "
+              f"{np.median([s.stats['wall_time'] for s in sims]):.4f} |")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("scene", nargs="?", default=str(ROOT / "problems" / "paper_circle.yaml"))
     ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--work-precision", action="store_true", help="the default's candidates and the floor")
+    ap.add_argument("--work-precision", action="store_true",
+                    help="the default's candidates, the floor, and ROS2 on impacts")
     args = ap.parse_args(argv)
     os.environ.pop("RRR4_JIT", None)
     scene = rrr4.load_scene(args.scene)
@@ -153,6 +175,7 @@ def main(argv=None) -> int:
     print(f"  default / virtual machine speed: {med['virtual machine (jit=False)'] / med['default']:.1f}x")
     if args.work_precision:
         work_precision(scene, args.repeat)
+        impacts(args.repeat)
     return 0
 
 
