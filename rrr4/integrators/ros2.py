@@ -50,7 +50,7 @@ __all__ = ["Ros2", "GAMMA", "HOLD"]
 
 GAMMA = 1 + 1 / np.sqrt(2)  # L-stable choice
 # steps one Jacobian is held at most: on the reference scene at 1e-4 s, 5 costs 0.6 of a new Jacobian every
-# step for 1.5 x its error; 20 or more, 5 x its error; 1000 blows up (benchmarks/bench_default.py)
+# step for 1.5 x its error; 20 to 100, 6-7 x its error; 1000 blows up (benchmarks/bench_default.py)
 HOLD = 5
 EXTRA = ("jacobians", "age", "matrix_step", "renew")  # state entries after [t, y, z], before A_q and the factors
 
@@ -150,7 +150,7 @@ class Ros2(FixedStepIntegrator):
         kept = ca.Function("event_free", ins1, [*ins1[5:], ins[4], ca.MX(0)])
         y1, z1, changed, m, again = ca.Function.if_else("event_switch", redo, kept)(changed, t, y, z, u, m, y1, z1,
                                                                                     changed)
-        x1 = ca.vertcat(t + h, y1, z1, jacobians + stale + again, ca.if_else(stale, 1, age + 1),
+        x1 = ca.vertcat(t + h, y1, z1, jacobians + stale + again, ca.if_else(ca.logic_or(stale, again), 1, age + 1),
                         ca.if_else(stale, c, matrix_step), changed, m)
         return ca.Function("step", [x, u], [x1], ["x", "u"], ["x_next"])
 
