@@ -36,7 +36,8 @@ import rrr4
 from rrr4.errors import SimulationError
 from rrr4.integrators import Ros2
 from rrr4.integrators.compiled import compiled
-from rrr4.integrators.ros2 import GAMMA
+from rrr4.integrators.implicit import second_order_split
+from rrr4.integrators.ros2 import GAMMA, w_matrix
 
 ROOT = Path(__file__).resolve().parents[1]
 TARGET = 1e-6  # m, max platform-position error
@@ -70,22 +71,28 @@ def ns_per_call(f: ca.Function, args: list, K: int = 2000, reps: int = 21) -> fl
     return float(np.median(times))
 
 
-def floor(scene) -> tuple[float, float, float]:
-    """(ns per controller step, ns per held-effort RHS, the floor's RTF) on a state of the run."""
+def floor(scene) -> dict:
+    """ns per call, compiled, on a state and references of the run: the controller step, the
+    held-effort RHS (the two make the floor), and the linear algebra of a linearly implicit
+    step (a solve with the factors; a Jacobian and its factorisation)."""
     rec = Recorded(jit=True)
     rrr4.simulate(scene, rec, t_end=10 / scene.actuation.control_rate)
     system, x0, u0 = rec.seen
     ny, nz = system.ny, system.nz
     t, y, z = x0[0], x0[1:1 + ny], x0[1 + ny:1 + ny + nz]
     held = np.array(system.control(y, z, u0)).ravel()
-    # the controller (y, z, references -> efforts) and the ODE, each chained through its y
+    # each Function chained through its first input
     ys, zs, us = ca.MX.sym("y", ny), ca.MX.sym("z", nz), ca.MX.sym("u", u0.size)
     control = ca.Function("control", [ys, zs, us], [system.control(ys, zs, us)])
     ts, hs = ca.MX.sym("t"), ca.MX.sym("u", held.size)
     ode = ca.Function("ode", [ys, ts, zs, hs], [system.ode(ts, ys, zs, hs)])
-    c_ns = ns_per_call(control, [y, z, u0])
-    f_ns = ns_per_call(ode, [y, t, z, held])
-    return c_ns, f_ns, 1.0 / scene.actuation.control_rate / ((c_ns + f_ns) * 1e-9)
+    mat = w_matrix(system, second_order_split(system))
+    c = GAMMA / scene.actuation.control_rate
+    m = np.array(mat.renew(t, y, z, held, c)).ravel()
+    r = np.array(system.ode(t, y, z, held)).ravel()
+    return {"controller step": ns_per_call(control, [y, z, u0]), "held-effort RHS": ns_per_call(ode, [y, t, z, held]),
+            "solve with the factors": ns_per_call(mat.solve, [r, m, c]),
+            "Jacobian and factorisation": ns_per_call(mat.renew, [t, y, z, held, c])}
 
 
 def work_precision(scene, repeat: int) -> None:
@@ -98,6 +105,8 @@ def work_precision(scene, repeat: int) -> None:
                 integrator=Ros2(jit=True, hold=hold), step=step)
     runs[f"ros2 at {period:g} s, gamma 1 - 1/sqrt(2), held 1 step"] = dict(
         integrator=Ros2(jit=True, hold=1, gamma=2 - GAMMA), step=period)
+    k0 = next(iter(runs))
+    k5 = f"ros2 at {period:g} s, Jacobian held 5 steps"
     ref = rrr4.simulate(scene, "rk4", step=1e-6)
     walls, sims, failed = {k: [] for k in runs}, {}, {}
     for k, kw in runs.items():  # warm-up: build and compile (cached on disk)
@@ -110,7 +119,8 @@ def work_precision(scene, repeat: int) -> None:
             if k not in failed:
                 sims[k] = rrr4.simulate(scene, kw["integrator"], step=kw["step"])
                 walls[k].append(sims[k].stats["wall_time"])
-    c_ns, f_ns, floor_rtf = floor(scene)
+    ns = floor(scene)
+    floor_rtf = period / ((ns["controller step"] + ns["held-effort RHS"]) * 1e-9)
     print(f"\nwork-precision on {scene.name} ({T:g} s; error: max platform-position distance to RK4 at 1e-6 s; "
           f"medians of {repeat}; RTF = simulated s / stepping wall s)")
     print("| path | error [m] | stepping [s] | RTF | RTF / floor | Jacobians per step | <= 1 um |")
@@ -123,8 +133,20 @@ def work_precision(scene, repeat: int) -> None:
         e = float(np.max(np.linalg.norm(sim.pose[:, :2] - ref.pose[:, :2], axis=1)))
         print(f"| {k} | {e:.2e} | {w:.4f} | {T / w:.1f} | {T / w / floor_rtf:.2f} | "
               f"{sim.stats.get('jacobians_per_step', float('nan')):.3f} | {'yes' if e <= TARGET else 'no'} |")
-    print(f"floor per control period ({period:g} s): controller step {c_ns:.0f} ns + held-effort RHS {f_ns:.0f} ns "
-          f"(compiled chains of 2000, medians of 21) = RTF {floor_rtf:.0f}")
+    print(f"floor per control period ({period:g} s): controller step {ns['controller step']:.0f} ns + held-effort "
+          f"RHS {ns['held-effort RHS']:.0f} ns = RTF {floor_rtf:.0f}; a solve with the factors "
+          f"{ns['solve with the factors']:.0f} ns, a Jacobian and its factorisation "
+          f"{ns['Jacobian and factorisation']:.0f} ns (compiled chains of 2000, medians of 21)")
+    print("per control period, what the calls above account for against the measured stepping:")
+    newton = sims[k0].stats["newton_iterations_per_step"]  # one RHS at the start and one per Newton update
+    for k, rhs, solves in ((k0, 1 + newton, newton), (k5, 2, 2)):
+        sim = sims[k]
+        steps = period / sim.stats["step"]
+        parts = ns["controller step"] + steps * (rhs * ns["held-effort RHS"] + solves * ns["solve with the factors"]
+                                                  + sim.stats["jacobians_per_step"] * ns["Jacobian and factorisation"])
+        measured = float(np.median(walls[k])) / (T / period) * 1e9
+        print(f"  {k}: {rhs:.2f} RHS, {solves:.2f} solves, {sim.stats['jacobians_per_step']:.3f} Jacobians per step: "
+              f"{parts:.0f} ns accounted of {measured:.0f} ns measured ({parts / measured:.0%})")
 
 
 def impacts(repeat: int) -> None:

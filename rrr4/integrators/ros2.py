@@ -46,7 +46,7 @@ from ..errors import Rrr4Error
 from .base import FixedStepIntegrator, Run, System, frame_inputs
 from .implicit import second_order_split
 
-__all__ = ["Ros2", "GAMMA", "HOLD"]
+__all__ = ["Ros2", "GAMMA", "HOLD", "w_matrix"]
 
 GAMMA = 1 + 1 / np.sqrt(2)  # L-stable choice
 # steps one Jacobian is held at most: on the reference scene at 1e-4 s, 5 costs 0.6 of a new Jacobian every
@@ -80,7 +80,7 @@ class _Matrix:
                                  ["r", "m", "c"], ["k"])
 
 
-def _matrix(system: System, nq: int) -> _Matrix:
+def w_matrix(system: System, nq: int) -> _Matrix:
     """The linear algebra of a system (built once per system, kept on it)."""
     key = ("w-matrix", nq)
     if key not in system.frames:
@@ -116,7 +116,7 @@ class Ros2(FixedStepIntegrator):
     def step_function(self, system: System, h: float) -> ca.Function:
         """MX Function 'step': x = [t, y, z, jacobians, age, matrix step, renew, matrix], u -> x_next."""
         nq = second_order_split(system)
-        mat = _matrix(system, nq)
+        mat = w_matrix(system, nq)
         ny, nz = system.ny, system.nz
         x, u = ca.MX.sym("x", 1 + ny + nz + len(EXTRA) + mat.size), ca.MX.sym("u", system.nu)
         t, y, z = x[0], x[1:1 + ny], x[1 + ny:1 + ny + nz]
@@ -159,7 +159,7 @@ class Ros2(FixedStepIntegrator):
         """As :meth:`FixedStepIntegrator.run`, with the Jacobian renewals in the statistics."""
         x0 = np.asarray(x0, float)
         u_frames = frame_inputs(u_frames)
-        mat = _matrix(system, second_order_split(system))
+        mat = w_matrix(system, second_order_split(system))
         extra = np.zeros(len(EXTRA) + mat.size)
         extra[EXTRA.index("renew")] = 1.0
         _, last = out = self.roll(system, np.r_[x0, extra], u_frames, h, steps_per_frame, chunk, progress,
