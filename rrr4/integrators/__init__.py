@@ -11,11 +11,13 @@ from .casadi_plugins import Cvodes, Erk, Idas, Rosenbrock
 from .generalized_alpha import GeneralizedAlpha
 from .newmark import NewmarkTrapezoidal
 from .rk4 import RK4
+from .ros2 import Ros2
 from .scipy_ivp import RK45, Radau
 
 # the registry, by the scene's vocabulary
-METHODS = registry(INTEGRATORS, {m.name: m for m in (Bathe, NewmarkTrapezoidal, GeneralizedAlpha, RK4, Erk,
+METHODS = registry(INTEGRATORS, {m.name: m for m in (Bathe, NewmarkTrapezoidal, GeneralizedAlpha, Ros2, RK4, Erk,
                                                      Rosenbrock, Cvodes, Idas, RK45, Radau)})
 
 __all__ = ["Integrator", "FixedStepIntegrator", "FrameInputs", "System", "Run", "RK4", "Bathe", "NewmarkTrapezoidal",
-           "GeneralizedAlpha", "AdaptiveIntegrator", "Cvodes", "Idas", "Erk", "Rosenbrock", "RK45", "Radau", "METHODS"]
+           "GeneralizedAlpha", "Ros2", "AdaptiveIntegrator", "Cvodes", "Idas", "Erk", "Rosenbrock", "RK45", "Radau",
+           "METHODS"]

@@ -47,7 +47,7 @@ LUBRICATION_LAW_KEYS = {
 }
 FORCE_ELEMENTS = ("spring_damper", "rotational_spring_damper", "load")  # forces[].type
 LOAD_FRAMES = ("ground", "body")  # forces[].frame of a load: the frame its force components are given in
-INTEGRATORS = ("bathe", "newmark", "generalized-alpha", "rk4", "erk", "rosenbrock", "cvodes", "idas", "rk45",
+INTEGRATORS = ("bathe", "newmark", "generalized-alpha", "ros2", "rk4", "erk", "rosenbrock", "cvodes", "idas", "rk45",
                "radau")
 ERROR_CONTROLLED = ("bathe", "newmark", "generalized-alpha")  # the methods integrator.tolerance applies to
 NEWTON = ("simplified", "full")  # integrator.newton of the implicit methods
