@@ -79,10 +79,12 @@ def _lookup(p: PPoly, i, dt) -> ca.MX:
     c = np.asarray(p.c)  # (4, intervals, columns)
     _, m, cols = c.shape
     table = ca.MX(ca.DM(c.transpose(1, 0, 2).ravel(order="F")))  # interval fastest, then order, then column
-    out = []
+    out, dt2 = [], dt * dt
     for j in range(cols):
         a = [table.get_nz(False, i + m * (k + 4 * j)) for k in range(4)]
-        out.append(((a[0] * dt + a[1]) * dt + a[2]) * dt + a[3])
+        # in scipy's order of operations (PPoly.__call__), so that the C computes the
+        # simulation's interpolated references bit for bit
+        out.append(((a[3] + a[2] * dt) + a[1] * dt2) + a[0] * (dt2 * dt))
     return ca.vertcat(*out)
 
 
