@@ -93,9 +93,9 @@ def table_controller(problem: Problem) -> ca.Function:
     theta_d (n each) [rad or m, and rates] -> tau (n,) [N m or N] (clipped), tau_ff (n,)
     (inverse dynamics + preload (+ friction compensation)), theta_ref, theta_d_ref (n,)
     (compensated if the scene says so), alpha (m,) [N m] (the preload along the null space),
-    feasible (1.0 where the preload holds at both ends of t's interval, else 0.0). t is clamped to the path's [0, duration]. The
-    feedback gains and limits (:func:`rrr4.control.feedback_settings`) are folded in as
-    constants, like the table. Built once per problem."""
+    feasible (1.0 where the preload holds at both ends of t's interval, else 0.0). t is
+    clamped to the path's [0, duration]. The feedback gains and limits
+    (:func:`rrr4.control.feedback_settings`) are folded in as constants, like the table. Built once per problem."""
     return problem.memo("table_controller", lambda: _table_controller(problem))
 
 
