@@ -20,6 +20,7 @@ from rrr4.codegen import (
     codegen,
     compile_library,
     generated_controller,
+    kernels,
     load_library,
 )
 from rrr4.control import (
@@ -232,3 +233,21 @@ def test_a_scene_without_actuators_has_no_controller():
     bare = replace(scene, graph=replace(scene.graph, actuators=()))
     with pytest.raises(SceneError, match="mechanism.actuators: scene 'redundant_five_bar' has no actuators"):
         controller_step(build(bare))
+
+
+def test_nrrr_with_a_preload_without_a_pointwise_law_gets_the_table_step(paper_scene):
+    """The nlp preload (smoothed along the path) has no pointwise law: the 4-RRR's controller
+    step is then the table step, with the path kernel only, and its references are the
+    closed-form IK's (modulo 2 pi, continuous along the path)."""
+    nlp = replace(paper_scene, path=replace(paper_scene.path, sample_rate=100.0))
+    qp = build(_act(nlp, preload=replace(nlp.actuation.preload, method="qp")))
+    nlp = build(_act(nlp, preload=replace(nlp.actuation.preload, method="nlp")))
+    assert tuple(k.name for k in kernels(nlp)) == STEP_KERNELS
+    f, g = controller_step(nlp), controller_step(qp)
+    assert f.name_in(0) == "t" and g.name_in(0) == "pose_des"
+    t = reference_grid(nlp)
+    z = np.zeros((4, len(t)))
+    a, b = _outputs(f, t[None, :], z, z), _outputs(g, *step_inputs(g, qp.path, t), z, z)
+    assert np.abs(np.diff(a[2], axis=1)).max() < 0.1  # continuous
+    np.testing.assert_allclose((a[2] - b[2] + np.pi) % (2 * np.pi) - np.pi, 0.0, atol=1e-12)
+    np.testing.assert_allclose(a[3], b[3], rtol=0, atol=1e-10)

@@ -73,7 +73,16 @@ def reference_function(problem: Problem) -> ca.Function:
 
 def tabulated(problem: Problem, t: np.ndarray, given=None) -> References:
     """The controller's references on the grid t (N,) [s]: the closed-form controller's own
-    outputs where it has one (an n-RRR without a given preload), else :func:`graph_references`."""
+    outputs where it has one (an n-RRR without a given preload), else :func:`graph_references`;
+    revolute actuators' angles unwrapped along t (continuous, so that cubics through them
+    never cross a 2 pi jump; the feedback law wraps the error anyway)."""
+    refs = _tabulated(problem, t, given)
+    revolute = [i for i, j in enumerate(problem.model.actuated_joints) if problem.joint(j).type == "revolute"]
+    refs.theta_ref[:, revolute] = np.unwrap(refs.theta_ref[:, revolute], axis=0)
+    return refs
+
+
+def _tabulated(problem: Problem, t: np.ndarray, given) -> References:
     if given is None and not pointwise_controller(problem):
         f = controller_function(problem)
         rows = path_rows(problem.path, t)
