@@ -3,7 +3,7 @@ tabulated along the path, binary search, piecewise cubics, feedback law) against
 closed-form n-RRR step of the same mechanism, and each against its CasADi Function called
 from Python, in one run on one machine.
 
-    python benchmarks/bench_codegen_graph.py [--calls N] [--repeats R]
+    python benchmarks/bench_codegen_graph.py [--calls N] [--repeats R] [--loop]
 
 Scenes: problems/paper_circle_graph.yaml (the reference 4-RRR written as a graph) and
 problems/paper_circle.yaml (the same mechanism, closed form). Each step is compiled with
@@ -11,6 +11,12 @@ gcc -O3 in a small timing harness next to its generated sources and called round
 64 instants of the path with a 1 mrad tracking error; the harnesses run in turns, R
 repeats of N calls each, and the median per call is reported. The Python side calls the
 same step's CasADi Function with numpy arrays (median of R repeats of 0.3 s).
+
+--loop: also simulate the shipped graph scenes (the five-bar sampled at 10 kHz, as
+paper_circle_graph is) over their whole path with the Python controller and with the
+generated C in the loop, with and without clearance compensation: the largest differences
+of pose and efforts, the contact losses of each, and the stepping's wall time of each
+(medians of 3 runs, compiled stepping, compilation excluded).
 """
 
 from __future__ import annotations
@@ -20,6 +26,7 @@ import os
 import subprocess
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -104,10 +111,29 @@ def _python_time(problem, seconds: float = 0.3) -> float:
     return 1e9 * (time.perf_counter() - start) / calls
 
 
+def compare_in_the_loop() -> None:
+    """Python arm against the generated C in the loop on the graph scenes (see --loop)."""
+    print(f"{'scene':<20} {'compensation':<13} {'max|dpose|':>10} {'max|dtau|':>10} {'losses':>7} "
+          f"{'python [s]':>10} {'C [s]':>7}")
+    for name in ("redundant_five_bar.yaml", "paper_circle_graph.yaml"):
+        scene = rrr4.load_scene(ROOT / "problems" / name)
+        a = scene.actuation
+        for comp in ("none", "clearance"):
+            s = replace(scene, actuation=replace(a, control_rate=a.control_rate or 1e4, compensation=comp))
+            runs = {c: [rrr4.simulate(s, controller=c, jit=True) for _ in range(3)] for c in ("python", "generated")}
+            p, g = runs["python"][0], runs["generated"][0]
+            wall = {c: float(np.median([r.stats["wall_time"] for r in v])) for c, v in runs.items()}
+            losses = f"{sum(p.contact_loss_events.values())}/{sum(g.contact_loss_events.values())}"
+            print(f"{scene.name:<20} {comp:<13} {np.abs(p.pose - g.pose).max():>10.3g} "
+                  f"{np.abs(p.tau - g.tau).max():>10.3g} {losses:>7} {wall['python']:>10.2f} {wall['generated']:>7.2f}")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--calls", type=int, default=200000, help="C calls per repeat (default 200000)")
     ap.add_argument("--repeats", type=int, default=7, help="repeats (default 7)")
+    ap.add_argument("--loop", action="store_true", help="also compare the Python and generated controllers in the "
+                                                        "loop on the graph scenes")
     args = ap.parse_args(argv)
     problems = {k: rrr4.build(rrr4.load_scene(ROOT / "problems" / v)) for k, v in SCENES.items()}
     for p in problems.values():
@@ -125,6 +151,9 @@ def main(argv=None) -> int:
         print(f"{k:<22} {med:>11.0f} {py[k]:>24.0f} {py[k] / med:>7.0f}")
     base = float(np.median(c["n-RRR (closed form)"]))
     print(f"table step / closed-form step in C: {float(np.median(c['graph (table step)'])) / base:.2f}")
+    if args.loop:
+        compare_in_the_loop()
+    print(f"load average at the end {os.getloadavg()[0]:.2f}")
     return 0
 
 
