@@ -3,7 +3,7 @@ tabulated along the path, binary search, piecewise cubics, feedback law) against
 closed-form n-RRR step of the same mechanism, and each against its CasADi Function called
 from Python, in one run on one machine.
 
-    python benchmarks/bench_codegen_graph.py [--calls N] [--repeats R] [--loop]
+    python benchmarks/bench_codegen_graph.py [--calls N] [--repeats R] [--loop] [--convergence]
 
 Scenes: problems/paper_circle_graph.yaml (the reference 4-RRR written as a graph) and
 problems/paper_circle.yaml (the same mechanism, closed form). Each step is compiled with
@@ -17,6 +17,11 @@ paper_circle_graph is) over their whole path with the Python controller and with
 generated C in the loop, with and without clearance compensation: the largest differences
 of pose and efforts, the contact losses of each, and the stepping's wall time of each
 (medians of 3 runs, compiled stepping, compilation excluded).
+
+--convergence: the table step of paper_circle_graph against the closed-form step of
+paper_circle (an independent IK and inverse dynamics) at the midpoints between the table's
+instants, as the path's sample rate doubles from 125 to 2000 Hz, without preload and with
+the exact and qp preloads: the largest errors of theta_ref, theta_d_ref, tau_ff and alpha.
 """
 
 from __future__ import annotations
@@ -35,6 +40,7 @@ import rrr4
 from rrr4.codegen import build_example, codegen
 from rrr4.codegen.build import machine
 from rrr4.control import controller_step, step_inputs
+from rrr4.control import reference_grid as table_grid
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = {"graph (table step)": "paper_circle_graph.yaml", "n-RRR (closed form)": "paper_circle.yaml"}
@@ -128,13 +134,39 @@ def compare_in_the_loop() -> None:
                   f"{np.abs(p.tau - g.tau).max():>10.3g} {losses:>7} {wall['python']:>10.2f} {wall['generated']:>7.2f}")
 
 
+def convergence() -> None:
+    """The table step against the closed form between its instants (see --convergence)."""
+    g0, n0 = (rrr4.load_scene(ROOT / "problems" / f) for f in ("paper_circle_graph.yaml", "paper_circle.yaml"))
+    print(f"{'preload':<8} {'rate [Hz]':>9} {'theta_ref [rad]':>16} {'theta_d_ref [rad/s]':>20} {'tau_ff [N m]':>13} "
+          f"{'alpha [N m]':>12}")
+    for method in ("none", "exact", "qp"):
+        for rate in (125.0, 250.0, 500.0, 1000.0, 2000.0):
+            g, n = (rrr4.build(replace(s, path=replace(s.path, sample_rate=rate), actuation=replace(
+                s.actuation, control_rate=None, preload=replace(s.actuation.preload, method=method))))
+                    for s in (g0, n0))
+            f, h = controller_step(g), controller_step(n)
+            t_s = table_grid(g)
+            t = 0.5 * (t_s[1:] + t_s[:-1])
+            z = np.zeros((4, len(t)))
+            a = [np.array(v) for v in f.map(len(t))(t[None, :], z, z)]
+            b = [np.array(v) for v in h.map(len(t))(*step_inputs(h, n.path, t), z, z)]
+            e = [np.abs((a[2] - b[2] + np.pi) % (2 * np.pi) - np.pi).max(), *(np.abs(a[k] - b[k]).max()
+                                                                              for k in (3, 1, 4))]
+            print(f"{method:<8} {rate:>9g} {e[0]:>16.2e} {e[1]:>20.2e} {e[2]:>13.2e} {e[3]:>12.2e}")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--calls", type=int, default=200000, help="C calls per repeat (default 200000)")
     ap.add_argument("--repeats", type=int, default=7, help="repeats (default 7)")
+    ap.add_argument("--convergence", action="store_true", help="only the table step's error between its instants "
+                                                               "against the closed form, as the sample rate doubles")
     ap.add_argument("--loop", action="store_true", help="also compare the Python and generated controllers in the "
                                                         "loop on the graph scenes")
     args = ap.parse_args(argv)
+    if args.convergence:
+        convergence()
+        return 0
     problems = {k: rrr4.build(rrr4.load_scene(ROOT / "problems" / v)) for k, v in SCENES.items()}
     for p in problems.values():
         controller_step(p)  # the table is built before any timing
