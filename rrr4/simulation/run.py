@@ -9,7 +9,9 @@ preload, compensation, PD), run continuously inside the right-hand side or sampl
 ``actuation.control_rate`` with a zero-order hold (then the right-hand side only takes the
 held efforts). An n-RRR runs its closed-form controller step (in CasADi, or its generated C
 in the loop); any other graph with a task body tabulates the controller's references on the
-path samples and runs the same feedback law on them, interpolated (cubic Hermite). A
+path samples and runs the same feedback law on them, interpolated (cubic Hermite), or its
+generated table step in the loop (:func:`rrr4.control.controller_step`), which holds the
+same references and interpolation. A
 ``preload`` override (anything with ``t`` (N,) [s] and ``tau`` (N, n), e.g. a
 PreloadSolution) replaces the controller's feed-forward.
 
@@ -134,7 +136,8 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
     interval or control period), output_rate [Hz] (default: path.sample_rate; with a sampled
     controller, at most its rate), controller: 'python' (default; the controller step in
     CasADi) or 'generated' (the C that :func:`rrr4.codegen` writes, compiled with the C
-    compiler and called through ``casadi.external``; needs a control rate), preload (object
+    compiler and called through ``casadi.external``: a graph's table step too; needs a control
+    rate), preload (object
     with t, tau, e.g. a PreloadSolution: the feed-forward efforts instead of the controller's
     own), model (a Scene: the controller's model of the simulated mechanism, default the scene
     itself; e.g. nominal parameters against a mechanism built with tolerances), v_min [m/s],
