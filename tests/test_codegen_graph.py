@@ -226,6 +226,10 @@ def test_cli_codegen_of_a_graph_scene_and_refusal_of_a_driven_one(tmp_path, caps
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "mechanism.task" in err and "no task body" in err
     assert not (tmp_path / "d").exists()
+    assert cli_main(["codegen", str(PROBLEMS / "redundant_five_bar.yaml"), "--out", str(out), "--branch", "1"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "branch: 1 is not allowed for scene 'redundant_five_bar'" in err
+    assert (out / "rrr4.h").exists()  # the earlier output is left as it was
 
 
 def test_a_scene_without_actuators_has_no_controller():

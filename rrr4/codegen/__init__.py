@@ -67,14 +67,19 @@ def codegen(scene: Scene | Problem, out_dir, branch="auto") -> list[Path]:
     be new, empty or an earlier codegen output (holds rrr4.h), which is replaced whole, so an
     interrupted run leaves the earlier files intact. branch: the exact_preload and preload
     kernels' branch (:func:`preload_branch`); a fixed one keeps the torques continuous along a
-    path. The controller step is the one :func:`rrr4.simulate` runs with its generated
-    controller (:func:`rrr4.control.controller_step`), with the scene's preload sign
+    path; 'auto' only for a scene without those kernels. The controller step is the one
+    :func:`rrr4.simulate` runs with its generated controller
+    (:func:`rrr4.control.controller_step`), with the scene's preload sign
     (:func:`rrr4.preload.preload_sign`). Raises SceneError for a scene without a task body or
     actuators (no controller), before anything is written.
     """
     problem = Problem.from_scene(scene)
-    branch = preload_branch(problem, branch)
+    given, branch = branch, preload_branch(problem, branch)
     ks = kernels(problem, branch)
+    if given != "auto" and len(ks) == len(STEP_KERNELS):
+        raise SceneError(f"branch: {given!r} is not allowed for scene {problem.name!r} (it chooses the branch of a "
+                         "4-RRR's exact_preload and preload functions; this scene's C has the controller step only, "
+                         "on the scene's own preload sign: use auto)")
     out = _out_dir(out_dir)
     cg = ca.CodeGenerator(f"{RAW}.c", {"with_header": True})
     for k in ks:
