@@ -276,3 +276,27 @@ def test_table_step_converges_to_the_closed_form_step_between_its_samples():
     errors = np.array(errors)
     assert np.all(errors[:-1] / errors[1:] > 10.0), errors
     assert np.all(errors[-1] < [2e-10, 5e-9, 5e-9]), errors
+
+
+@pytest.fixture(scope="module")
+def xyt(tmp_path_factory):
+    return _generated(load_scene(PROBLEMS / "xyt_table.yaml"), tmp_path_factory.mktemp("xyt"))
+
+
+def test_graph_with_prismatic_actuators_and_no_redundancy_gets_its_table_step(xyt):
+    """The x-y-theta table: two prismatic actuators (forces [N], errors not wrapped) and a
+    rotary one, no null space (alpha empty): its C equals the Python step at random samples."""
+    problem, c = xyt["problem"], xyt["c"]["controller_step"]
+    header = (xyt["src"] / "rrr4.h").read_text()
+    assert "FX (prismatic, N), FY (prismatic, N), TR (revolute, N m)" in " ".join(header.replace("\n * ", " ").split())
+    assert "double *alpha" in header and c.numel_out(4) == 0
+    rng = np.random.default_rng(4)
+    t = rng.uniform(0.0, problem.path.duration, N_RANDOM)
+    theta, theta_d = _random_states(rng, problem, t)
+    theta[:2] += 4.0  # a prismatic error of 4 m is not wrapped: clipped at the force limit
+    got, want = _outputs(c, t[None, :], theta, theta_d), _outputs(controller_step(problem), t[None, :], theta, theta_d)
+    for name, a, b in zip(c.name_out(), got, want, strict=True):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-12, err_msg=name)
+    limits = np.array(problem.torque_limit)[:2, None]
+    np.testing.assert_array_equal(got[0][:2], -limits * np.ones_like(got[0][:2]))
+    assert len([line for line in xyt["example"].splitlines() if line.startswith("step ")]) == 11
