@@ -26,11 +26,11 @@ from .step import controller_function, pointwise_controller
 __all__ = ["reference_grid", "interpolants", "table_controller", "controller_step", "step_inputs"]
 
 
-def controller_step(problem: Problem, sign: int | None = None) -> ca.Function:
+def controller_step(problem: Problem) -> ca.Function:
     """The problem's controller step with its numbers folded in, what ``rrr4 codegen`` writes
     and the generated controller in the loop runs: the closed form
     (:func:`rrr4.control.controller_function`, inputs pose_des, pose_d_des, pose_dd_des,
-    theta, theta_d; sign: its preload sign) where the problem has one, else the table step
+    theta, theta_d, on the scene's preload sign) where the problem has one, else the table step
     (:func:`table_controller`, inputs t, theta, theta_d). Raises SceneError for a scene
     without a task body or without actuators (no controller to run)."""
     model = problem.model
@@ -40,7 +40,7 @@ def controller_step(problem: Problem, sign: int | None = None) -> ca.Function:
     if not model.n_actuators:
         raise SceneError(f"mechanism.actuators: scene {problem.name!r} has no actuators, so it has no controller "
                          "(a controller needs a task body and actuators)")
-    return controller_function(problem, sign) if not pointwise_controller(problem) else table_controller(problem)
+    return controller_function(problem) if not pointwise_controller(problem) else table_controller(problem)
 
 
 def step_inputs(step: ca.Function, path, t: np.ndarray) -> list[np.ndarray]:
