@@ -271,13 +271,16 @@ def build_parser() -> argparse.ArgumentParser:
                                       "the path (exit 1 when the preload cannot hold, 2 when the scene is invalid)")
     c.add_argument("scene", help="scene YAML file, e.g. problems/paper_circle.yaml")
     c.set_defaults(func=_check)
-    g = sub.add_parser("codegen", help="write self-contained C of the controller (IK, Jacobian, preload, "
-                                        "controller step, QP), a header, an example main.c and a Makefile")
-    g.add_argument("scene", help="scene YAML file, e.g. problems/paper_circle.yaml")
+    g = sub.add_parser("codegen", help="write self-contained C of the scene's controller step (a graph's: its "
+                                        "references tabulated along the path; a 4-RRR's also IK, Jacobian, "
+                                        "preload, QP), a header, an example main.c and a Makefile")
+    g.add_argument("scene", help="scene YAML file with a task body and actuators, e.g. problems/paper_circle.yaml "
+                                 "or problems/redundant_five_bar.yaml")
     g.add_argument("--out", required=True, help="directory to write the C files into (created if needed)")
     g.add_argument("--branch", choices=["auto", "1", "-1", "0"], default="auto",
-                   help="exact-preload branch: alpha >= 0 (1), <= 0 (-1), global optimum per step (0), "
-                        "or the one rrr4 solve_preload picks on the scene's path (auto, default)")
+                   help="exact-preload branch of a 4-RRR's exact_preload and preload functions: alpha >= 0 (1), "
+                        "<= 0 (-1), global optimum per step (0), or the one rrr4 solve_preload picks on the "
+                        "scene's path (auto, default)")
     g.set_defaults(func=_codegen)
     r = sub.add_parser("run", help="run the study of a scene: inverse dynamics, preload, clearance simulation "
                                     "with preload, with preload and compensation, and without preload (a driven "

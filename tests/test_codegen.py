@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rrr4 import Mechanism, SceneError, build
+from rrr4 import Mechanism, SceneError, build, load_scene
 from rrr4.cli import main as cli_main
 from rrr4.codegen import (
     EXAMPLE_ANGLE_OFFSET,
@@ -220,13 +220,11 @@ def test_codegen_rejects_a_file_as_output_directory(paper_scene, tmp_path):
     assert f.read_text() == "keep me"
 
 
-def test_codegen_rejects_a_mechanism_without_redundancy_and_keeps_earlier_files(paper_data, tmp_path):
-    paper_data["mechanism"]["chains"] = paper_data["mechanism"]["chains"][:3]
-    paper_data["joints"]["clearance"] = "all"
-    paper_data["actuation"]["preload"]["weights"] = 1.0
-    scene = parse_scene(paper_data)
+def test_codegen_rejects_a_scene_without_a_task_and_keeps_earlier_files(tmp_path):
+    """A driven mechanism (no task body: its drivers prescribe the motion) has no controller."""
+    scene = load_scene(Path(__file__).resolve().parents[1] / "problems" / "flores_slider_crank.yaml")
     (tmp_path / "rrr4.h").write_text("/* earlier */")
-    with pytest.raises(SceneError, match="mechanism.chains"):
+    with pytest.raises(SceneError, match="mechanism.task: scene 'flores_slider_crank' has no task body"):
         codegen(scene, tmp_path, branch=1)
     assert [p.name for p in tmp_path.iterdir()] == ["rrr4.h"]
     assert (tmp_path / "rrr4.h").read_text() == "/* earlier */"

@@ -39,12 +39,12 @@ def test_generated_controller_in_the_loop_reproduces_the_python_controller(paper
     np.testing.assert_allclose(a.tau, b.tau, atol=1e-9)
 
 
-def test_generated_controller_needs_a_closed_form_and_a_rate(paper_scene):
+def test_generated_controller_needs_a_rate_and_the_scenes_own_references(paper_scene):
     with pytest.raises(SceneError, match="control_rate"):
         simulate(_act(paper_scene, control_rate=None), t_end=0.01, controller="generated")
     graph = load_scene(PROBLEMS / "paper_circle_graph.yaml")
-    with pytest.raises(SceneError, match="controller: 'generated' is not allowed"):
-        simulate(_act(graph, control_rate=1e4), t_end=0.01, controller="generated")
+    with pytest.raises(SceneError, match="controller: 'generated' is not allowed here \\(references='sampled'"):
+        simulate(graph, t_end=0.01, controller="generated", references="sampled")
     with pytest.raises(SceneError, match="controller: unknown value 'c'"):
         simulate(paper_scene, t_end=0.01, controller="c")
     with pytest.raises(SceneError, match="control_rate"):   # not a whole number of periods

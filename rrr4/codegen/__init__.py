@@ -1,6 +1,8 @@
 """Self-contained C for controllers: generate, compile with gcc, load back into CasADi.
 
-``codegen(scene, out_dir)`` writes, for one scene:
+``codegen(scene, out_dir)`` writes, for one scene with a task body and actuators (a
+closed-form 4-RRR: every kernel of :data:`KERNELS`; any other scene, a graph included:
+the path and the controller step, :data:`STEP_KERNELS`, see :mod:`.kernels`):
 
 - ``rrr4_raw.c`` / ``rrr4_raw.h``: CasADi's generated code, one ``rrr4_raw_<kernel>``
   per kernel in CasADi's calling convention (``arg, res, iw, w, mem``);
@@ -37,11 +39,11 @@ from ..files import BuildError, atomic_directory, run_c_compiler
 from ..problem import Problem
 from ..scene import Scene
 from . import build
-from .kernels import KERNELS, RAW, WRAPPER, Kernel, kernels, preload_branch
+from .kernels import KERNELS, RAW, STEP_KERNELS, WRAPPER, Kernel, kernels, preload_branch
 from .text import EXAMPLE_ANGLE_OFFSET, texts
 
 __all__ = ["codegen", "kernels", "generated_controller", "preload_branch", "compile_library", "build_example",
-           "load_library", "Kernel", "KERNELS", "EXAMPLE_ANGLE_OFFSET", "BuildError"]
+           "load_library", "Kernel", "KERNELS", "STEP_KERNELS", "EXAMPLE_ANGLE_OFFSET", "BuildError"]
 
 
 # ----------------------------------------------------------------------------- files
@@ -65,12 +67,19 @@ def codegen(scene: Scene | Problem, out_dir, branch="auto") -> list[Path]:
     be new, empty or an earlier codegen output (holds rrr4.h), which is replaced whole, so an
     interrupted run leaves the earlier files intact. branch: the exact_preload and preload
     kernels' branch (:func:`preload_branch`); a fixed one keeps the torques continuous along a
-    path. The controller step is the one :func:`rrr4.simulate` runs, with the scene's preload
-    sign (:func:`rrr4.preload.preload_sign`).
+    path; 'auto' only for a scene without those kernels. The controller step is the one
+    :func:`rrr4.simulate` runs with its generated controller
+    (:func:`rrr4.control.controller_step`), with the scene's preload sign
+    (:func:`rrr4.preload.preload_sign`). Raises SceneError for a scene without a task body or
+    actuators (no controller), before anything is written.
     """
     problem = Problem.from_scene(scene)
-    branch = preload_branch(problem, branch)
+    given, branch = branch, preload_branch(problem, branch)
     ks = kernels(problem, branch)
+    if given != "auto" and len(ks) == len(STEP_KERNELS):
+        raise SceneError(f"branch: {given!r} is not allowed for scene {problem.name!r} (it chooses the branch of a "
+                         "4-RRR's exact_preload and preload functions; this scene's C has the controller step only, "
+                         "on the scene's own preload sign: use auto)")
     out = _out_dir(out_dir)
     cg = ca.CodeGenerator(f"{RAW}.c", {"with_header": True})
     for k in ks:
@@ -109,7 +118,7 @@ def build_example(src_dir, exe_path, flags=("-O2", "-Wall", "-Werror")) -> Path:
 def generated_controller(problem: Problem) -> tuple[ca.Function, Path]:
     """The scene's controller step as :func:`codegen` writes it, compiled with the C compiler
     and loaded with ``casadi.external`` ('rrr4_raw_controller_step', same inputs and outputs
-    as :func:`rrr4.control.controller_function`), and the path of its C source. Cached on disk
+    as :func:`rrr4.control.controller_step`), and the path of its C source. Cached on disk
     (:func:`rrr4.codegen.build.library`, stem 'controller') by the hash of the generated C;
     the sources stay beside the library, since the compiled stepping compiles rrr4_raw.c in."""
     with tempfile.TemporaryDirectory() as tmp:

@@ -2,7 +2,11 @@
 
 Kernels are built once per problem by calling the problem's own Functions symbolically
 (inverse kinematics, Jacobian, null space, path, inverse dynamics, the exact and QP preload
-laws, the controller step), so the C computes exactly what the Python does. Each is a CasADi
+laws, the controller step), so the C computes exactly what the Python does. A closed-form
+4-RRR gets all of them; any other scene with a task body and actuators (a graph, another
+n-RRR, a preload without a pointwise law) gets the path and its controller step
+(:func:`rrr4.control.controller_step`: the table step on references tabulated along the
+path, or an n-RRR's closed form), :data:`STEP_KERNELS`. Each is a CasADi
 Function ``rrr4_raw_<name>`` (:data:`RAW`) with dense inputs and outputs; the wrappers
 ``rrr4_<name>`` (:data:`WRAPPER`) around them are written by :mod:`rrr4.codegen.text`.
 
@@ -19,7 +23,7 @@ from dataclasses import dataclass
 
 import casadi as ca
 
-from ..control import controller_function
+from ..control import controller_step
 from ..errors import SceneError
 from ..preload.exact import exact_preload_function
 from ..preload.qp import qp_preload_function
@@ -27,12 +31,13 @@ from ..preload.signs import preload_sign
 from ..problem import Problem
 from ..trajectory import trajectory_function
 
-__all__ = ["Kernel", "KERNELS", "kernels", "preload_branch", "RAW", "WRAPPER"]
+__all__ = ["Kernel", "KERNELS", "STEP_KERNELS", "kernels", "table_step", "preload_branch", "RAW", "WRAPPER"]
 
 RAW = "rrr4_raw"  # stem of CasADi's generated .c/.h and prefix of its symbols
 WRAPPER = "rrr4"  # stem of the wrapper .c/.h and prefix of the wrapper functions
 KERNELS = ("ik", "jacobian", "null_space", "trajectory", "inverse_dynamics", "exact_preload", "preload",
            "controller_step", "qp_preload")
+STEP_KERNELS = ("trajectory", "controller_step")  # of a scene other than a closed-form 4-RRR
 
 _KERNEL_DOC = {
     "ik": "Inverse kinematics, closed form, in the scene's working modes.",
@@ -51,6 +56,13 @@ _KERNEL_DOC = {
                        "= inverse dynamics + the scene's preload (RRR4_PRELOAD_METHOD on RRR4_PRELOAD_SIGN); "
                        "theta_ref = ik(pose_des), or with RRR4_COMPENSATION clearance the IK closed around the "
                        "predicted journal seats, plus the torques that overcome their friction.",
+    "table_step": "One controller step, the one rrr4.simulate runs as the generated controller in the loop: "
+                  "tau = clip(tau_ff + kp (theta_ref - theta) + kd (theta_d_ref - theta_d), +-limit), revolute "
+                  "errors wrapped to [-pi, pi); theta_ref, theta_d_ref, tau_ff (inverse dynamics + the scene's "
+                  "preload RRR4_PRELOAD_METHOD, with RRR4_COMPENSATION clearance the IK around the predicted "
+                  "journal seats plus their friction torques) and alpha are piecewise cubics through references "
+                  "tabulated at RRR4_TABLE_SAMPLES instants over [0, RRR4_PATH_DURATION] (t is clamped to it), "
+                  "looked up by binary search: no iteration, a fixed cost per call.",
     "qp_preload": "Preload as a QP (qrqp active set, no allocation): fixed-sign axial force >= min_force in "
                   "every following link, torque limits, least weighted effort. Returns non-zero, with the "
                   "outputs undefined, when qrqp stops without a solution (an infeasible QP).",
@@ -79,20 +91,28 @@ def _renamed(f: ca.Function, name: str, fixed: dict | None = None) -> ca.Functio
 
 
 def kernels(problem: Problem, branch: int = 1) -> tuple[Kernel, ...]:
-    """The generated kernels of a 4-RRR problem, in :data:`KERNELS` order (built once per
-    problem and branch, cached on it); the exact preload (in exact_preload, preload and
-    controller_step) on `branch` (+1, -1, 0)."""
+    """The generated kernels of a problem (built once per problem and branch, cached on it):
+    of a closed-form 4-RRR with a pointwise controller step, :data:`KERNELS` in order, the exact
+    preload (in exact_preload and preload) on `branch` (+1, -1, 0); of any other problem with a
+    task body and actuators, :data:`STEP_KERNELS`. Raises SceneError for a problem without
+    a task body or actuators."""
     return problem.memo(("kernels", branch), lambda: _kernels(problem, branch))
 
 
+def table_step(ks: tuple[Kernel, ...]) -> bool:
+    """Whether the controller step of the kernels `ks` is the table step (input t)."""
+    return next(k for k in ks if k.name == "controller_step").function.name_in(0) == "t"
+
+
 def _kernels(problem: Problem, branch: int) -> tuple[Kernel, ...]:
-    if not problem.closed_form:
-        raise SceneError("mechanism.kind: 'graph' is not supported by codegen yet (the generated controller needs "
-                         "the closed-form IK of an n-RRR scene: mechanism.kind n-rrr with 4 chains)")
+    step = controller_step(problem)
+    table = step.name_in(0) == "t"
+    if table or not problem.closed_form or problem.mechanism.n != 4:
+        doc = _KERNEL_DOC["table_step" if table else "controller_step"]
+        return (Kernel("trajectory", _renamed(trajectory_function(problem.path), f"{RAW}_trajectory"),
+                       _KERNEL_DOC["trajectory"]), Kernel("controller_step", _renamed(step, f"{RAW}_controller_step"),
+                                                          doc))
     mech = problem.mechanism
-    if mech.n != 4:
-        raise SceneError(f"mechanism.chains: {mech.n} chains is not allowed for code generation "
-                         "(the controller needs the 4-RRR's one degree of redundancy: 4 chains)")
     inv, exact = problem.inverse_dynamics(), exact_preload_function(problem, branch=branch)
     pose, pose_d, pose_dd = (ca.SX.sym(s, 3) for s in ("pose", "pose_d", "pose_dd"))
     preload = ca.Function("preload", [pose, pose_d, pose_dd], exact(*inv(pose, pose_d, pose_dd)),
@@ -106,7 +126,7 @@ def _kernels(problem: Problem, branch: int) -> tuple[Kernel, ...]:
         "inverse_dynamics": (inv, None),
         "exact_preload": (exact, None),
         "preload": (preload, None),
-        "controller_step": (controller_function(problem), None),
+        "controller_step": (step, None),
         "qp_preload": (qp_preload_function(problem, "qrqp"), None),
     }
     return tuple(Kernel(k, _renamed(sources[k][0], f"{RAW}_{k}", sources[k][1]), _KERNEL_DOC[k]) for k in KERNELS)

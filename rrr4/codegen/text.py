@@ -6,7 +6,8 @@
   argument (the parameter docs live here);
 - ``rrr4.c`` (:func:`wrapper_source`): the wrappers, each calling CasADi's ``rrr4_raw_<kernel>``
   with its work arrays on the stack (no allocation, re-entrant);
-- ``main.c`` (:func:`example_main`): an example controller loop along the scene's path at 1 kHz;
+- ``main.c`` (:func:`example_main`): an example controller loop along the scene's path at 1 kHz
+  (a closed-form 4-RRR's, with its kinematics kernels; any other scene's, on its step alone);
 - ``Makefile`` (:data:`MAKEFILE`): the example and a shared library.
 
 Shapes come from the kernels' Functions themselves; units are SI (m, rad, s, N, N m).
@@ -18,9 +19,10 @@ import textwrap
 
 import casadi as ca
 
+from ..control import reference_grid
 from ..preload.signs import preload_sign
 from ..problem import Problem
-from .kernels import RAW, WRAPPER, Kernel
+from .kernels import RAW, WRAPPER, Kernel, table_step
 
 __all__ = ["texts", "wrapper_header", "wrapper_source", "example_main", "MAKEFILE", "EXAMPLE_STEPS",
            "EXAMPLE_PRINT_EVERY", "EXAMPLE_ANGLE_OFFSET"]
@@ -36,8 +38,8 @@ _IO_DOC = {
     "pose_dd_des": "desired platform acceleration [m/s^2, m/s^2, rad/s^2]",
     "theta_ref": "actuator angle references [rad] (compensated for the journal seats if the scene says so)",
     "theta_d_ref": "actuator rate references [rad/s]",
-    "theta": "actuator angles [rad]",
-    "theta_d": "actuator rates [rad/s]",
+    "theta": "actuator angles [rad] (a prismatic actuator's displacement [m])",
+    "theta_d": "actuator rates [rad/s] (a prismatic actuator's [m/s])",
     "cos_arg": "argument of acos per chain [-]; the pose is reachable iff all |cos_arg| <= 1",
     "J": "Jacobian, d theta = J d pose [rad/m, rad/m, rad/rad by column]",
     "sin_transmission": "sine of the angle between driving and following link [-] (0 = serial singularity)",
@@ -47,7 +49,7 @@ _IO_DOC = {
     "r_p": "particular reactions at B1..B4, C1..C4, column j = [r_x, r_y] [N]",
     "r_n": "reactions per unit alpha at B1..B4, C1..C4 [N/(N m)]",
     "alpha": "preload along the null space [N m]",
-    "tau": "actuator torques [N m]",
+    "tau": "actuator torques [N m] (a prismatic actuator's force [N])",
     "tau_ff": "feed-forward torques (inverse dynamics + preload (+ friction compensation)), before PD and "
               "clipping [N m]",
     "feasible": "[-] 1.0 if every passive joint carries >= min_force within the torque limits, else 0.0",
@@ -61,11 +63,12 @@ def _c_param(f: ca.Function, i: int, output: bool) -> tuple[str, str, str]:
     sp = f.sparsity_out(i) if output else f.sparsity_in(i)
     r, c = sp.shape
     size = r * c
-    if size == 1:
-        decl = f"double *{name}" if output else f"double {name}"
+    if size == 1 or size == 0:  # a scalar, or an empty output (alpha without redundancy): a pointer
+        decl = f"double *{name}" if output or size == 0 else f"double {name}"
     else:
         decl = f"{'' if output else 'const '}double {name}[{size}]"
-    shape = "scalar" if size == 1 else (f"({r},)" if c == 1 else f"({r}x{c}), column-major: {name}[i + {r}*j]")
+    shape = ("scalar" if size == 1 else "empty (pass NULL)" if size == 0 else f"({r},)" if c == 1 else
+             f"({r}x{c}), column-major: {name}[i + {r}*j]")
     line = f" *   {'out' if output else 'in '} {name} {shape}: {_IO_DOC[name]}"
     return decl, name, line
 
@@ -92,18 +95,42 @@ def _wrapper_body(k: Kernel) -> str:
     return "\n".join(lines)
 
 
+def _about(problem: Problem, ks: tuple[Kernel, ...]) -> tuple[str, str]:
+    """(what the functions are, the header's notes on the mechanism) for rrr4.h."""
+    if len(ks) > 2:  # the closed-form 4-RRR
+        modes = ", ".join("+" if m > 0 else "-" for m in problem.mechanism.modes)
+        notes = f""" * Units are SI: m, rad, s, N, N m. Actuator i drives link i1 from base A_i; passive
+ * joints are ordered B1..B4, C1..C4. Working modes (acos branch per chain): {modes}."""
+        return "controller functions of the planar 4-RRR", notes
+    model = problem.model
+    actuators = ", ".join(f"{a} ({problem.joint(j).type}, {'N m' if problem.joint(j).type == 'revolute' else 'N'})"
+                          for a, j in zip(model.actuator_names, model.actuated_joints, strict=True))
+    task = (f"the body {model.task!r}" if model.task_point is None else
+            f"the point {tuple(model.task_point)} [m] of the body {model.task!r} (x, y of the pose)")
+    how = ("references tabulated along the path" if table_step(ks) else "the closed-form step of an n-RRR")
+    lines = textwrap.wrap(f"Units are SI: m, rad, s, N, N m. Actuators, in the order of every array: {actuators}. "
+                          f"Task: {task}; poses [x, y, theta_o].", 88)
+    return f"the controller step ({how})", "\n".join(f" * {line}" for line in lines)
+
+
 def wrapper_header(problem: Problem, ks: tuple[Kernel, ...], branch: int) -> str:
     """rrr4.h: the scene's constants, the torque limits and one documented prototype per kernel;
-    branch: the exact preload's (RRR4_PRELOAD_BRANCH)."""
+    branch: the exact preload's (RRR4_PRELOAD_BRANCH, with the 4-RRR's exact_preload kernel)."""
     scene = problem.scene
     a = scene.actuation
     protos = "\n\n".join("{}\n{};".format(*_wrapper_doc_and_signature(k)) for k in ks)
-    modes = ", ".join("+" if m > 0 else "-" for m in problem.mechanism.modes)
-    return f"""/* rrr4.h: controller functions of the planar 4-RRR for scene '{scene.name}'.
+    what, notes = _about(problem, ks)
+    full = len(ks) > 2
+    extra = (f"""#define RRR4_N_PASSIVE_JOINTS 8
+/* Branch of the exact preload: +1 alpha >= 0, -1 alpha <= 0, 0 global optimum per call
+ * (which may jump between +-alpha and reverse every bearing force). */
+#define RRR4_PRELOAD_BRANCH {branch}
+""" if full else f"#define RRR4_TABLE_SAMPLES {len(reference_grid(problem))} /* instants of the reference table */\n"
+             if table_step(ks) else "")
+    return f"""/* rrr4.h: {what} for scene '{scene.name}'.
  * Generated by rrr4 (rrr4.codegen); self-contained C99, no CasADi needed.
  *
- * Units are SI: m, rad, s, N, N m. Actuator i drives link i1 from base A_i; passive
- * joints are ordered B1..B4, C1..C4. Working modes (acos branch per chain): {modes}.
+{notes}
  * Matrices are stored column-major. Every function is re-entrant: its work arrays live
  * on the stack (at most a few kB) and nothing is allocated.
  * Low-level entry points in CasADi's calling convention are in {RAW}.h.
@@ -115,24 +142,21 @@ def wrapper_header(problem: Problem, ks: tuple[Kernel, ...], branch: int) -> str
 extern "C" {{
 #endif
 
-#define RRR4_N_ACTUATORS 4
-#define RRR4_N_PASSIVE_JOINTS 8
+#define RRR4_N_ACTUATORS {problem.model.n_actuators}
 #define RRR4_KP {a.kp!r} /* proportional gain [N m/rad] */
 #define RRR4_KD {a.kd!r} /* derivative gain [N m s/rad] */
 #define RRR4_MIN_FORCE {a.preload.min_force!r} /* required reaction at every passive joint [N] */
-/* Branch of the exact preload: +1 alpha >= 0, -1 alpha <= 0, 0 global optimum per call
- * (which may jump between +-alpha and reverse every bearing force). */
-#define RRR4_PRELOAD_BRANCH {branch}
-/* The controller step's preload: method (none, exact or qp) and its fixed sign (+1 / -1:
+{extra}/* The controller step's preload: method (none, exact, qp or nlp) and its fixed sign (+1 / -1:
  * the exact branch or the QP's axial-force sign); clearance compensation (none or
  * clearance); the rate it was designed to run at [Hz] (0: continuous in the simulation). */
 #define RRR4_PRELOAD_METHOD "{a.preload.method if problem.has_preload else 'none'}"
 #define RRR4_PRELOAD_SIGN {preload_sign(problem)}
-#define RRR4_COMPENSATION "{a.compensation}"
+#define RRR4_COMPENSATION "{a.compensation if problem.compensates else 'none'}"
 #define RRR4_CONTROL_RATE {a.control_rate or 0.0!r}
 #define RRR4_PATH_DURATION {scene.path.duration!r} /* duration of rrr4_trajectory's path [s] */
 
-/* Torque limit of each actuator [N m]; torques are clipped to +-limit. */
+/* Torque limit of each actuator [N m] (a prismatic actuator's force limit [N]); efforts
+ * are clipped to +-limit. */
 extern const double rrr4_torque_limit[RRR4_N_ACTUATORS];
 
 {protos}
@@ -165,8 +189,10 @@ EXAMPLE_PRINT_EVERY = 100
 EXAMPLE_ANGLE_OFFSET = 1e-3  # [rad] the example's measured angle i lags the reference by (i + 1) times this
 
 
-def example_main(problem: Problem) -> str:
+def example_main(problem: Problem, ks: tuple[Kernel, ...]) -> str:
     """main.c: the controller run along the scene's path at 1 kHz, printing machine-readable rows."""
+    if len(ks) == 2:
+        return _step_example(problem, ks)
     scene = problem.scene
     return f"""/* Example: the rrr4 controller of scene '{scene.name}' run along its path at 1 kHz.
  *
@@ -232,6 +258,61 @@ int main(void) {{
 """
 
 
+def _step_example(problem: Problem, ks: tuple[Kernel, ...]) -> str:
+    """main.c of a scene other than the closed-form 4-RRR: its controller step alone."""
+    scene, n = problem.scene, problem.model.n_actuators
+    step = next(k for k in ks if k.name == "controller_step").function
+    m = step.numel_out(4)
+    where = "t" if table_step(ks) else "pose, pose_d, pose_dd"
+    return f"""/* Example: the rrr4 controller of scene '{scene.name}' run along its path at 1 kHz.
+ *
+ * Build and run (in this directory):   gcc -O2 -Wall *.c -lm -o example && ./example
+ *
+ * In a real controller, replace the 'measured' coordinates below by the encoder readings
+ * and send tau to the drives. Lines: 'step' rows are machine-readable (name, t, then tau
+ * ({n}), alpha ({m}) and feasible as %.17g numbers); lines starting with '#' are comments.
+ */
+#include <stdio.h>
+
+#include "rrr4.h"
+
+#define STEPS {EXAMPLE_STEPS}
+#define PRINT_EVERY {EXAMPLE_PRINT_EVERY}
+/* simulated tracking error of actuator i: (i + 1) * ANGLE_OFFSET [rad or m] */
+#define ANGLE_OFFSET {EXAMPLE_ANGLE_OFFSET!r}
+
+int main(void) {{
+  double pose[3], pose_d[3], pose_dd[3];
+  double theta[{n}], theta_d[{n}], tau[{n}], theta_ref[{n}], theta_d_ref[{n}], extra[{m + 1}];
+  int k, i;
+
+  printf("# t [s], tau [N m or N] ({n}), alpha [N m] ({m}), feasible\\n");
+  for (k = 0; k <= STEPS; ++k) {{
+    double t = RRR4_PATH_DURATION * k / STEPS;
+    if (rrr4_trajectory(t, pose, pose_d, pose_dd)) return 1;
+    /* stand-in for the encoders: the step's own references with a fixed lag */
+    for (i = 0; i < RRR4_N_ACTUATORS; ++i) theta[i] = theta_d[i] = 0.0;
+    if (rrr4_controller_step({where}, theta, theta_d, NULL, NULL, theta_ref, theta_d_ref, NULL, NULL)) return 1;
+    for (i = 0; i < RRR4_N_ACTUATORS; ++i) {{
+      theta[i] = theta_ref[i] - (i + 1) * ANGLE_OFFSET;
+      theta_d[i] = theta_d_ref[i];
+    }}
+    if (rrr4_controller_step({where}, theta, theta_d, tau, NULL, NULL, NULL, {"extra" if m else "NULL"},
+                             &extra[{m}]))
+      return 1;
+    if (extra[{m}] == 0.0) printf("# t = %g s: preload infeasible, best effort\\n", t);
+    if (k % PRINT_EVERY == 0) {{
+      printf("step %.17g", t);
+      for (i = 0; i < RRR4_N_ACTUATORS; ++i) printf(" %.17g", tau[i]);
+      for (i = 0; i <= {m}; ++i) printf(" %.17g", extra[i]);
+      printf("\\n");
+    }}
+  }}
+  return 0;
+}}
+"""
+
+
 MAKEFILE = f"""# Builds the rrr4 example and a shared library of the controller functions.
 CC ?= gcc
 CFLAGS ?= -O2 -Wall
@@ -256,4 +337,4 @@ clean:
 def texts(problem: Problem, ks: tuple[Kernel, ...], branch: int) -> dict[str, str]:
     """The hand-written files of a codegen output, by file name: rrr4.h, rrr4.c, main.c, Makefile."""
     return {f"{WRAPPER}.h": wrapper_header(problem, ks, branch), f"{WRAPPER}.c": wrapper_source(problem, ks),
-            "main.c": example_main(problem), "Makefile": MAKEFILE}
+            "main.c": example_main(problem, ks), "Makefile": MAKEFILE}

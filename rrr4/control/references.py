@@ -34,7 +34,9 @@ __all__ = ["References", "graph_references", "reference_function", "tabulated", 
 class References:
     """Controller references on a time grid t (N,) [s]: theta_ref, theta_d_ref,
     theta_dd_ref, tau_ff (N, n) (actuator coordinates [rad or m], their rates, the
-    feed-forward efforts [N m or N] with the preload), alpha (N, m), pose (N, 3)."""
+    feed-forward efforts [N m or N] with the preload), alpha (N, m), pose (N, 3), feasible
+    (N,) (1.0 where the preload holds every passive joint loaded within the limits, else 0.0;
+    1.0 without a preload or with a given one)."""
     t: np.ndarray
     pose: np.ndarray
     theta_ref: np.ndarray
@@ -42,6 +44,7 @@ class References:
     theta_dd_ref: np.ndarray
     tau_ff: np.ndarray
     alpha: np.ndarray
+    feasible: np.ndarray
 
 
 def path_rows(path: PathSpec, t: np.ndarray) -> np.ndarray:
@@ -70,16 +73,25 @@ def reference_function(problem: Problem) -> ca.Function:
 
 def tabulated(problem: Problem, t: np.ndarray, given=None) -> References:
     """The controller's references on the grid t (N,) [s]: the closed-form controller's own
-    outputs where it has one (an n-RRR without a given preload), else :func:`graph_references`."""
+    outputs where it has one (an n-RRR without a given preload), else :func:`graph_references`;
+    revolute actuators' angles unwrapped along t (continuous, so that cubics through them
+    never cross a 2 pi jump; the feedback law wraps the error anyway)."""
+    refs = _tabulated(problem, t, given)
+    revolute = [i for i, j in enumerate(problem.model.actuated_joints) if problem.joint(j).type == "revolute"]
+    refs.theta_ref[:, revolute] = np.unwrap(refs.theta_ref[:, revolute], axis=0)
+    return refs
+
+
+def _tabulated(problem: Problem, t: np.ndarray, given) -> References:
     if given is None and not pointwise_controller(problem):
         f = controller_function(problem)
         rows = path_rows(problem.path, t)
         n = f.size1_in(3)
         out = f.map(len(t))(*(rows[:, 3 * k:3 * k + 3].T for k in range(3)), np.zeros((n, len(t))),
                             np.zeros((n, len(t))))
-        _, ff, th, th_d, alpha, _ = (np.array(v).T for v in out)
+        _, ff, th, th_d, alpha, feasible = (np.array(v).T for v in out)
         th_dd = CubicSpline(t, th_d, axis=0)(t, 1) if len(t) > 2 else np.zeros_like(th_d)
-        return References(t, rows[:, :3], th, th_d, th_dd, ff, alpha.reshape(len(t), -1))
+        return References(t, rows[:, :3], th, th_d, th_dd, ff, alpha.reshape(len(t), -1), feasible.ravel())
     return graph_references(problem, t, given)
 
 
@@ -101,7 +113,7 @@ def graph_references(problem: Problem, t: np.ndarray, preload=None) -> Reference
     fam = graph_family(mech, q, qdd, problem.gravity)
     m = fam.tau_n.shape[2]
     alpha = np.zeros((N, m))
-    tau_ff = fam.tau_p
+    tau_ff, feasible = fam.tau_p, np.ones(N)
     if preload is not None:
         tau_ff = np.column_stack([np.interp(t, preload.t, np.asarray(preload.tau)[:, i]) for i in range(mech.n)])
         alpha = np.einsum("knm,kn->km", fam.tau_n, tau_ff - fam.tau_p)
@@ -110,6 +122,7 @@ def graph_references(problem: Problem, t: np.ndarray, preload=None) -> Reference
         alpha = np.column_stack([np.interp(t, sol.t, np.asarray(sol.alpha).reshape(len(sol.t), -1)[:, i])
                                  for i in range(m)])
         tau_ff = fam.tau_p + np.einsum("knm,km->kn", fam.tau_n, alpha)
+        feasible = (np.interp(t, sol.t, np.asarray(sol.feasible, float)) == 1.0).astype(float)
     if problem.compensates:
         r = fam.r_p + np.einsum("kjcm,km->kjc", fam.r_n, alpha)
         W = slip_rows(problem)
@@ -127,4 +140,4 @@ def graph_references(problem: Problem, t: np.ndarray, preload=None) -> Reference
             rhs = -np.einsum("kjt,kj->kt", G, f_t)
             JtJ = np.einsum("knt,kns->kts", J, J)
             tau_ff = tau_ff + np.einsum("knt,kt->kn", J, np.linalg.solve(JtJ, rhs[..., None])[..., 0])
-    return References(t, p, th, th_d, th_dd, tau_ff, alpha)
+    return References(t, p, th, th_d, th_dd, tau_ff, alpha, feasible)

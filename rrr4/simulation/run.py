@@ -9,7 +9,9 @@ preload, compensation, PD), run continuously inside the right-hand side or sampl
 ``actuation.control_rate`` with a zero-order hold (then the right-hand side only takes the
 held efforts). An n-RRR runs its closed-form controller step (in CasADi, or its generated C
 in the loop); any other graph with a task body tabulates the controller's references on the
-path samples and runs the same feedback law on them, interpolated (cubic Hermite). A
+path samples and runs the same feedback law on them, interpolated (cubic Hermite), or its
+generated table step in the loop (:func:`rrr4.control.controller_step`), which holds the
+same references and interpolation. A
 ``preload`` override (anything with ``t`` (N,) [s] and ``tau`` (N, n), e.g. a
 PreloadSolution) replaces the controller's feed-forward.
 
@@ -29,10 +31,10 @@ from dataclasses import replace
 
 import casadi as ca
 import numpy as np
-from scipy.interpolate import CubicHermiteSpline, CubicSpline
+from scipy.interpolate import CubicHermiteSpline
 
 from ..checks import argument, describe, unknown_value
-from ..control import CONTROLLERS, graph_references, path_rows, reference_function, tabulated
+from ..control import CONTROLLERS, graph_references, interpolants, reference_function, step_inputs, tabulated
 from ..errors import SceneError, SimulationError
 from ..files import c_compiler
 from ..functions import graph_size, mapped
@@ -93,11 +95,11 @@ def _interpolated(t_s: np.ndarray, th, th_d, th_dd, ff):
     interpolated cubic Hermite in theta (with theta_d) and theta_d (with theta_dd), cubic
     splines in theta_dd and the feed-forward (ffd: its rate); error ~ h^4, far below 1e-9 at
     1 kHz. With two samples (a run of one frame, t_s its ends) the samples themselves."""
+    if len(t_s) > 2:  # the table step's interpolation (rrr4.control.interpolants)
+        p = interpolants(t_s, th, th_d, th_dd, ff)
+        return lambda t: {"th": p["th"](t), "thd": p["thd"](t), "thdd": p["thdd"](t), "ff": p["ff"](t),
+                          "ffd": p["ff"](t, 1)}
     hermite = CubicHermiteSpline(t_s, th, th_d, axis=0), CubicHermiteSpline(t_s, th_d, th_dd, axis=0)
-    if len(t_s) > 2:
-        spline_dd, spline_ff = CubicSpline(t_s, th_dd, axis=0), CubicSpline(t_s, ff, axis=0)
-        return lambda t: {"th": hermite[0](t), "thd": hermite[1](t), "thdd": spline_dd(t), "ff": spline_ff(t),
-                          "ffd": spline_ff(t, 1)}
     return lambda t: {"th": hermite[0](t), "thd": hermite[1](t), "thdd": th_dd[np.searchsorted(t_s, t)],
                       "ff": ff[np.searchsorted(t_s, t)], "ffd": np.zeros((len(t), ff.shape[1]))}
 
@@ -134,7 +136,8 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
     interval or control period), output_rate [Hz] (default: path.sample_rate; with a sampled
     controller, at most its rate), controller: 'python' (default; the controller step in
     CasADi) or 'generated' (the C that :func:`rrr4.codegen` writes, compiled with the C
-    compiler and called through ``casadi.external``; needs a control rate), preload (object
+    compiler and called through ``casadi.external``: a graph's table step too; needs a control
+    rate), preload (object
     with t, tau, e.g. a PreloadSolution: the feed-forward efforts instead of the controller's
     own), model (a Scene: the controller's model of the simulated mechanism, default the scene
     itself; e.g. nominal parameters against a mechanism built with tolerances), v_min [m/s],
@@ -279,8 +282,8 @@ def _frame_inputs(problem: Problem, loop: Loop, refs_at, n_frames: int, t_grid) 
             at = refs_at(t)
             cols += ([at["th"][:-1], at["thd"][:-1], at["ff"][:-1]] if held else
                      [v for key in ("th", "thd", "thdd", "ff", "ffd") for v in (at[key][:-1], at[key][1:])])
-        elif held:  # pointwise controller: the path and its derivatives at each control instant
-            cols.append(path_rows(problem.path, t[:-1]))
+        elif held:  # pointwise controller: the path and its derivatives (or the time) at each control instant
+            cols += [v.T for v in step_inputs(loop.control, problem.path, t[:-1])]
         return np.column_stack(cols)
 
     return FrameInputs(n_frames, rows(0, 1).shape[1], rows)
@@ -311,8 +314,7 @@ def _controller_efforts(ctrl: Problem, loop: Loop, model, t: np.ndarray, q: np.n
     meas = ca.Function("measured", [qs, qds], list(measured(model, qs, qds)))
     th, th_d = (np.array(v) for v in meas.map(N)(q.T, qd.T))
     if loop.pointwise:
-        rows = path_rows(ctrl.path, t)
-        ins = [rows[:, 3 * k:3 * k + 3].T for k in range(3)]
+        ins = step_inputs(loop.control, ctrl.path, t)
     else:
         ins = [v.T for v in refs]
     settings = np.broadcast_to(np.asarray(loop.settings, float)[:, None], (len(loop.settings), N))

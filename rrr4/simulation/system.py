@@ -161,11 +161,14 @@ def _build_system(eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bo
     peak_values = ca.Function("peaks", [t, y, z, u], [values], ["t", "y", "z", "u"], ["peaks"])
     control = None
     if loop.kind == "held":
-        k = loop.control.size1_in(0)  # pose derivatives (3 each) or actuator references (n each): 3 blocks
-        ym, zm, uf = ca.MX.sym("y", y.shape[0]), ca.MX.sym("z", z.shape[0]), ca.MX.sym("u_frame", 2 + 3 * k)
+        # the inputs before theta, theta_d: the pose and its rates (3 each), the actuator
+        # references (n each) or the time (1), see rrr4.control.step_inputs
+        sizes = [loop.control.size1_in(i) for i in range(loop.control.n_in() - 3)]
+        ym, zm, uf = ca.MX.sym("y", y.shape[0]), ca.MX.sym("z", z.shape[0]), ca.MX.sym("u_frame", 2 + sum(sizes))
         pm = zm[3 * nc:3 * nc + len(eqs.parameters)]
         meas = measured(model, *configuration(ym, pm), par, pm)
-        args = [uf[2 + i * k:2 + (i + 1) * k] for i in range(3)]
+        ends = [int(e) for e in np.cumsum([2, *sizes])]
+        args = [uf[a:b] for a, b in zip(ends[:-1], ends[1:], strict=True)]
         eff = loop.control(*args, *meas, zm[z.shape[0] - n_peaks - ns:z.shape[0] - n_peaks])
         eff = eff[0] if isinstance(eff, (list, tuple)) else eff
         control = ca.Function("control", [ym, zm, uf], [ca.vertcat(uf[:2], eff)], ["y", "z", "u_frame"], ["u"])
@@ -198,12 +201,13 @@ def loop_of(problem: Problem, eqs: Equations, controller: str, references: str, 
     if eqs.mode != "torque":
         kind = "sampled" if references == "sampled" or (not problem.closed_form and problem.model.task) else "exact"
         return Loop(kind, None, False, problem.path, key=("none",))
-    why = pointwise_controller(problem) or ("a feed-forward is given (preload=)" if given is not None else "") or (
+    given_why = ("a feed-forward is given (preload=)" if given is not None else "") or (
         "references='sampled' tabulates the references" if references == "sampled" else "")
+    why = pointwise_controller(problem) or given_why
     if controller == "generated":
-        if why:
-            raise SceneError(f"controller: 'generated' is not allowed here ({why}; the generated C is the "
-                             "closed-form controller step of an n-RRR scene)")
+        if given_why:
+            raise SceneError(f"controller: 'generated' is not allowed here ({given_why}; the generated C is the "
+                             "scene's own controller step)")
         if not held:
             raise SceneError("controller: 'generated' is not allowed without actuation.control_rate (the generated "
                              "controller runs as a sampled controller with zero-order hold: set a rate in Hz)")

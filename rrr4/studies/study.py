@@ -15,9 +15,10 @@ controller (:mod:`rrr4.control`) in up to three arms:
 The preloaded arms exist only when the controller preloads (actuation redundancy,
 ``actuation.preload.min_force`` > 0 and a method other than none): a fully actuated 3-RRR
 has no null space, and f_min = 0 makes the minimum-norm torques optimal. The compensated
-arm needs clearance joints. Where the scene's controller is sampled (``actuation.control_rate``)
-and has a closed form, the preloaded arms run its generated C in the loop (when a C compiler
-exists), the other arm the same step in CasADi.
+arm needs clearance joints. Where the scene's controller is sampled (``actuation.control_rate``),
+the preloaded arms run its generated C in the loop (when a C compiler exists): the closed-form
+step of an n-RRR, or the table step of a graph (:func:`rrr4.control.controller_step`); the
+other arm runs the controller in CasADi.
 
 A scene without a task body (a driven mechanism such as Flores's slider-crank) has no
 preload question; its study compares the mechanism with its clearance joints against its
@@ -47,7 +48,6 @@ import numpy as np
 
 from ..checks import argument, unknown_value
 from ..codegen.build import compile_time
-from ..control import pointwise_controller
 from ..errors import SceneError
 from ..files import c_compiler
 from ..integrators import METHODS
@@ -80,10 +80,12 @@ def arm_scene(problem: Problem, arm: str) -> Scene:
 
 
 def study_controller(problem: Problem) -> str:
-    """'generated' where the problem's sampled controller has a closed form and a C compiler
-    exists, else 'python'."""
+    """'generated' where the problem's controller is sampled (a torque-mode scene with
+    ``actuation.control_rate``) and a C compiler exists, else 'python'. The generated step is
+    the closed form of an n-RRR, or the table step of any other scene
+    (:func:`rrr4.control.controller_step`)."""
     scene = problem.scene
-    ok = scene.actuation.control_rate is not None and not pointwise_controller(problem) and c_compiler() is not None
+    ok = scene.actuation.control_rate is not None and c_compiler() is not None
     return "generated" if ok and scene.actuation.mode == "torque" else "python"
 
 
