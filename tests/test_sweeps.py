@@ -456,3 +456,10 @@ def test_a_scene_with_tables_sweeps_with_their_rows_carried_in_each_case(tmp_pat
     assert scene.forces[0].table == ((0.0, 0.0, 0.0, 0.0), (0.005, -1.5, 0.5, 0.01))
     rows, _, _ = run_case(text, "tabled", spec.t_end, spec.arms)  # from the test's directory, not the scene's
     assert rows[0]["status"] == "ok", rows
+
+
+@pytest.mark.parametrize("t_end", [10**400, -(10**400), float("nan")])
+def test_a_number_no_float_holds_is_refused_in_one_line(t_end):
+    with pytest.raises(SceneError, match=r"^t_end: .* is not allowed \(t_end \[s\] must be a finite number\)$"):
+        parse_spec({"scene": str(ROOT / "problems" / "paper_circle.yaml"), "t_end": t_end,
+                    "grid": {"joints.radial_clearance": [1e-4]}})

@@ -103,7 +103,11 @@ def spec_arms(driven: bool) -> tuple[tuple[str, ...], tuple[str, ...]]:
 
 
 def _number(key: str, v, what: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+    try:  # math.isfinite takes any int (a float conversion of one beyond 1e308 overflows)
+        finite = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
+    except OverflowError:
+        finite = False
+    if not finite:
         raise SceneError(f"{key}: {describe(v)} is not allowed ({what} must be a finite number)")
     return float(v)
 
