@@ -20,8 +20,10 @@ Below the front doors (``solve_preload``, ``simulate``, ``codegen``, ``sweep``, 
 studies), which accept a Scene or a Problem, every algorithm takes the Problem and reads
 the scene's settings through it. Its methods are the one dispatch between the closed-form
 n-RRR and a general graph (effort family, path and body coordinates, seated coordinates);
-what exists only in closed form (the controller step, the generated C, transmission
-angles) is asked with :attr:`Problem.closed_form`.
+what exists only in closed form (the closed-form controller step and its full set of
+generated functions, transmission angles) is asked with :attr:`Problem.closed_form`; any
+other scene's controller steps on references tabulated along its path
+(:func:`rrr4.control.controller_step`).
 """
 
 from __future__ import annotations
