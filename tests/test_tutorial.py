@@ -47,7 +47,7 @@ def tutorial(tmp_path_factory):
 def test_every_block_is_used():
     kinds = {(bool(f), lang) for f, lang, _ in blocks()}
     assert kinds <= {(True, "yaml"), (True, "python"), (False, "sh")}, "a block the test would not run"
-    assert any(f == "my_robot.yaml" for f, _, _ in blocks())
+    assert {"my_robot.yaml", "my_table.yaml"} <= {f for f, _, _ in blocks()}
 
 
 def test_tutorial_runs_and_its_claims_hold(tutorial):
@@ -61,7 +61,7 @@ def test_tutorial_runs_and_its_claims_hold(tutorial):
     assert comp["platform_error_rms_m"] < pre["platform_error_rms_m"] < none["platform_error_rms_m"]
     assert comp["platform_error_rms_m"] < 2e-6          # the text says 1.2 um
     assert 0.8e-4 < none["platform_error_rms_m"] < 1.3e-4  # the text says 0.1 mm
-    check = next(r for line, r in ran if line.startswith("rrr4 check"))
+    check = next(r for line, r in ran if line.startswith("rrr4 check my_robot"))
     assert "holds at every sample; peak effort 4.4 N m at actuator A4" in check.stdout
     assert (d / "my_robot.gif").stat().st_size > 0
     out = (d / "controller_output.txt").read_text().splitlines()
@@ -71,6 +71,23 @@ def test_tutorial_runs_and_its_claims_hold(tutorial):
     assert (d / "results" / "my_robot_map" / "map.png").exists()
     py = next(r for line, r in ran if line.startswith("python"))
     assert "contact losses: 0" in py.stdout
+
+
+def test_the_graph_part_runs_and_its_claims_hold(tutorial):
+    d, ran = tutorial
+    check = next(r for line, r in ran if line.startswith("rrr4 check my_table"))
+    assert "carriage_1: (-176.775, -300.000) mm" in check.stdout
+    assert "kp = 2000 N/m, kd = 50 N s/m), |effort| <= 60 N" in check.stdout
+    peak = re.search(r"holds at every sample; peak effort ([\d.]+) N at actuator", check.stdout)
+    assert peak and 20 < float(peak[1]) < 24
+    s = json.loads((d / "results" / "my_table" / "summary.json").read_text())
+    pre, comp, none = (s[a] for a in ("with_preload", "with_preload_compensated", "without_preload"))
+    assert sum(pre["contact_loss_events"].values()) == sum(comp["contact_loss_events"].values()) == 0
+    assert sum(none["contact_loss_events"].values()) > 100
+    assert comp["platform_error_rms_m"] < 3e-6 < 2e-5 < pre["platform_error_rms_m"] < 4e-5 < 1e-4 < \
+        none["platform_error_rms_m"]
+    out = (d / "table_controller_output.txt").read_text().splitlines()
+    assert out[0].startswith("# t [s], tau [N] (4), alpha [N] (1)") and any(x.startswith("step ") for x in out)
 
 
 def test_the_tight_limit_the_text_describes(tutorial):

@@ -286,7 +286,7 @@ int main(void) {{
   double theta[{n}], theta_d[{n}], tau[{n}], theta_ref[{n}], theta_d_ref[{n}], extra[{m + 1}];
   int k, i;
 
-  printf("# t [s], tau [N m or N] ({n}), alpha [N m] ({m}), feasible\\n");
+  printf("# t [s], tau [{problem.effort_unit}] ({n}), alpha [{problem.effort_unit}] ({m}), feasible\\n");
   for (k = 0; k <= STEPS; ++k) {{
     double t = RRR4_PATH_DURATION * k / STEPS;
     if (rrr4_trajectory(t, pose, pose_d, pose_dd)) return 1;
