@@ -4,14 +4,16 @@ error one line with the key path, the value and what is allowed."""
 
 from __future__ import annotations
 
+import csv
 import difflib
 import math
 from contextlib import contextmanager
+from pathlib import Path
 
 from ..checks import describe, unknown_value
 from ..errors import SceneError
 
-__all__ = ["Section", "MAX_MAGNITUDE", "BIG", "MAX_SAMPLES", "recording"]
+__all__ = ["Section", "MAX_MAGNITUDE", "BIG", "MAX_SAMPLES", "recording", "read_csv_rows"]
 
 
 # largest magnitude a scene number may have (SI units); larger is a unit mistake or an
@@ -194,3 +196,27 @@ def _with_dot(v: str) -> str:
     return f"{m if '.' in m else m + '.0'}e{e}" if e else v
 
 
+def read_csv_rows(path, key: str, columns: tuple[str, ...], max_rows: int) -> list[tuple[str, ...]]:
+    """The cells of `columns` (text) of every row of the CSV file a scene key names (header
+    row first; other columns are ignored), at most max_rows + 1 rows (the caller refuses
+    more); SceneError naming the key and the file when it is missing, unreadable or lacks a
+    column."""
+    p, wanted = Path(path), ",".join(columns)
+    if not p.is_file():
+        raise SceneError(f"{key}: {p.name!r} is not allowed (no such file beside the scene; a CSV with columns "
+                         f"{wanted})")
+    try:
+        with p.open(newline="", encoding="utf-8") as f:
+            reader = csv.DictReader(f)
+            missing = [c for c in columns if c not in (reader.fieldnames or ())]
+            if missing:
+                raise SceneError(f"{key}: {p.name!r} lacks the column(s) {', '.join(missing)} (a CSV with columns "
+                                 f"{wanted})")
+            rows = []
+            for row in reader:
+                rows.append(tuple(row[c] for c in columns))
+                if len(rows) > max_rows:
+                    break
+    except (UnicodeDecodeError, csv.Error, OSError) as e:
+        raise SceneError(f"{key}: {p.name!r} is not a readable CSV ({type(e).__name__})") from None
+    return rows

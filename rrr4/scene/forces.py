@@ -23,14 +23,13 @@ Plain data and the reader only; :mod:`rrr4.dynamics.elements` builds their force
 
 from __future__ import annotations
 
-import csv
 import math
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..checks import describe, unknown_value
 from ..errors import SceneError
-from .fields import MAX_MAGNITUDE, Section
+from .fields import MAX_MAGNITUDE, Section, read_csv_rows
 from .vocabulary import FORCE_ELEMENTS, GROUND, LOAD_FRAMES
 
 __all__ = ["ForceElement", "read_forces", "read_load_table", "check_load_table", "LOAD_TABLE_COLUMNS",
@@ -103,25 +102,10 @@ def read_load_table(path, key: str) -> tuple[tuple[float, float, float, float], 
     """The rows (t, fx, fy, tz) of a load table file (CSV, header t,fx,fy,tz): t from 0 or
     later, increasing, every value finite and |value| <= the scene limit; SceneError naming
     the key, the file and the row otherwise."""
-    p = Path(path)
-    if not p.is_file():
-        raise SceneError(f"{key}: {p.name!r} is not allowed (no such file beside the scene; a CSV with columns "
-                         "t,fx,fy,tz)")
-    try:
-        with p.open(newline="", encoding="utf-8") as f:
-            reader = csv.DictReader(f)
-            missing = [c for c in LOAD_TABLE_COLUMNS if c not in (reader.fieldnames or ())]
-            if missing:
-                raise SceneError(f"{key}: {p.name!r} lacks the column(s) {', '.join(missing)} (a CSV with columns "
-                                 "t,fx,fy,tz)")
-            raw = []
-            for row in reader:
-                raw.append(tuple(row[c] for c in LOAD_TABLE_COLUMNS))
-                if len(raw) > MAX_LOAD_ROWS:
-                    raise SceneError(f"{key}: {p.name!r} has more than {MAX_LOAD_ROWS} rows (not allowed)")
-    except (UnicodeDecodeError, csv.Error, OSError) as e:
-        raise SceneError(f"{key}: {p.name!r} is not a readable CSV ({type(e).__name__})") from None
-    return check_load_table(raw, f"{key}: {p.name!r}")
+    raw = read_csv_rows(path, key, LOAD_TABLE_COLUMNS, MAX_LOAD_ROWS)
+    if len(raw) > MAX_LOAD_ROWS:
+        raise SceneError(f"{key}: {Path(path).name!r} has more than {MAX_LOAD_ROWS} rows (not allowed)")
+    return check_load_table(raw, f"{key}: {Path(path).name!r}")
 
 
 def check_load_table(raw, where: str) -> tuple[tuple[float, float, float, float], ...]:

@@ -14,12 +14,12 @@ row consistent with constant acceleration, s[k+1] - s[k] = h (s_dot[k] + s_dot[k
 
 from __future__ import annotations
 
-import csv
 import math
 import os
 from pathlib import Path
 
 from ..errors import SceneError
+from .fields import read_csv_rows
 
 __all__ = ["TIME_TABLE_COLUMNS", "MAX_TABLE_ROWS", "read_time_table", "check_time_table", "time_table_text"]
 
@@ -66,25 +66,8 @@ def check_time_table(rows, key: str = "time_table") -> tuple[tuple[float, float,
 def read_time_table(path: str | os.PathLike, key: str = "path.time_table") -> tuple[tuple[float, float, float], ...]:
     """The checked rows of the time table file `path` (CSV, header t,s,s_dot); SceneError
     naming the key and the file otherwise."""
-    p = Path(path)
-    if not p.is_file():
-        raise SceneError(f"{key}: {p.name!r} is not allowed (no such file beside the scene; a CSV with columns "
-                         "t,s,s_dot)")
-    try:
-        with p.open(newline="", encoding="utf-8") as f:
-            reader = csv.DictReader(f)
-            missing = [c for c in TIME_TABLE_COLUMNS if c not in (reader.fieldnames or ())]
-            if missing:
-                raise SceneError(f"{key}: {p.name!r} lacks the column(s) {', '.join(missing)} (a CSV with "
-                                 f"columns t,s,s_dot)")
-            rows = []
-            for row in reader:
-                rows.append(tuple(row[c] for c in TIME_TABLE_COLUMNS))
-                if len(rows) > MAX_TABLE_ROWS:
-                    break
-    except (UnicodeDecodeError, csv.Error, OSError) as e:
-        raise SceneError(f"{key}: {p.name!r} is not a readable CSV ({type(e).__name__})") from None
-    return check_time_table(rows, f"{key} ({p.name})")
+    rows = read_csv_rows(path, key, TIME_TABLE_COLUMNS, MAX_TABLE_ROWS)
+    return check_time_table(rows, f"{key} ({Path(path).name})")
 
 
 def time_table_text(t, s, s_dot, s_ddot=None) -> str:
