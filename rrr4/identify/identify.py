@@ -202,8 +202,9 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
         return res["r"], res["J"] * np.array([q.derivative(v) for q, v in zip(params, u, strict=True)])
 
     u, iterations, converged = np.zeros(len(params)), 0, True
+    chaos_nominal = None
     if method == "dynamic":  # a run too chaotic to shoot is refused before fitting, and again at the end
-        data.check_sensitivities(values(u), sigma, data.residuals(values(u), sigma)["J"])
+        chaos_nominal = data.check_sensitivities(values(u), sigma, data.residuals(values(u), sigma)["J"])
     for _ in range(4):
         u, r, J, it, ok = levenberg_marquardt(fun, u, lower, upper)
         iterations, converged = iterations + it, ok
@@ -245,7 +246,8 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
            "rms_residual": {c: float(np.sqrt(np.mean(v ** 2))) for c, v in res["raw"].items()},
            "iterations": iterations, "converged": bool(converged), "wall_time_s": time.perf_counter() - wall,
            "angles": "measured" if data.angles_measured else "controller references", "preload": data.preload,
-           "effort_lag_s": data.lag, **({"simulations": data.runs, "sensitivity_disagreement": data.chaos}
+           "effort_lag_s": data.lag, **({"simulations": data.runs, "sensitivity_disagreement": data.chaos,
+                                         "sensitivity_disagreement_nominal": chaos_nominal}
                                         if method == "dynamic" else {}),
            "columns": data.columns()}
     return Identification(
