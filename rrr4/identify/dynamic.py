@@ -11,7 +11,10 @@ bearing radius and, with ``stiffness: auto``, the stiffness that follows from it
 measured outputs (task pose, actuator angles, the controller's efforts) and their
 sensitivities are read off each frame's start. It is compiled once per scene structure,
 integrator setting and parameter count (cached on disk as any compiled stepping) and rolled
-in chunks of frames. A run gives the prediction and its exact Jacobian together (the event
+in chunks of frames. An implicit method steps with full Newton there (a converged Newton
+step with exact Jacobians has the implicit function's derivative; simplified Newton's reused
+factors do not): the same solution to the Newton tolerance (on the reference scene 3e-12 m
+and 2e-7 N m from the simulation's). A run gives the prediction and its exact Jacobian together (the event
 times' own dependence on p, the jumps of a contact's onset, is not in it: a contact law with
 an onset velocity is smooth only between events).
 
@@ -55,7 +58,7 @@ CHUNK = 256  # frames per call from Python
 
 
 def sensitivity_frame(problem: Problem, n_directions: int, interval: float, jit: bool | None = None):
-    """(frame, system, loop, eqs, tree, frame length [s]) of the problem's run with its
+    """(frame, system, loop, eqs, tree, integrator, frame length [s]) of the problem's run with its
     own controller: 'sensitivity_frame' (x, S (nx, n_directions), u) -> (x_next, S_next, o,
     dO): one frame and its forward sensitivities; o (n_out,): task pose, actuator angles,
     efforts at the frame's start, dO = do/dx S. A frame is a control period of a sampled
@@ -82,7 +85,9 @@ def _build(problem: Problem, nd: int, dt: float, jit: bool):
         raise SceneError(f"mechanism.kind: method 'dynamic' is built for n-RRR scenes with their closed-form "
                          f"controller (scene {problem.name!r} tabulates its references)")
     method = METHODS[scene.integrator.method].from_settings(scene.integrator, jit=False)
-    if not isinstance(method, FixedStepIntegrator) or isinstance(method, ImplicitIntegrator):
+    if isinstance(method, ImplicitIntegrator):
+        method.newton = "full"
+    if not isinstance(method, FixedStepIntegrator) or getattr(method, "tolerance", None) is not None:
         raise SceneError(f"integrator.method: {scene.integrator.method!r} is not allowed with method 'dynamic' (its "
                          "sensitivities are the forward derivatives of an explicit fixed-step frame: the iterations "
                          "of an implicit method's simplified Newton have none that are exact, an adaptive method "
@@ -97,14 +102,14 @@ def _build(problem: Problem, nd: int, dt: float, jit: bool):
     S1 = unit.forward(nd)(x, u, x1, S, ca.MX.zeros(nu, nd))
     out = _outputs(problem, eqs, loop, system, tree)
     xs = ca.SX.sym("x", nx)
-    o = out(xs)
+    o = out(xs[:1 + system.ny + system.nz])  # an implicit method's memory follows [t, y, z]
     do = ca.Function("outputs", [xs], [o, ca.jacobian(o, xs)])
     o_x, do_x = do(x)
     f = ca.Function("sensitivity_frame", [x, S, u], [x1, S1, o_x, do_x @ S], ["x", "S", "u"],
                     ["x_next", "S_next", "o", "dO"])
     if jit:
         f = compiled(f, system.c_sources)
-    return f, system, loop, eqs, tree, dt
+    return f, system, loop, eqs, tree, method, dt
 
 
 def _outputs(problem: Problem, eqs, loop, system, tree: bool) -> ca.Function:
@@ -140,7 +145,7 @@ class DynamicData:
             raise SceneError(f"scene: {problem.name!r} has no YAML file (its journals start seated, where the "
                              "clearances put them: method 'dynamic' needs the scene's file to place them)")
         self.problem, self.m, self.params, self.scene_data = problem, m, params, scene_data
-        self.f, self.system, self.loop, self.eqs, self.tree, self.dt = sensitivity_frame(
+        self.f, self.system, self.loop, self.eqs, self.tree, self.method, self.dt = sensitivity_frame(
             problem, len(params), float(np.median(np.diff(m.t))))
         kinds = measurement_columns(problem)
         self.kinds = kinds
@@ -198,7 +203,9 @@ class DynamicData:
         x0 = initial_state(pb, eqs, self._efforts, self.tree, self.loop.settings)
         nc, ny = len(eqs.clearance_joints), self.system.ny
         x0[1 + ny + 3 * nc:1 + ny + 3 * nc + len(eqs.parameters)] = self._contact_numbers(p)
-        return self.system.started(x0, self._frame_inputs(0, 1)[0])
+        x0 = self.system.started(x0, self._frame_inputs(0, 1)[0])
+        extra = getattr(self.method, "initial_extra", None)  # an implicit method's memory and counters
+        return np.r_[x0, extra(self.system, x0, self._frame_inputs(0, 1)[0])] if extra else x0
 
     def _efforts(self, t, q, qd) -> np.ndarray:
         """The controller's efforts at the states (q, qd) at the times t (for seated journals' loads)."""
