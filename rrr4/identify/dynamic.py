@@ -258,10 +258,11 @@ class DynamicData:
         self._cache[key] = (o, do)
         return o, do
 
-    def _shifted(self, p, i: int) -> np.ndarray:
+    def _shifted(self, p, i: int, step: float = FD_STEP) -> np.ndarray:
+        """p with parameter i one `step` up in its scaled coordinate."""
         q = self.params[i]
         out = np.array(p, float)
-        out[i] = q.value(q.coordinate(p[i]) + FD_STEP)
+        out[i] = q.value(q.coordinate(p[i]) + step)
         return out
 
     # ------------------------------------------------------------------ residuals
@@ -323,16 +324,16 @@ class DynamicData:
 
     # ------------------------------------------------------------------ the check
 
-    def central_differences(self, p, sigma: dict) -> np.ndarray:
+    def central_differences(self, p, sigma: dict, step: float = FD_STEP) -> np.ndarray:
         """The Jacobian of the whitened residuals in p by central differences of whole runs,
-        one FD_STEP (scaled coordinate) either side: the check of the sensitivities."""
+        `step` (scaled coordinate) either side: the check of the sensitivities."""
         p = np.asarray(p, float)
         cols = []
         for i in range(len(p)):
-            up = self._shifted(p, i)
+            up = self._shifted(p, i, step)
             q = self.params[i]
             down = np.array(p)
-            down[i] = q.value(q.coordinate(p[i]) - FD_STEP)
+            down[i] = q.value(q.coordinate(p[i]) - step)
             r_up = self.residuals(up, sigma, jacobian=False)["r"]
             r_down = self.residuals(down, sigma, jacobian=False)["r"]
             cols.append((r_up - r_down) / (up[i] - down[i]))
@@ -347,8 +348,8 @@ class DynamicData:
         self.chaos = d
         if not d <= CHAOS_LIMIT:
             raise SimulationError(f"method 'dynamic': the run over 0 to {self.m.t[-1]:.3g} s is too sensitive to its "
-                                  f"parameters for shooting (its sensitivities and central differences "
-                                  f"{100 * FD_STEP:g} % of a parameter's scale apart differ by {100 * d:.0f} %, allowed "
+                                  f"parameters for shooting (its sensitivities and central differences of runs "
+                                  f"+-{100 * FD_STEP:g} % of a parameter's scale differ by {100 * d:.0f} %, allowed "
                                   f"{100 * CHAOS_LIMIT:.0f} %): journals that rattle make it chaotic; fit a shorter "
                                   "span from the start, or a preloaded run with 'seated'")
         return d
