@@ -99,7 +99,7 @@ def _build(problem: Problem, nd: int, dt: float, jit: bool):
     nx, nu = unit.size1_in(0), unit.size1_in(1)
     x, u, S = ca.MX.sym("x", nx), ca.MX.sym("u", nu), ca.MX.sym("S", nx, nd)
     x1 = unit(x, u)
-    S1 = unit.forward(nd)(x, u, x1, S, ca.MX.zeros(nu, nd))
+    S1 = unit.forward(nd)(x, u, x1, S, ca.MX.zeros(nu, nd)) if nd else ca.MX(nx, 0)
     out = _outputs(problem, eqs, loop, system, tree)
     xs = ca.SX.sym("x", nx)
     o = out(xs[:1 + system.ny + system.nz])  # an implicit method's memory follows [t, y, z]
@@ -154,7 +154,8 @@ class DynamicData:
         self.angles_measured = bool(self.angle_cols)
         self.preload, self.lag = "simulated controller", 0.0
         self.n_frames = int(np.ceil(m.t[-1] / self.dt - 1e-9)) + 1  # frame starts 0, dt, ... cover t
-        self.runs, self.chaos, self._cache = 0, None, {}
+        self.runs, self.chaos, self._cache, self._rolls = 0, None, {}, {}
+        self.u = self._frame_inputs(0, self.n_frames)
         self.D = self._derivatives()
         self.seated = seated
 
@@ -224,33 +225,38 @@ class DynamicData:
             cols.append(path_rows(self.problem.path, t[:-1]))
         return np.column_stack(cols)
 
-    def run(self, p) -> tuple[np.ndarray, np.ndarray]:
+    def run(self, p, sensitivities: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
         """(o (n_frames, n_out), dO (n_frames, n_out, np)) at the frame starts with the parameter
-        values p: the recorded outputs and their exact sensitivities."""
+        values p: the recorded outputs and their exact sensitivities (None without
+        `sensitivities`: the frame without directions, compiled apart, a third of the cost)."""
         p = np.asarray(p, float)
         key = tuple(p.tolist())
-        if key in self._cache:
+        if key in self._cache and (self._cache[key][1] is not None or not sensitivities):
             return self._cache[key]
         self.runs += 1
-        nd, ny = len(self.params), self.system.ny
+        nd, ny = (len(self.params) if sensitivities else 0), self.system.ny
+        f = self.f if sensitivities else sensitivity_frame(self.problem, 0, self.dt)[0]
         x = self._initial(p)
         S = np.zeros((x.size, nd))
         nc = len(self.eqs.clearance_joints)
-        S[1 + ny + 3 * nc:1 + ny + 3 * nc + len(self.eqs.parameters)] = self.D
-        if self.seated:  # the seated start moves with the clearances: forward differences of it
-            x_u = [self._initial(self._shifted(p, i)) for i in range(nd)]
-            for i in range(nd):
-                S[1:1 + ny, i] = (x_u[i][1:1 + ny] - x[1:1 + ny]) / (self._shifted(p, i)[i] - p[i])
+        if sensitivities:
+            S[1 + ny + 3 * nc:1 + ny + 3 * nc + len(self.eqs.parameters)] = self.D
+        if self.seated and sensitivities:  # the seated start moves with the clearances (only): forward differences
+            for i in (i for i, q in enumerate(self.params) if q.kind == "clearance"):
+                up = self._shifted(p, i)
+                S[1:1 + ny, i] = (self._initial(up)[1:1 + ny] - x[1:1 + ny]) / (up[i] - p[i])
         os, dos = [], []
         for a in range(0, self.n_frames, CHUNK):
             b = min(a + CHUNK, self.n_frames)
-            roll = self.f.mapaccum("roll", b - a, 2)  # x and S carried from frame to frame
-            x_all, S_all, o, do = roll(x, S, self._frame_inputs(a, b).T)
-            x, S = np.array(x_all[:, -1]).ravel(), np.array(S_all[:, -nd:])
+            if (nd, b - a) not in self._rolls:  # x and S carried from frame to frame
+                self._rolls[nd, b - a] = f.mapaccum("roll", b - a, 2)
+            x_all, S_all, o, do = self._rolls[nd, b - a](x, S, self.u[a:b].T)
+            x, S = np.array(x_all[:, -1]).ravel(), np.array(S_all[:, S_all.shape[1] - nd:])
             os.append(np.array(o).T)
-            dos.append(np.array(do).T.reshape(b - a, nd, -1).transpose(0, 2, 1))
-        o, do = np.vstack(os), np.concatenate(dos)
-        if not (np.all(np.isfinite(o)) and np.all(np.isfinite(do))):
+            if nd:
+                dos.append(np.array(do).T.reshape(b - a, nd, -1).transpose(0, 2, 1))
+        o, do = np.vstack(os), (np.concatenate(dos) if sensitivities else None)
+        if not (np.all(np.isfinite(o)) and (do is None or np.all(np.isfinite(do)))):
             raise SimulationError(f"integrator.step: the run of {self.problem.name!r} is not finite with the "
                                   f"parameters {dict(zip([q.key for q in self.params], p.tolist(), strict=True))}")
         if len(self._cache) > 8:
@@ -267,8 +273,9 @@ class DynamicData:
 
     # ------------------------------------------------------------------ residuals
 
-    def _at_measured(self, o: np.ndarray, do: np.ndarray) -> tuple[dict, dict]:
-        """{column: (N,)} and {column: (N, np)} at the measured instants (linear in time between frame starts)."""
+    def _at_measured(self, o: np.ndarray, do: np.ndarray | None) -> tuple[dict, dict]:
+        """{column: (N,)} and {column: (N, np)} (none without do) at the measured instants
+        (linear in time between frame starts)."""
         t_f = np.arange(self.n_frames) * self.dt
         n = len(self.kinds["angle"])
         index = {**{c: i for i, c in enumerate(self.kinds["pose"])},
@@ -278,13 +285,14 @@ class DynamicData:
         for c in self.columns():
             i = index[c]
             val[c] = np.interp(self.m.t, t_f, o[:, i])
-            sens[c] = np.column_stack([np.interp(self.m.t, t_f, do[:, i, j]) for j in range(do.shape[2])])
+            if do is not None:
+                sens[c] = np.column_stack([np.interp(self.m.t, t_f, do[:, i, j]) for j in range(do.shape[2])])
         return val, sens
 
     def residuals(self, p, sigma: dict, jacobian: bool = True) -> dict:
         """As :meth:`rrr4.identify.seated.SeatedData.residuals`; the Jacobian from the run's
         forward sensitivities (none without `jacobian`)."""
-        base, sens = self._at_measured(*self.run(p))
+        base, sens = self._at_measured(*self.run(p, jacobian))
         rs, js, raw, expected, explained = [], [], {}, {}, {}
         pose_ref, theta_ref = self._references()
         for c in self.columns():
