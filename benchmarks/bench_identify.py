@@ -20,9 +20,10 @@ The first fit of a parameter layout builds its CasADi Function (reported apart; 
 user's second call does.
 
 Then one Jacobian of method 'dynamic' on that window: the forward sensitivities (one run
-gives the residuals and their Jacobian) against central differences of whole runs (two runs
-per parameter, what the method checks its sensitivities with; finite differences of whole
-runs were how the method differentiated before), medians of the repeats, as a ratio.
+with a direction per parameter gives the residuals and their Jacobian) against forward
+differences of whole runs (one run plus one per parameter: how the method differentiated
+before) and central differences (two runs per parameter: what the method checks its
+sensitivities with), medians of the repeats, as ratios.
 """
 
 from __future__ import annotations
@@ -94,19 +95,26 @@ def main() -> None:
     data = DynamicData(problem, m, resolve_parameters(problem, keys), scene_yaml(problem))
     p = np.array([q.nominal for q in data.params])
     sigma = data.initial_noise()
-    walls = {"forward sensitivities": [], "central differences": []}
+    walls = {"forward sensitivities": [], "forward differences": [], "central differences": []}
     for k in range(args.repeats):
-        data.run(p + [k * 1e-9, 0.0])  # a fresh point: no cached run
+        at = [p + [(k + f) * 1e-9, 0.0] for f in (0.25, 0.5, 0.75)]  # fresh points: no cached run
         t0 = time.perf_counter()
-        data.residuals(p + [(k + 0.5) * 1e-9, 0.0], sigma)
+        data.residuals(at[0], sigma)
         walls["forward sensitivities"].append(time.perf_counter() - t0)
         t0 = time.perf_counter()
-        data.central_differences(p + [(k + 0.25) * 1e-9, 0.0], sigma)
+        r0 = data.residuals(at[1], sigma, jacobian=False)["r"]
+        for i in range(len(keys)):
+            data.residuals(data.shifted(at[1], i), sigma, jacobian=False)["r"] - r0
+        walls["forward differences"].append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        data.central_differences(at[2], sigma)
         walls["central differences"].append(time.perf_counter() - t0)
-    sens, cd = (statistics.median(v) for v in walls.values())
-    print(f"one Jacobian of method 'dynamic' on 0.1 s ({len(keys)} parameters, {data.n_frames} frames): forward "
-          f"sensitivities {sens:.3f} s, central differences {cd:.3f} s ({len(keys) * 2} runs): ratio {cd / sens:.2f}")
-
+    sens, fd, cd = (statistics.median(v) for v in walls.values())
+    print(f"one Jacobian of method 'dynamic' on 0.1 s ({len(keys)} parameters, {data.n_frames} frames, medians of "
+          f"{args.repeats}): forward sensitivities {sens:.3f} s; forward differences of whole runs (the method's "
+          f"Jacobian before, {len(keys) + 1} runs) {fd:.3f} s, ratio {fd / sens:.2f}; central differences "
+          f"({2 * len(keys)} runs) {cd:.3f} s, ratio {cd / sens:.2f}")
+    print(f"load average after: {', '.join(f'{v:.2f}' for v in os.getloadavg())}")
 
 if __name__ == "__main__":
     main()

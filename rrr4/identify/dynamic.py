@@ -243,7 +243,7 @@ class DynamicData:
             S[1 + ny + 3 * nc:1 + ny + 3 * nc + len(self.eqs.parameters)] = self.D
         if self.seated and sensitivities:  # the seated start moves with the clearances (only): forward differences
             for i in (i for i, q in enumerate(self.params) if q.kind == "clearance"):
-                up = self._shifted(p, i)
+                up = self.shifted(p, i)
                 S[1:1 + ny, i] = (self._initial(up)[1:1 + ny] - x[1:1 + ny]) / (up[i] - p[i])
         os, dos = [], []
         for a in range(0, self.n_frames, CHUNK):
@@ -264,7 +264,7 @@ class DynamicData:
         self._cache[key] = (o, do)
         return o, do
 
-    def _shifted(self, p, i: int, step: float = FD_STEP) -> np.ndarray:
+    def shifted(self, p, i: int, step: float = FD_STEP) -> np.ndarray:
         """p with parameter i one `step` up in its scaled coordinate."""
         q = self.params[i]
         out = np.array(p, float)
@@ -338,7 +338,7 @@ class DynamicData:
         p = np.asarray(p, float)
         cols = []
         for i in range(len(p)):
-            up = self._shifted(p, i, step)
+            up = self.shifted(p, i, step)
             q = self.params[i]
             down = np.array(p)
             down[i] = q.value(q.coordinate(p[i]) - step)
