@@ -201,9 +201,10 @@ class DynamicData:
         """x0 at the parameter values p: the scene's initial state with p's contact numbers
         (journals seated where the candidate's clearances put them)."""
         pb, eqs = self.problem, self.eqs
-        if self.seated:
+        if self.seated:  # the candidate's equations: its seats with its own contact numbers
             data = identified_data(pb, self.params, p, self.scene_data)
             pb = Problem.from_scene(parse_scene(data, name=str(data.get("name", "candidate")), source=""))
+            eqs = pb.equations()
         x0 = initial_state(pb, eqs, self._efforts, self.tree, self.loop.settings)
         nc, ny = len(eqs.clearance_joints), self.system.ny
         x0[1 + ny + 3 * nc:1 + ny + 3 * nc + len(eqs.parameters)] = self._contact_numbers(p)
