@@ -66,10 +66,12 @@ def test_dynamic_recovers_the_clearance_from_a_preloaded_start_up(paper):
 def test_dynamic_recovers_friction_and_clearance_from_a_tenth_of_a_second(paper):
     m, noise = _measured(paper, "friction 0.2", 0.1, seed=5)
     res = identify(paper, m, [CLEARANCE, FRICTION], method="dynamic", noise=noise)
-    for key, truth in ((CLEARANCE, 1e-4), (FRICTION, 0.2)):
-        lo, hi = res.interval[res.keys.index(key)]
-        assert lo <= truth <= hi, (key, res.estimate, res.interval)
-    assert res.verdict["identifiable"]
+    # within 3 standard errors (a single 95 % interval misses 1 time in 20: over seeds 1 to 6
+    # the errors were -0.01, -0.58, 1.01, -0.68, 2.58, 0.33 standard errors on the clearance
+    # and 1.72, 0.17, 0.85, 0.58, 0.13, -1.32 on the friction, reduced chi^2 0.97 to 1.05)
+    z = (res.estimate - [1e-4, 0.2]) / res.standard_error
+    assert np.all(np.abs(z) < 3), (res.estimate, res.standard_error)
+    assert res.verdict["identifiable"] and 0.5 < res.fit["reduced_chi2"] < 2.0
 
 
 def test_a_rattling_run_has_exact_sensitivities_but_is_refused_as_chaotic():
