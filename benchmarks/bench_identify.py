@@ -1,6 +1,6 @@
-"""Wall time of rrr4.identify, method 'seated', on the reference scene (issue 33: 1 s of data
-at 1 kHz, 8 clearances + friction + stiffness, aim under 5 s), medians of repeated runs in
-one process, with the machine and its load named.
+"""Wall time of rrr4.identify on the reference scene (issue 33: method 'seated' on 1 s of data
+at 1 kHz, 8 clearances + friction + stiffness, aim under 5 s; method 'dynamic' on a 0.1 s
+window), medians of repeated runs in one process, with the machine and its load named.
 
     .venv/bin/python benchmarks/bench_identify.py [SCENE] [--repeats N]
 
@@ -12,11 +12,18 @@ Cases:
 - 'synthetic, 3 parameters': clearance, friction coefficient, contact stiffness;
 - 'simulated, 3 parameters': a 1 s simulation of the mechanism with 20 % more clearance
   under the nominal preloaded controller (the simulation's time not counted).
-- 'dynamic, 0.1 s window': method 'dynamic' (single shooting through the compiled stepping,
-  forward differences of whole runs) on the first 0.1 s of that simulated run, clearance and
-  friction (friction is barely seen so early: the verdict says so).
-The first fit of a parameter layout builds its CasADi Function (reported apart); the
-repeats reuse it, as a user's second call does.
+- 'dynamic, 0.1 s window': method 'dynamic' (single shooting through the compiled stepping
+  with its forward sensitivities) on the first 0.1 s of that simulated run, clearance and
+  friction.
+The first fit of a parameter layout builds its CasADi Function (reported apart; method
+'dynamic' compiles its sensitivity frame once, cached on disk); the repeats reuse it, as a
+user's second call does.
+
+Then one Jacobian of method 'dynamic' on that window: the forward sensitivities (one run
+with a direction per parameter gives the residuals and their Jacobian) against forward
+differences of whole runs (one run plus one per parameter: how the method differentiated
+before) and central differences (two runs per parameter: what the method checks its
+sensitivities with), medians of the repeats, as ratios.
 """
 
 from __future__ import annotations
@@ -32,6 +39,8 @@ import numpy as np
 import rrr4
 from rrr4.codegen.build import machine
 from rrr4.identify import identify, measurements_from_simulation, resolve_parameters
+from rrr4.identify.dynamic import DynamicData
+from rrr4.identify.parameters import scene_yaml
 from rrr4.identify.seated import seated_measurements
 from rrr4.studies.robustness import perturbed
 from rrr4.studies.study import arm_scene
@@ -82,7 +91,30 @@ def main() -> None:
         verdict = "identifiable" if res.verdict["identifiable"] else "not identifiable"
         print(f"{name:28s} {len(m):7d} {len(keys):6d} {first:9.2f} {statistics.median(walls):10.2f} "
               f"{res.fit['iterations']:5d} {verdict:>16s}")
-
+    m, keys, _ = cases["dynamic, 0.1 s window"]
+    data = DynamicData(problem, m, resolve_parameters(problem, keys), scene_yaml(problem))
+    p = np.array([q.nominal for q in data.params])
+    sigma = data.initial_noise()
+    walls = {"forward sensitivities": [], "forward differences": [], "central differences": []}
+    for k in range(args.repeats):
+        at = [p + [(k + f) * 1e-9, 0.0] for f in (0.25, 0.5, 0.75)]  # fresh points: no cached run
+        t0 = time.perf_counter()
+        data.residuals(at[0], sigma)
+        walls["forward sensitivities"].append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        r0 = data.residuals(at[1], sigma, jacobian=False)["r"]
+        for i in range(len(keys)):
+            data.residuals(data.shifted(at[1], i), sigma, jacobian=False)["r"] - r0
+        walls["forward differences"].append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        data.central_differences(at[2], sigma)
+        walls["central differences"].append(time.perf_counter() - t0)
+    sens, fd, cd = (statistics.median(v) for v in walls.values())
+    print(f"one Jacobian of method 'dynamic' on 0.1 s ({len(keys)} parameters, {data.n_frames} frames, medians of "
+          f"{args.repeats}): forward sensitivities {sens:.3f} s; forward differences of whole runs (the method's "
+          f"Jacobian before, {len(keys) + 1} runs) {fd:.3f} s, ratio {fd / sens:.2f}; central differences "
+          f"({2 * len(keys)} runs) {cd:.3f} s, ratio {cd / sens:.2f}")
+    print(f"load average after: {', '.join(f'{v:.2f}' for v in os.getloadavg())}")
 
 if __name__ == "__main__":
     main()

@@ -11,7 +11,7 @@ from . import __version__
 from .checks import argument, unknown_value
 from .errors import Rrr4Error, SceneError
 from .files import check_writable
-from .scene.vocabulary import OBJECTIVES
+from .scene.vocabulary import IDENTIFICATION_METHODS, OBJECTIVES
 
 
 def _check(args) -> int:
@@ -347,8 +347,9 @@ def build_parser() -> argparse.ArgumentParser:
     idn.add_argument("--parameters", help="comma-separated scene keys, each optionally KEY=LOWER:UPPER (default "
                                           "joints.radial_clearance,effects.friction.coefficient,"
                                           "effects.contact.stiffness)")
-    idn.add_argument("--method", choices=["seated", "dynamic"], default="seated",
-                     help="seated (journals seated under preload, quasi-static; default) or dynamic (not built yet)")
+    idn.add_argument("--method", choices=IDENTIFICATION_METHODS, default="seated",
+                     help="seated (journals seated under preload, quasi-static; default) or dynamic (shooting through "
+                          "the simulation with its forward sensitivities; refuses a run whose journals rattle)")
     idn.add_argument("--arm", help="the arm prefix of a timeseries.csv with several arms, e.g. with_preload")
     idn.add_argument("--noise", help="noise levels COLUMN=STD, comma-separated (default: estimated from the "
                                      "residuals)")

@@ -171,34 +171,6 @@ def test_the_cli_writes_an_identified_scene_that_checks_and_resimulates_the_run(
     assert err < 1e-6 and err < err_nominal / 10, (err, err_nominal)  # 0.26 um against 4.7 um
 
 
-# ---------------------------------------------------------------------- method 'dynamic'
-
-
-def test_dynamic_shooting_recovers_the_clearance_from_a_noisy_start_up_and_flags_friction(problem):
-    plant = rrr4.build(perturbed(problem, "clearance +20 %"))
-    sim = rrr4.simulate(plant.scene, t_end=0.05, model=problem.scene)
-    clean = measurements_from_simulation(sim)
-    noise = {**_noise(clean), **{c: 1e-6 for c in clean.columns if c.startswith("theta_A")}}
-    cols = {c: v for c, v in _noisy(clean, noise, 11).columns.items() if not c.startswith("theta_d")}
-    res = identify(problem, Measurements(clean.t, cols), [CLEARANCE, FRICTION], method="dynamic")
-    assert abs(res.value(CLEARANCE) - 1.2e-4) < 3 * res.standard_error[0] < 0.02 * 1.2e-4
-    assert res.fit["sensitivity_disagreement"] < 0.05
-    # the first 50 ms start from rest: the journals barely slip, so friction is not seen, and the
-    # verdict says so (the identified scene keeps its nominal value)
-    assert res.verdict["poorly_determined"] == [FRICTION]
-    assert res.identified.effects.friction.coefficient == 0.1
-    assert res.identified.joint("C3").radial_clearance == pytest.approx(1.2e-4, rel=0.01)
-
-
-def test_dynamic_shooting_refuses_a_rattling_run_in_one_line():
-    nominal = rrr4.build(rrr4.load_scene(PAPER.parent / "no_preload_circle.yaml"))
-    plant = rrr4.build(perturbed(nominal, "clearance +20 %"))
-    sim = rrr4.simulate(plant.scene, t_end=0.05, model=nominal.scene)
-    with pytest.raises(rrr4.SimulationError) as e:
-        identify(nominal, measurements_from_simulation(sim), [CLEARANCE, FRICTION], method="dynamic")
-    _one_line(e.value, "too sensitive", "chaotic", "'seated'")
-
-
 # ---------------------------------------------------------------------- bad input, one line each
 
 

@@ -5,6 +5,8 @@ angles and efforts, with uncertainty and an identifiability verdict.
 - :mod:`.measurements`: the measured columns (the names of a study's timeseries.csv);
 - :mod:`.parameters`: what is identified, by dotted scene key;
 - :mod:`.seated`: method 'seated', the quasi-static model of seated journals;
+- :mod:`.dynamic`: method 'dynamic', shooting with the forward sensitivities of the compiled
+  stepping (refuses a run too chaotic to shoot);
 - :mod:`.least_squares`: Levenberg-Marquardt, covariance, identifiability;
 - :mod:`.identify`: the front door :func:`identify` and its result :class:`Identification`.
 """

@@ -15,6 +15,7 @@ from ..checks import unknown_value
 from ..errors import MeasurementError, SceneError
 from ..problem import Problem
 from ..scene import Scene, parse_scene
+from ..scene.vocabulary import IDENTIFICATION_METHODS
 from .dynamic import DynamicData
 from .least_squares import Z95, covariance, identifiability, levenberg_marquardt
 from .measurements import Measurements, measurements_from_simulation, read_measurements
@@ -23,7 +24,7 @@ from .seated import SeatedData, noise_from_residuals
 
 __all__ = ["identify", "Identification", "METHODS"]
 
-METHODS = ("seated", "dynamic")
+METHODS = IDENTIFICATION_METHODS
 POOR = 0.5  # a standard error above half a parameter's scale (a factor 1.6 in a stiffness): barely determined
 
 
@@ -202,8 +203,9 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
         return res["r"], res["J"] * np.array([q.derivative(v) for q, v in zip(params, u, strict=True)])
 
     u, iterations, converged = np.zeros(len(params)), 0, True
+    chaos_nominal = None
     if method == "dynamic":  # a run too chaotic to shoot is refused before fitting, and again at the end
-        data.check_sensitivities(values(u), sigma, data.residuals(values(u), sigma)["J"])
+        chaos_nominal = data.check_sensitivities(values(u), sigma, data.residuals(values(u), sigma)["J"])
     for _ in range(4):
         u, r, J, it, ok = levenberg_marquardt(fun, u, lower, upper)
         iterations, converged = iterations + it, ok
@@ -245,7 +247,8 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
            "rms_residual": {c: float(np.sqrt(np.mean(v ** 2))) for c, v in res["raw"].items()},
            "iterations": iterations, "converged": bool(converged), "wall_time_s": time.perf_counter() - wall,
            "angles": "measured" if data.angles_measured else "controller references", "preload": data.preload,
-           "effort_lag_s": data.lag, **({"simulations": data.runs, "sensitivity_disagreement": data.chaos}
+           "effort_lag_s": data.lag, **({"simulations": data.runs, "sensitivity_disagreement": data.chaos,
+                                         "sensitivity_disagreement_nominal": chaos_nominal}
                                         if method == "dynamic" else {}),
            "columns": data.columns()}
     return Identification(

@@ -11,7 +11,8 @@ from __future__ import annotations
 __all__ = ["MECHANISM_KINDS", "JOINT_TYPES", "PATH_TYPES", "TIME_LAWS", "ACTUATION_MODES", "CONTACT_LAWS",
            "FRICTION_LAWS", "LUBRICATION_LAWS", "ASSEMBLY_MEASURES", "CONTACT_LAW_KEYS", "FRICTION_LAW_KEYS",
            "LUBRICATION_LAW_KEYS", "FORCE_ELEMENTS", "LOAD_FRAMES", "INTEGRATORS", "ERROR_CONTROLLED", "NEWTON",
-           "COORDINATES", "PRELOAD_METHODS", "COMPENSATIONS", "QP_SOLVERS", "JOURNAL_STARTS", "OBJECTIVES", "MATERIALS",
+           "COORDINATES", "PRELOAD_METHODS", "COMPENSATIONS", "QP_SOLVERS", "JOURNAL_STARTS", "OBJECTIVES",
+           "IDENTIFICATION_METHODS", "MATERIALS",
            "GROUND", "choices", "registry"]
 
 GROUND = "ground"  # the fixed frame's name in a graph
@@ -56,6 +57,7 @@ PRELOAD_METHODS = ("exact", "qp", "nlp")  # a scene may also say 'none'
 COMPENSATIONS = ("none", "clearance")  # actuation.compensation
 QP_SOLVERS = ("qrqp", "osqp", "daqp", "qpoases")  # actuation.preload.qp_solver (CasADi conic plugins)
 JOURNAL_STARTS = ("centred", "seated")  # initial.journals
+IDENTIFICATION_METHODS = ("seated", "dynamic")  # rrr4.identify(method=...), rrr4 identify --method
 OBJECTIVES = ("time", "effort", "time+effort")  # of an optimal time law (rrr4 optimize --objective)
 MATERIALS = {  # name: (Young's modulus [Pa], Poisson ratio)
     "steel": (207e9, 0.3),
