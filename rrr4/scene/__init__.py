@@ -28,6 +28,7 @@ from .schema import (
     JointSpec,
     Link,
     LubricationEffect,
+    WearEffect,
     Material,
     NRRRSpec,
     PathSpec,
@@ -40,7 +41,7 @@ from .vocabulary import GROUND, MATERIALS, choices
 
 __all__ = [
     "SceneError", "Scene", "Link", "Chain", "Platform", "NRRRSpec", "Material", "JointSpec", "ContactEffect",
-    "FrictionEffect", "LubricationEffect", "Effects", "PreloadSettings", "Actuation", "PathSpec", "Initial",
+    "FrictionEffect", "LubricationEffect", "WearEffect", "Effects", "PreloadSettings", "Actuation", "PathSpec", "Initial",
     "IntegratorSettings",
     "Body", "AssemblyMode", "ActuatorSpec", "DriverSpec", "Graph", "GROUND", "MATERIALS", "PASSIVE_JOINTS", "choices",
     "read_scene", "parse_scene", "read_yaml", "load_yaml",

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 __all__ = ["MECHANISM_KINDS", "JOINT_TYPES", "PATH_TYPES", "TIME_LAWS", "ACTUATION_MODES", "CONTACT_LAWS",
            "FRICTION_LAWS", "LUBRICATION_LAWS", "ASSEMBLY_MEASURES", "CONTACT_LAW_KEYS", "FRICTION_LAW_KEYS",
-           "LUBRICATION_LAW_KEYS", "INTEGRATORS", "ERROR_CONTROLLED", "NEWTON",
+           "LUBRICATION_LAW_KEYS", "WEAR_SURFACES", "INTEGRATORS", "ERROR_CONTROLLED", "NEWTON",
            "COORDINATES", "PRELOAD_METHODS", "COMPENSATIONS", "QP_SOLVERS", "JOURNAL_STARTS", "OBJECTIVES", "MATERIALS",
            "GROUND", "choices", "registry"]
 
@@ -45,6 +45,8 @@ LUBRICATION_LAW_KEYS = {
     "none": (),
     **{law: ("viscosity", "length", "threshold") for law in LUBRICATION_LAWS},
 }
+# effects.wear.surfaces: which surfaces of a clearance joint wear (Archard); a scene may also say 'none'
+WEAR_SURFACES = ("bearing", "journal")
 INTEGRATORS = ("bathe", "newmark", "generalized-alpha", "rk4", "erk", "rosenbrock", "cvodes", "idas", "rk45",
                "radau")
 ERROR_CONTROLLED = ("bathe", "newmark", "generalized-alpha")  # the methods integrator.tolerance applies to
@@ -68,6 +70,7 @@ _CHOICES = {
     "contact law": CONTACT_LAWS,
     "friction law": ("none", *FRICTION_LAWS),
     "lubrication law": ("none", *LUBRICATION_LAWS),
+    "wear surfaces": ("none", *WEAR_SURFACES, "both"),
     "integrator": INTEGRATORS,
     "error control": ERROR_CONTROLLED,
     "coordinates": COORDINATES,
@@ -89,6 +92,6 @@ def registry(names: tuple[str, ...], implementations: dict) -> dict:
 
 
 def choices(what: str) -> tuple[str, ...]:
-    """The allowed names of a scene setting: 'contact law', 'friction law', 'lubrication law', 'integrator',
-    'error control', 'coordinates', 'newton', 'preload method', 'compensation' or 'qp solver'."""
+    """The allowed names of a scene setting: 'contact law', 'friction law', 'lubrication law', 'wear surfaces',
+    'integrator', 'error control', 'coordinates', 'newton', 'preload method', 'compensation' or 'qp solver'."""
     return _CHOICES[what]

@@ -37,7 +37,7 @@ def seated_offsets(problem: Problem, eqs: Equations, q0, qdd0, tau0) -> np.ndarr
 
 
 def initial_state(problem: Problem, eqs: Equations, efforts, tree: bool, settings) -> np.ndarray:
-    """x0 = [t = 0, y0, W_in, D_damping, D_friction = 0, delta_dot0 = v_min, in_contact,
+    """x0 = [t = 0, y0, W_in, D_damping, D_friction = 0, the wear quadratures = 0, delta_dot0 = v_min, in_contact,
     losses = 0 (nc each), the equations' parameters, the controller's settings]; y0 = [q,
     qd], or the tree coordinates with `tree`. efforts(t, q, qd): the controller's efforts at
     states (torque mode), for the seated journals' loads."""
@@ -61,4 +61,5 @@ def initial_state(problem: Problem, eqs: Equations, efforts, tree: bool, setting
         q0 = problem.seated_coordinates(target, offsets, guess=q0)
         seated = np.any(offsets != 0, axis=1).astype(float)
     y0 = np.r_[q0, qd0] if not tree else np.hstack([np.array(v).ravel() for v in eqs.tree_coordinates(q0, qd0)])
-    return np.r_[0.0, y0, 0.0, 0.0, 0.0, np.full(nc, eqs.v_min), seated, np.zeros(nc), eqs.parameters, settings]
+    worn = np.zeros(sum(m for *_, m in eqs.worn))  # the wear quadratures
+    return np.r_[0.0, y0, 0.0, 0.0, 0.0, worn, np.full(nc, eqs.v_min), seated, np.zeros(nc), eqs.parameters, settings]
