@@ -96,9 +96,9 @@ from ..mechanism.model import Model, geometry_parameters
 from ..mechanism.tree import tree_map
 from ..scene import Effects
 
-__all__ = ["Equations", "build_equations", "with_parameters", "with_profiles", "INPUTS", "lubricated_joints", "worn_joints",
-           "worn_surfaces", "BAUMGARTE_OMEGA", "JOINT_PARAMETERS", "EFFECT_PARAMETERS", "LUBRICATION_PARAMETERS",
-           "WEAR_PARAMETERS"]
+__all__ = ["Equations", "build_equations", "with_parameters", "with_profiles", "INPUTS", "lubricated_joints",
+           "worn_joints", "worn_surfaces", "BAUMGARTE_OMEGA", "JOINT_PARAMETERS", "EFFECT_PARAMETERS",
+           "LUBRICATION_PARAMETERS", "WEAR_PARAMETERS"]
 
 INPUTS = ("contact", "geometry")  # build_equations(inputs=...): the numbers the parametric equations take
 
@@ -257,8 +257,8 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
     nk1 = nk0 + len(LUBRICATION_PARAMETERS) * len(films)
     nk2 = nk1 + len(WEAR_PARAMETERS) * len(worn)  # the profiles' node depths from here
     nk = nk2 + sum(m for _, _, m in surfaces)
-    starts = dict(zip(((j, s) for j, s, _ in surfaces), (nk2 + int(v) for v in np.cumsum([0, *(m for *_, m in surfaces)])),
-                      strict=False))
+    ends = np.cumsum([0, *(m for *_, m in surfaces)])
+    starts = {(j, s): nk2 + int(a) for (j, s, _), a in zip(surfaces, ends, strict=False)}
     P = ca.SX.sym("parameters", nk + (geometry_parameters(graph).size if geometry else 0))
     G = P[nk:] if geometry else None  # masses, inertias, joint points (else constants)
     m_diag = model.masses(G)[0]

@@ -19,7 +19,6 @@ from ..errors import SceneError
 from .assembly import read_assembly
 from .fields import MAX_SAMPLES, Section
 from .lubrication import read_lubrication
-from .wear import read_wear
 from .nrrr import expand_nrrr
 from .schema import (
     Actuation,
@@ -56,6 +55,7 @@ from .vocabulary import (
     TIME_LAWS,
     choices,
 )
+from .wear import read_wear
 
 __all__ = ["read_scene", "parse_scene", "read_yaml", "load_yaml", "MAX_BYTES", "MAX_DEPTH", "MAX_NODES"]
 

@@ -11,8 +11,8 @@ from .time_table import check_time_table
 from .vocabulary import GROUND
 
 __all__ = ["Link", "Chain", "Platform", "NRRRSpec", "Material", "JointSpec", "Body", "AssemblyMode", "ActuatorSpec",
-           "DriverSpec", "Graph", "ContactEffect", "FrictionEffect", "LubricationEffect", "WearEffect", "Effects", "PreloadSettings",
-           "Actuation", "PathSpec", "Initial", "IntegratorSettings", "Scene", "PASSIVE_JOINTS"]
+           "DriverSpec", "Graph", "ContactEffect", "FrictionEffect", "LubricationEffect", "WearEffect", "Effects",
+           "PreloadSettings", "Actuation", "PathSpec", "Initial", "IntegratorSettings", "Scene", "PASSIVE_JOINTS"]
 
 @dataclass(frozen=True)
 class Link:

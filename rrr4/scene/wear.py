@@ -37,7 +37,7 @@ def read_wear(value, key: str) -> WearEffect:
     nodes = s.integer("nodes", 72)
     if not MIN_NODES <= nodes <= MAX_NODES:
         raise SceneError(f"{s.key('nodes')}: {nodes} is not allowed (an integer from {MIN_NODES} to {MAX_NODES})")
-    out = WearEffect(surfaces, s.number("coefficient", positive=True, hi=1.0), s.number("hardness", positive=True, big=True),
-                     s.number("length", positive=True), nodes)
+    out = WearEffect(surfaces, s.number("coefficient", positive=True, hi=1.0),
+                     s.number("hardness", positive=True, big=True), s.number("length", positive=True), nodes)
     s.done()
     return out

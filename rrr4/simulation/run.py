@@ -33,10 +33,10 @@ from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from ..checks import argument, describe, unknown_value
 from ..control import CONTROLLERS, graph_references, path_rows, reference_function, tabulated
+from ..dynamics.builder import with_profiles
 from ..errors import SceneError, SimulationError
 from ..files import c_compiler
 from ..functions import graph_size, mapped
-from ..dynamics.builder import with_profiles
 from ..integrators import METHODS, FrameInputs, Integrator
 from ..problem import Problem
 from ..scene import MAX_SAMPLES, IntegratorSettings, Scene
