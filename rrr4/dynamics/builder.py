@@ -311,7 +311,10 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
         kin = clearance_kinematics(p_j - p_b, e_dot, w_b, w_j, r_j, r_b)
         profiles = []
         if name in worn:  # the worn clearance in the journal's direction: c0 + w_B(psi_B) + w_J(psi_J)
-            angle = ca.atan2(kin.normal[1], kin.normal[0])
+            # the direction of e; (1, 0) for a journal within 1e-3 c of the centre, where the depth
+            # does not matter and atan2's derivative would be 0/0
+            near = ca.dot(kin.eccentricity, kin.eccentricity) < (1e-3 * (r_b - r_j)) ** 2
+            angle = ca.atan2(ca.if_else(near, 0.0, kin.normal[1]), ca.if_else(near, 1.0, kin.normal[0]))
             depth, m = ca.SX(0), worn[name].nodes
             for surface in worn[name].worn:
                 at = starts[(name, surface)]
