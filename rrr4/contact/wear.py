@@ -30,7 +30,7 @@ import math
 import casadi as ca
 import numpy as np
 
-__all__ = ["hat_weights", "profile_depth", "archard_volume_rate", "node_depth_rates", "profile_volume",
+__all__ = ["hat_weights", "profile_depth", "depth_at", "archard_volume_rate", "node_depth_rates", "profile_volume",
            "line_contact_pressure", "node_angles"]
 
 
@@ -54,6 +54,14 @@ def hat_weights(psi, nodes: int):
 def profile_depth(depths, weights):
     """w(psi) = sum w_i phi_i(psi) [m] from the node depths (M,) and :func:`hat_weights`."""
     return ca.dot(depths, weights)
+
+
+def depth_at(depths, psi) -> np.ndarray:
+    """The profile's depth w(psi) [m] (numpy): its node depths (M,) interpolated periodically and
+    piecewise-linearly at the angles psi [rad] (any real)."""
+    depths = np.asarray(depths, float)
+    m = len(depths)
+    return np.interp(np.mod(psi, 2.0 * math.pi), np.r_[node_angles(m), 2.0 * math.pi], np.r_[depths, depths[0]])
 
 
 def archard_volume_rate(coefficient, hardness, normal_force, slip_speed):

@@ -96,9 +96,9 @@ from ..mechanism.model import Model, geometry_parameters
 from ..mechanism.tree import tree_map
 from ..scene import Effects
 
-__all__ = ["Equations", "build_equations", "with_parameters", "with_profiles", "INPUTS", "lubricated_joints",
-           "worn_joints", "worn_surfaces", "BAUMGARTE_OMEGA", "JOINT_PARAMETERS", "EFFECT_PARAMETERS",
-           "LUBRICATION_PARAMETERS", "WEAR_PARAMETERS"]
+__all__ = ["Equations", "build_equations", "with_parameters", "with_profiles", "profiles_of", "INPUTS",
+           "lubricated_joints", "worn_joints", "worn_surfaces", "BAUMGARTE_OMEGA", "JOINT_PARAMETERS",
+           "EFFECT_PARAMETERS", "LUBRICATION_PARAMETERS", "WEAR_PARAMETERS"]
 
 INPUTS = ("contact", "geometry")  # build_equations(inputs=...): the numbers the parametric equations take
 
@@ -204,6 +204,15 @@ def with_profiles(eqs: Equations, profiles: dict) -> Equations:
                                  "in m are required)")
             p[int(a):int(a) + m] = d
     return with_parameters(eqs, p)
+
+
+def profiles_of(eqs: Equations) -> dict:
+    """The wear profiles the equations use: joint -> surface -> node depths (M,) [m]."""
+    out, at = {}, eqs.profile_start
+    for joint, surface, m in eqs.worn:
+        out.setdefault(joint, {})[surface] = np.array(eqs.parameters[at:at + m], float)
+        at += m
+    return out
 
 
 def build_equations(model: Model, effects: Effects, mode: str, parameters, v_min: float = V_MIN,

@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..contact import seat_gap_function
-from ..dynamics.builder import Equations
+from ..contact.wear import depth_at
+from ..dynamics.builder import Equations, profiles_of
 from ..dynamics.family import graph_family
 from ..problem import Problem
 from ..trajectory import trajectory_function
@@ -33,7 +34,24 @@ def seated_offsets(problem: Problem, eqs: Equations, q0, qdd0, tau0) -> np.ndarr
     clearance = np.array([[problem.joint(j).radial_clearance for j in joints]])
     gaps, _ = seat_gap_function().map(len(joints))(rj, clearance, np.array([eqs.stiffness]),
                                                     problem.scene.effects.contact.exponent, 0.0)
-    return np.array(gaps).T
+    gaps = np.array(gaps).T
+    for joint, by_surface in profiles_of(eqs).items():  # on a worn profile: the seat lies deeper by w(psi)
+        k, gap = joints.index(joint), gaps[joints.index(joint)]
+        size = np.linalg.norm(gap)
+        if size > 0:
+            spec = problem.joint(joint)
+            bodies = {"bearing": spec.bearing_body, "journal": spec.journal_body}
+            e = gap if spec.journal == 1 else -gap  # the eccentricity, journal - bearing
+            angle = np.arctan2(e[1], e[0])
+            depth = sum(float(depth_at(d, angle - _angle(problem, q0, bodies[s]))) for s, d in by_surface.items())
+            gaps[k] = gap * (size + depth) / size
+    return gaps
+
+
+def _angle(problem: Problem, q, body: str) -> float:
+    """The rotation [rad] of `body` in the coordinates q (0 for the ground)."""
+    i = problem.model.rotation_index(body)
+    return 0.0 if i is None else float(q[i])
 
 
 def initial_state(problem: Problem, eqs: Equations, efforts, tree: bool, settings) -> np.ndarray:
