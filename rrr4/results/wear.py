@@ -68,8 +68,8 @@ def wear_summary(study: WearStudy) -> dict:
     deepest point is one radial clearance deep at the last cycle's rate), the peak Hertzian
     pressure of the last cycle's peak contact force."""
     scene = study.scene
-    out = {"scene": scene.name, "task": scene.graph.task is not None, "cycles": study.cycles, "cycle_time_s": study.cycle_time,
-           "max_change": study.max_change, "jump_error": study.jump_error, "arms": {}}
+    out = {"scene": scene.name, "task": scene.graph.task is not None, "cycles": study.cycles,
+           "cycle_time_s": study.cycle_time, "max_change": study.max_change, "jump_error": study.jump_error, "arms": {}}
     for name, arm in study.arms.items():
         last = arm.records[-1]
         joints = {}

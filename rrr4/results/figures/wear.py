@@ -25,8 +25,8 @@ def plot_wear_profiles(study, path: Path) -> Path:
     joints = arms[0].joints
     cols = min(4, len(joints))
     rows = math.ceil(len(joints) / cols)
-    fig, axes = plt.subplots(rows, cols, subplot_kw={"projection": "polar"}, figsize=(max(3.2 * cols, 8.0), 3.4 * rows + 0.8),
-                             squeeze=False)
+    fig, axes = plt.subplots(rows, cols, subplot_kw={"projection": "polar"}, squeeze=False,
+                             figsize=(max(3.2 * cols, 8.0), 3.4 * rows + 0.8))
     top = max(float(np.max(d)) for a in arms for by in a.profiles.values() for d in by.values()) * 1e6
     for ax, j in zip(axes.flat, joints, strict=False):
         for arm in arms:
