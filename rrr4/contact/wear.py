@@ -18,7 +18,11 @@ The profile: depths w_i [m] at M nodes psi_i = 2 pi i / M over the surface's ang
 (periodic), interpolated piecewise-linearly (hat functions phi_i, sum 1, continuous):
 w(psi) = sum w_i phi_i(psi), volume L R (2 pi / M) sum w_i. The worn clearance in the
 journal's direction is c(psi) = c0 + w_bearing(psi_B) + w_journal(psi_J), psi_B and psi_J the
-direction of the eccentricity in the bearing's and the journal's body frames.
+direction of the eccentricity in the bearing's and the journal's body frames, so the
+penetration is delta = |e| - c(psi). The normal force acts along the gradient of delta (the
+worn surface's normal, tilted from the line of centres by the profile's slope), so that it
+derives from the contact potential K delta^(n+1) / (n+1) and the energy audit closes on a worn
+profile; delta's rate is the gradient's along the motion.
 
 Every function works on floats, numpy arrays and CasADi SX alike (except where noted).
 """
@@ -30,8 +34,8 @@ import math
 import casadi as ca
 import numpy as np
 
-__all__ = ["hat_weights", "profile_depth", "depth_at", "archard_volume_rate", "node_depth_rates", "profile_volume",
-           "line_contact_pressure", "node_angles"]
+__all__ = ["hat_weights", "hat_slopes", "profile_depth", "depth_at", "archard_volume_rate", "node_depth_rates",
+           "profile_volume", "line_contact_pressure", "node_angles"]
 
 
 def node_angles(nodes: int) -> np.ndarray:
@@ -48,6 +52,18 @@ def hat_weights(psi, nodes: int):
         d = u - i
         d = d - nodes * ca.floor(d / nodes + 0.5)  # wrapped to [-M/2, M/2)
         out.append(ca.fmax(0.0, 1.0 - ca.fabs(d)))
+    return ca.vertcat(*out)
+
+
+def hat_slopes(psi, nodes: int):
+    """d phi_i / d psi [1/rad] (M,) of :func:`hat_weights` (0 at the nodes themselves, where a
+    piecewise-linear profile has its kinks). CasADi SX in, SX (M,) out."""
+    u = psi * (nodes / (2.0 * math.pi))
+    out = []
+    for i in range(nodes):
+        d = u - i
+        d = d - nodes * ca.floor(d / nodes + 0.5)
+        out.append(ca.if_else(ca.fabs(d) < 1.0, -ca.sign(d) * (nodes / (2.0 * math.pi)), 0.0))
     return ca.vertcat(*out)
 
 

@@ -15,8 +15,10 @@ with exactly the effects the scene asks for:
   law; the friction term exists only if the friction law is not 'none'; the oil film's
   force (:mod:`rrr4.contact.lubrication`) only at the clearance joints whose lubrication
   law is not 'none': w(eps) F(min(eps, threshold), eps_dot, whirl), acting at the joint
-  centres, handed over to the dry laws between the threshold and eps = 1; with no clearance
-  joint there is no contact code at all;
+  centres, handed over to the dry laws between the threshold and eps = 1; the wear profiles
+  (:mod:`rrr4.contact.wear`) only at the clearance joints that wear: the penetration is
+  |e| - c0 - w(psi) and the normal force acts along its gradient, with the profiles' node
+  depths among the input ``parameters``; with no clearance joint there is no contact code at all;
 - tau (actuator efforts, generalised force S^T tau with S = ds/dq): 'free' -> 0 (no
   effort inputs in the graph); 'torque' -> the input ``effort``, what the controller
   (:mod:`rrr4.control`) commands; 'prescribed' -> tau = -lambda of the driving
@@ -36,7 +38,8 @@ penetration (nc,) [m], delta_dot (nc,) [m/s], eccentricity (2, nc) [m], power_in
 the film's power -F_film . e_dot), power_friction [W] (dissipated), driver_effort
 (n_drivers,) [N m or N] (what each driver applies along its joint coordinate, -lambda of
 its row); with lubrication also film_force (2, nc) [N] on the journal (0 at dry joints)
-and power_film [W] (the film's share of power_damping).
+and power_film [W] (the film's share of power_damping); with wear also wear_rate (the
+node depth rates [m/s] of every wear profile, Equations.worn order: Archard's law).
 
 ``residual`` (for implicit Newton methods such as Bathe or Newmark): q, qd, qdd, lambda and
 the other refs -> dynamics (nq,) = M qdd + Phi_q^T lambda - Q, constraint (m,) = Phi_q qdd -
@@ -89,7 +92,7 @@ from ..contact import (
 )
 from ..contact.lubrication import film_force, film_rates, film_weight
 from ..contact.normal import V_MIN, power
-from ..contact.wear import archard_volume_rate, hat_weights, node_depth_rates, profile_depth
+from ..contact.wear import archard_volume_rate, hat_slopes, hat_weights, node_depth_rates, profile_depth
 from ..errors import SceneError
 from ..functions import fix_last_input
 from ..mechanism.model import Model, geometry_parameters
@@ -324,14 +327,22 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
             # does not matter and atan2's derivative would be 0/0
             near = ca.dot(kin.eccentricity, kin.eccentricity) < (1e-3 * (r_b - r_j)) ** 2
             angle = ca.atan2(ca.if_else(near, 0.0, kin.normal[1]), ca.if_else(near, 1.0, kin.normal[0]))
-            depth, m = ca.SX(0), worn[name].nodes
+            depth, slope, m = ca.SX(0), ca.SX(0), worn[name].nodes
+            grad = ca.SX.zeros(nq)  # d depth / dq: through each surface's angle psi_s = angle - theta_s
             for surface in worn[name].worn:
                 at = starts[(name, surface)]
                 i_s, r_s = (i_b, r_b) if surface == "bearing" else (i_j, r_j)
-                weights = hat_weights(angle - (0 if i_s is None else q[i_s]), m)
+                psi = angle - (0 if i_s is None else q[i_s])
+                weights = hat_weights(psi, m)
                 depth += profile_depth(P[at:at + m], weights)
+                s = profile_depth(P[at:at + m], hat_slopes(psi, m))  # dw_s / dpsi_s [m/rad]
+                slope += s
+                if i_s is not None:
+                    grad[i_s] -= s
                 profiles.append((weights, r_s, m))
-            kin = replace(kin, penetration=kin.penetration - depth)
+            tilt = ca.if_else(near, 0.0, slope / (kin.penetration + r_b - r_j))  # d depth / d(e . t), |e| > 0
+            grad += (g_j - g_b).T @ (tilt * kin.tangent)
+            kin = replace(kin, penetration=kin.penetration - depth, delta_dot=kin.delta_dot - ca.dot(grad, qd))
         dd0_eff = ca.if_else(inc[j] > 0.5, dd0[j], ca.fmax(kin.delta_dot, v_min))
         fn = normal_force(ce.law, kin.penetration, kin.delta_dot, dd0_eff, K, ce.exponent, restitution, damping,
                           v_min)
@@ -339,7 +350,9 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
         ft = friction_force(fe, kin.v_t, fn) if fe.law != "none" else ca.SX(0)
         Qc, f = contact_generalized_forces(kin, fn, ft, g_b, g_j, i_b, i_j, r_j, r_b, nq)
         Q = Q + Qc
-        if profiles:  # Archard: k F |v_slip| / H onto the nodes of each worn surface
+        if profiles:  # the normal along the worn surface's: -F_n d delta / dq; Archard onto the nodes
+            Q = Q + fn * grad
+            f = f + fn * tilt * kin.tangent
             k_w, hardness, length = (P[nk1 + len(WEAR_PARAMETERS) * list(worn).index(name) + k]
                                      for k in range(len(WEAR_PARAMETERS)))
             volume_rate = archard_volume_rate(k_w, hardness, fn, kin.v_t)
