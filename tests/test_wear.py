@@ -82,6 +82,17 @@ def test_contact_on_a_worn_profile_is_continuous_and_uses_the_worn_clearance():
     assert np.max(np.abs(np.diff(fn))) < 0.02 * np.max(fn)
 
 
+def test_energy_audit_closes_on_a_rough_worn_profile():
+    """The normal force acts along the gradient of the worn penetration, so it derives from the
+    contact potential: the energy audit closes to the integrator's error on a rough profile
+    (a force along the line of centres would not: its tangential share is missing)."""
+    rng = np.random.default_rng(3)
+    worn = {"S": {"bearing": rng.uniform(0, 3e-6, 36), "journal": rng.uniform(0, 2e-6, 36)}}
+    sim = rrr4.simulate(JOURNAL, t_end=0.2, wear=worn)
+    assert sim.energy_audit_residual < 1e-5
+    assert np.max(sim.normal_force) > 1.5 * W  # the rough profile makes it rattle: a real test of the audit
+
+
 def test_the_cycle_jump_error_shrinks_with_the_jump():
     """Per-cycle wear dw/dN = r / (1 + w / b) (the wear slows as the profile deepens) has the
     closed form w(N) = b (sqrt(1 + 2 r N / b) - 1); cycle jumping is explicit Euler in N, so
@@ -193,6 +204,6 @@ def test_rrr4_wear_jumps_many_cycles_to_archards_volume(tmp_path):
     arm = summary["arms"]["with_clearance"]
     archard = 2 * K * W * R_J * 2 * math.pi * 10000 / H  # both surfaces
     assert arm["worn_volume_m3"] == pytest.approx(archard, rel=1e-5)
-    assert summary["jump_error"]["profile_error"] < 1e-6
+    assert summary["jump_error"]["profile_error"] < 1e-4  # the load does not change: jumps are (nearly) exact
     assert {p.name for p in (tmp_path / "w").iterdir()} >= {"wear_profiles.png", "wear_history.png", "history.csv",
                                                               "profiles.csv", "report.md", "summary.json"}
