@@ -14,7 +14,15 @@ import pytest
 
 import rrr4
 from rrr4 import SceneError
-from rrr4.contact.wear import depth_at, hat_weights, node_angles, profile_depth, profile_volume
+from rrr4.contact.wear import (
+    depth_at,
+    node_angles,
+    node_depths,
+    profile_depth,
+    profile_volume,
+    spline_slopes,
+    spline_weights,
+)
 from rrr4.dynamics.builder import with_profiles
 from rrr4.problem import Problem
 from rrr4.scene import parse_scene, read_yaml, set_key
@@ -35,24 +43,28 @@ def test_journal_under_constant_load_wears_archards_volume():
     sim = rrr4.simulate(JOURNAL, t_end=0.2)
     archard = K * W * R_J * OMEGA * 0.2 / H
     assert abs(np.mean(sim.normal_force) - W) < 1e-4 * W  # the load is what the closed form assumes
-    bore, shaft = sim.wear["S"]["bearing"], sim.wear["S"]["journal"]
+    bore, shaft = sim.wear["S"]["bearing"], sim.wear["S"]["journal"]  # the profiles' coefficients
     assert profile_volume(bore, L, R_J + C0) == pytest.approx(archard, rel=1e-6)
     assert profile_volume(shaft, L, R_J) == pytest.approx(archard, rel=1e-6)
     assert np.degrees(node_angles(len(bore))[np.argmax(bore)]) == pytest.approx(90.0)
-    assert np.ptp(shaft) < 0.02 * np.max(shaft)  # two revolutions: even up to the last node's share
+    assert np.ptp(shaft) < 0.02 * np.max(shaft)  # two revolutions: even all round
 
 
 def test_profile_interpolation_is_continuous_periodic_and_keeps_the_volume():
     rng = np.random.default_rng(1)
     depths = rng.uniform(0.0, 1e-6, 12)
     psi = ca.SX.sym("psi")
-    f = ca.Function("w", [psi], [profile_depth(ca.DM(depths), hat_weights(psi, 12)), ca.sum1(hat_weights(psi, 12))])
+    c = ca.DM(depths)
+    f = ca.Function("w", [psi], [profile_depth(c, spline_weights(psi, 12)), ca.sum1(spline_weights(psi, 12)),
+                                 ca.mmin(spline_weights(psi, 12)), profile_depth(c, spline_slopes(psi, 12))])
     grid = np.linspace(-2 * math.pi, 4 * math.pi, 20001)
-    w, total = (np.array(v).ravel() for v in f.map(len(grid))(grid[None, :]))
-    assert np.allclose(total, 1.0, atol=1e-12)  # the weights are a partition of unity: the volume is kept
-    assert np.allclose(w, depth_at(depths, grid), atol=1e-18)  # the same as numpy's periodic interpolation
-    slope = np.max(np.abs(np.diff(np.r_[depths, depths[0]]))) / (2 * math.pi / 12)
-    assert np.max(np.abs(np.diff(w))) <= slope * (grid[1] - grid[0]) * (1 + 1e-9)  # continuous: no jump
+    w, total, least, slope = (np.array(v).ravel() for v in f.map(len(grid))(grid[None, :]))
+    assert np.allclose(total, 1.0, atol=1e-12) and least.min() >= 0  # a partition of unity: the volume is kept
+    assert np.allclose(w, depth_at(depths, grid), atol=1e-18)  # the same as numpy's evaluation of the spline
+    assert np.allclose(node_depths(depths), depth_at(depths, node_angles(12)), atol=1e-18)
+    h = grid[1] - grid[0]
+    assert np.allclose(np.diff(w) / h, 0.5 * (slope[1:] + slope[:-1]), atol=1e-4 * np.max(np.abs(slope)))
+    assert np.max(np.abs(np.diff(slope))) < 0.01 * np.max(np.abs(slope))  # the slope is continuous too
     some = np.linspace(0.0, 2 * math.pi, 77)[None, :]
     assert np.allclose(np.array(f.map(77)(some)[0]), np.array(f.map(77)(some + 2 * math.pi)[0]), atol=1e-18)
 
@@ -80,6 +92,9 @@ def test_contact_on_a_worn_profile_is_continuous_and_uses_the_worn_clearance():
     slope = sum(np.max(np.abs(np.diff(np.r_[d, d[0]]))) / (2 * math.pi / 36) for d in worn["S"].values())
     assert np.max(np.abs(np.diff(pen))) <= slope * (psi[1] - psi[0]) * (1 + 1e-6)  # no jump, at the nodes either
     assert np.max(np.abs(np.diff(fn))) < 0.02 * np.max(fn)
+    force = np.array(out["contact_force"])  # on the journal: along the worn surface's normal, which turns smoothly
+    turn = np.diff(np.unwrap(np.arctan2(force[1], force[0])))
+    assert np.max(np.abs(turn)) < 0.01
 
 
 def test_energy_audit_closes_on_a_rough_worn_profile():
@@ -90,7 +105,7 @@ def test_energy_audit_closes_on_a_rough_worn_profile():
     worn = {"S": {"bearing": rng.uniform(0, 3e-6, 36), "journal": rng.uniform(0, 2e-6, 36)}}
     sim = rrr4.simulate(JOURNAL, t_end=0.2, wear=worn)
     assert sim.energy_audit_residual < 1e-5
-    assert np.max(sim.normal_force) > 1.5 * W  # the rough profile makes it rattle: a real test of the audit
+    assert np.ptp(sim.normal_force) > 0.05 * W  # the shaft's rough profile shakes the load: the audit is exercised
 
 
 def test_the_cycle_jump_error_shrinks_with_the_jump():

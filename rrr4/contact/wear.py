@@ -11,12 +11,15 @@ worn volume grows at
 
 The contact patch (2 b, about 0.2 mm on the reference scene) is narrower than the profile's
 node spacing, so the profile keeps what its nodes resolve: the depth rate is spread onto the
-nodes with the weights of the profile's interpolation at the contact direction psi, so that
+profile's coefficients with the weights of its basis at the contact direction psi, so that
 the profile's volume L R int w dpsi grows at exactly V_dot.
 
-The profile: depths w_i [m] at M nodes psi_i = 2 pi i / M over the surface's angle
-(periodic), interpolated piecewise-linearly (hat functions phi_i, sum 1, continuous):
-w(psi) = sum w_i phi_i(psi), volume L R (2 pi / M) sum w_i. The worn clearance in the
+The profile: a periodic cubic B-spline over the surface's angle with M coefficients c_i [m] on
+the nodes psi_i = 2 pi i / M: w(psi) = sum c_i B_i(psi), B_i >= 0, sum 1, each of integral
+2 pi / M, so the volume is L R (2 pi / M) sum c_i; w and its slope are continuous (C2), so the
+worn surface's normal is too (a piecewise-linear profile turns it abruptly at every node,
+which makes a journal resting in a groove chatter). Its depth at the nodes is
+(c_{i-1} + 4 c_i + c_{i+1}) / 6 (:func:`node_depths`). The worn clearance in the
 journal's direction is c(psi) = c0 + w_bearing(psi_B) + w_journal(psi_J), psi_B and psi_J the
 direction of the eccentricity in the bearing's and the journal's body frames, so the
 penetration is delta = |e| - c(psi). The normal force acts along the gradient of delta (the
@@ -34,8 +37,8 @@ import math
 import casadi as ca
 import numpy as np
 
-__all__ = ["hat_weights", "hat_slopes", "profile_depth", "depth_at", "archard_volume_rate", "node_depth_rates",
-           "profile_volume", "line_contact_pressure", "node_angles"]
+__all__ = ["spline_weights", "spline_slopes", "profile_depth", "depth_at", "node_depths", "archard_volume_rate",
+           "node_depth_rates", "profile_volume", "line_contact_pressure", "node_angles"]
 
 
 def node_angles(nodes: int) -> np.ndarray:
@@ -43,41 +46,58 @@ def node_angles(nodes: int) -> np.ndarray:
     return 2.0 * math.pi * np.arange(nodes) / nodes
 
 
-def hat_weights(psi, nodes: int):
-    """The M weights phi_i(psi) of periodic piecewise-linear interpolation at angle psi [rad]
-    (any real): >= 0, sum 1, at most two non-zero, continuous in psi. CasADi SX in, SX (M,) out."""
+def _offsets(psi, nodes: int):
+    """d_i = (psi - psi_i) / (2 pi / M), wrapped to [-M/2, M/2): the distance to node i in nodes."""
     u = psi * (nodes / (2.0 * math.pi))
     out = []
     for i in range(nodes):
         d = u - i
-        d = d - nodes * ca.floor(d / nodes + 0.5)  # wrapped to [-M/2, M/2)
-        out.append(ca.fmax(0.0, 1.0 - ca.fabs(d)))
-    return ca.vertcat(*out)
+        out.append(d - nodes * ca.floor(d / nodes + 0.5))
+    return out
 
 
-def hat_slopes(psi, nodes: int):
-    """d phi_i / d psi [1/rad] (M,) of :func:`hat_weights` (0 at the nodes themselves, where a
-    piecewise-linear profile has its kinks). CasADi SX in, SX (M,) out."""
-    u = psi * (nodes / (2.0 * math.pi))
+def spline_weights(psi, nodes: int):
+    """The M periodic cubic B-spline weights B(d_i) at angle psi [rad] (any real): >= 0, sum 1,
+    non-zero at the four nodes around psi, C2 in psi. CasADi SX in, SX (M,) out."""
     out = []
-    for i in range(nodes):
-        d = u - i
-        d = d - nodes * ca.floor(d / nodes + 0.5)
-        out.append(ca.if_else(ca.fabs(d) < 1.0, -ca.sign(d) * (nodes / (2.0 * math.pi)), 0.0))
+    for d in _offsets(psi, nodes):
+        a = ca.fabs(d)
+        out.append(ca.if_else(a < 1.0, (4.0 - 6.0 * a**2 + 3.0 * a**3) / 6.0,
+                              ca.if_else(a < 2.0, (2.0 - a) ** 3 / 6.0, 0.0)))
     return ca.vertcat(*out)
 
 
-def profile_depth(depths, weights):
-    """w(psi) = sum w_i phi_i(psi) [m] from the node depths (M,) and :func:`hat_weights`."""
-    return ca.dot(depths, weights)
+def spline_slopes(psi, nodes: int):
+    """d B(d_i) / d psi [1/rad] (M,) of :func:`spline_weights` (continuous). CasADi SX."""
+    out = []
+    for d in _offsets(psi, nodes):
+        a = ca.fabs(d)
+        out.append(ca.if_else(a < 1.0, -2.0 * d + 1.5 * d * a,
+                              ca.if_else(a < 2.0, -0.5 * ca.sign(d) * (2.0 - a) ** 2, 0.0)) * (nodes / (2.0 * math.pi)))
+    return ca.vertcat(*out)
 
 
-def depth_at(depths, psi) -> np.ndarray:
-    """The profile's depth w(psi) [m] (numpy): its node depths (M,) interpolated periodically and
-    piecewise-linearly at the angles psi [rad] (any real)."""
-    depths = np.asarray(depths, float)
-    m = len(depths)
-    return np.interp(np.mod(psi, 2.0 * math.pi), np.r_[node_angles(m), 2.0 * math.pi], np.r_[depths, depths[0]])
+def profile_depth(coefficients, weights):
+    """w(psi) = sum c_i B_i(psi) [m] from the profile's coefficients (M,) and :func:`spline_weights`
+    (or, with :func:`spline_slopes`, its slope dw/dpsi [m/rad])."""
+    return ca.dot(coefficients, weights)
+
+
+def depth_at(coefficients, psi) -> np.ndarray:
+    """The profile's depth w(psi) [m] (numpy) at the angles psi [rad] (any real)."""
+    c = np.asarray(coefficients, float)
+    m = len(c)
+    u = np.mod(np.asarray(psi, float), 2.0 * math.pi) * (m / (2.0 * math.pi))
+    k = np.floor(u).astype(int)
+    f = u - k
+    basis = ((1 - f) ** 3 / 6, (3 * f**3 - 6 * f**2 + 4) / 6, (-3 * f**3 + 3 * f**2 + 3 * f + 1) / 6, f**3 / 6)
+    return sum(b * c[(k + j - 1) % m] for j, b in enumerate(basis))
+
+
+def node_depths(coefficients) -> np.ndarray:
+    """The depths w(psi_i) [m] at the nodes: (c_{i-1} + 4 c_i + c_{i+1}) / 6."""
+    c = np.asarray(coefficients, float)
+    return (np.roll(c, 1) + 4.0 * c + np.roll(c, -1)) / 6.0
 
 
 def archard_volume_rate(coefficient, hardness, normal_force, slip_speed):
@@ -86,15 +106,15 @@ def archard_volume_rate(coefficient, hardness, normal_force, slip_speed):
 
 
 def node_depth_rates(volume_rate, weights, length, radius, nodes: int):
-    """The nodes' depth rates [m/s] (M,) that add volume_rate [m^3/s] to a profile of a surface
-    of radius R [m] and length L [m]: V_dot phi_i / (L R 2 pi / M)."""
+    """The coefficients' rates [m/s] (M,) that add volume_rate [m^3/s] to a profile of a surface
+    of radius R [m] and length L [m]: V_dot B_i / (L R 2 pi / M)."""
     return volume_rate * weights / (length * radius * 2.0 * math.pi / nodes)
 
 
-def profile_volume(depths, length: float, radius: float) -> float:
-    """The worn volume [m^3] of a profile (its node depths (M,) [m]): L R (2 pi / M) sum w_i."""
-    depths = np.asarray(depths, float)
-    return float(length * radius * 2.0 * math.pi / len(depths) * depths.sum())
+def profile_volume(coefficients, length: float, radius: float) -> float:
+    """The worn volume [m^3] of a profile (its coefficients (M,) [m]): L R (2 pi / M) sum c_i."""
+    c = np.asarray(coefficients, float)
+    return float(length * radius * 2.0 * math.pi / len(c) * c.sum())
 
 
 def line_contact_pressure(normal_force, length, journal_radius, bearing_radius, modulus):

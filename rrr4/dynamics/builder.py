@@ -92,7 +92,7 @@ from ..contact import (
 )
 from ..contact.lubrication import film_force, film_rates, film_weight
 from ..contact.normal import V_MIN, power
-from ..contact.wear import archard_volume_rate, hat_slopes, hat_weights, node_depth_rates, profile_depth
+from ..contact.wear import archard_volume_rate, node_depth_rates, profile_depth, spline_slopes, spline_weights
 from ..errors import SceneError
 from ..functions import fix_last_input
 from ..mechanism.model import Model, geometry_parameters
@@ -333,9 +333,9 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
                 at = starts[(name, surface)]
                 i_s, r_s = (i_b, r_b) if surface == "bearing" else (i_j, r_j)
                 psi = angle - (0 if i_s is None else q[i_s])
-                weights = hat_weights(psi, m)
+                weights = spline_weights(psi, m)
                 depth += profile_depth(P[at:at + m], weights)
-                s = profile_depth(P[at:at + m], hat_slopes(psi, m))  # dw_s / dpsi_s [m/rad]
+                s = profile_depth(P[at:at + m], spline_slopes(psi, m))  # dw_s / dpsi_s [m/rad]
                 slope += s
                 if i_s is not None:
                     grad[i_s] -= s

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..contact.wear import line_contact_pressure, node_angles
+from ..contact.wear import line_contact_pressure, node_angles, node_depths
 from ..scene import Scene
 from .output import atomic_directory
 
@@ -23,7 +23,7 @@ __all__ = ["WearArm", "WearStudy", "wear_summary", "write_wear"]
 class WearArm:
     """One arm's cycle jumping. joints: the clearance joints that wear (graph order); cycles
     (K + 1,): the cycle counts where a cycle was simulated (0 first, N last); jumps (K,);
-    profiles: joint -> surface -> node depths (M,) [m] after N cycles; volume: joint -> worn
+    profiles: joint -> surface -> the profile's B-spline coefficients (M,) [m] after N cycles; volume: joint -> worn
     volume [m^3] after N cycles; records (K + 1): each simulated cycle's platform_error_rms_m /
     _max_m, contact_loss_events (all clearance joints), dissipated_friction_J, and per joint
     (in `joints` order) peak_contact_force_N, volume_m3 and deepest_m of the profiles it ran on,
@@ -32,7 +32,7 @@ class WearArm:
     joints: tuple[str, ...]
     cycles: np.ndarray
     jumps: np.ndarray
-    profiles: dict
+    profiles: dict  # joint -> surface -> the profile's coefficients (M,) [m] (rrr4.contact.wear)
     volume: dict
     records: list = field(repr=False)
     wall_time: float = 0.0
@@ -77,7 +77,7 @@ def wear_summary(study: WearStudy) -> dict:
             spec = scene.graph.joint(j)
             w = scene.effects.wear_of(spec)
             surface = "bearing" if "bearing" in arm.profiles[j] else "journal"
-            d = arm.profiles[j][surface]
+            d = node_depths(arm.profiles[j][surface])
             deepest = float(np.max(d))
             rate = last["wear_per_cycle_m"][k]
             left = spec.radial_clearance - deepest
@@ -121,12 +121,12 @@ def _history_csv(study: WearStudy) -> str:
 def _profiles_csv(study: WearStudy) -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(["arm", "joint", "surface", "angle_deg", "depth_m"])
+    w.writerow(["arm", "joint", "surface", "angle_deg", "depth_m", "coefficient_m"])
     for arm in study.arms.values():
         for j, by in arm.profiles.items():
-            for s, d in by.items():
-                for a, v in zip(np.degrees(node_angles(len(d))), d, strict=True):
-                    w.writerow([arm.name, j, s, f"{a:g}", f"{v:.9g}"])
+            for s, c in by.items():
+                for a, v, k in zip(np.degrees(node_angles(len(c))), node_depths(c), c, strict=True):
+                    w.writerow([arm.name, j, s, f"{a:g}", f"{v:.9g}", f"{k:.9g}"])
     return buf.getvalue()
 
 

@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 from ..checks import argument
-from ..contact.wear import profile_volume
+from ..contact.wear import node_depths, profile_volume
 from ..errors import SceneError
 from ..problem import Problem
 from ..results.wear import WearArm, WearStudy
@@ -106,8 +106,8 @@ def _cycle(problem: Problem, scene: Scene, t_end: float):
                   "peak_contact_force_N": [float(sim.extremes["normal_force_max"][sim.clearance_joints.index(j)])
                                            for j in joints],
                   "volume_m3": [volume.get(j, 0.0) for j in joints],
-                  "deepest_m": [max((float(np.max(d)) for d in (profiles or {}).get(j, {}).values()), default=0.0)
-                                for j in joints],
+                  "deepest_m": [max((float(np.max(node_depths(d))) for d in (profiles or {}).get(j, {}).values()),
+                                    default=0.0) for j in joints],
                   "wear_per_cycle_m": [max(float(np.max(d)) for d in sim.wear[j].values()) for j in joints],
                   "wall_time_s": time.perf_counter() - wall}
         return sim.wear, record
@@ -175,8 +175,8 @@ def _volumes(problem: Problem, profiles) -> dict:
 def _jump_error(problem: Problem, arm: WearArm, finer: dict, max_change: float) -> dict:
     """The difference of `arm` (jumps of max_change c) from the run with half its jumps:
     the largest profile difference over the largest depth, and per joint the worn volume's."""
-    diff = max(float(np.max(np.abs(arm.profiles[j][s] - finer[j][s]))) for j in finer for s in finer[j])
-    deepest = max(float(np.max(finer[j][s])) for j in finer for s in finer[j])
+    diff = max(float(np.max(np.abs(node_depths(arm.profiles[j][s] - finer[j][s])))) for j in finer for s in finer[j])
+    deepest = max(float(np.max(node_depths(finer[j][s]))) for j in finer for s in finer[j])
     fine_volume = _volumes(problem, finer)
     return {"arm": arm.name, "max_change": max_change, "finer_max_change": max_change / 2,
             "profile_error": diff / deepest if deepest > 0 else 0.0,

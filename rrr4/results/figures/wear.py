@@ -10,7 +10,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from ...contact.wear import node_angles
+from ...contact.wear import depth_at
 from .base import STYLE, save_figure
 
 __all__ = ["plot_wear_profiles", "plot_wear_history"]
@@ -27,12 +27,12 @@ def plot_wear_profiles(study, path: Path) -> Path:
     rows = math.ceil(len(joints) / cols)
     fig, axes = plt.subplots(rows, cols, subplot_kw={"projection": "polar"}, squeeze=False,
                              figsize=(max(3.2 * cols, 8.0), 3.4 * rows + 0.8))
-    top = max(float(np.max(d)) for a in arms for by in a.profiles.values() for d in by.values()) * 1e6
+    a = np.linspace(0.0, 2 * math.pi, 721)
+    top = max(float(np.max(depth_at(c, a))) for arm in arms for by in arm.profiles.values() for c in by.values()) * 1e6
     for ax, j in zip(axes.flat, joints, strict=False):
         for arm in arms:
-            for s, d in arm.profiles[j].items():
-                a = node_angles(len(d))
-                ax.plot(np.r_[a, a[0]], np.r_[d, d[0]] * 1e6, _SURFACE[s], color=STYLE[arm.name]["color"], lw=1.3,
+            for s, c in arm.profiles[j].items():
+                ax.plot(a, depth_at(c, a) * 1e6, _SURFACE[s], color=STYLE[arm.name]["color"], lw=1.3,
                         label=f"{STYLE[arm.name]['label']}, {s}")
         ax.set_ylim(0, top * 1.05 if top > 0 else 1)
         ax.set_title(j, fontsize=10)
