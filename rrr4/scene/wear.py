@@ -15,9 +15,8 @@ from .fields import Section
 from .schema import WearEffect
 from .vocabulary import choices
 
-__all__ = ["read_wear", "WEAR_KEYS", "MAX_NODES"]
+__all__ = ["read_wear"]
 
-WEAR_KEYS = ("surfaces", "coefficient", "hardness", "length", "nodes")
 MIN_NODES, MAX_NODES = 8, 720
 
 

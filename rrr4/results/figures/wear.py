@@ -53,7 +53,7 @@ def plot_wear_history(study, path: Path) -> Path:
     fig, axes = plt.subplots(1, 3, figsize=(14, 4.2))
     task = study.scene.graph.task is not None
     for arm in study.arms.values():
-        c, label, n = STYLE[arm.name]["color"], STYLE[arm.name]["label"], np.maximum(arm.cycles, 1)
+        c, label, n = STYLE[arm.name]["color"], STYLE[arm.name]["label"], arm.cycles
         volume = arm.series("volume_m3") * 1e9
         axes[0].plot(n, volume, color=c, lw=0.6, alpha=0.5)
         axes[0].plot(n, volume.sum(axis=1), "o-", color=c, lw=1.8, ms=3, label=f"{label}, all joints")
@@ -67,9 +67,8 @@ def plot_wear_history(study, path: Path) -> Path:
     if not task:
         axes[1].text(0.5, 0.5, "no task body", ha="center", transform=axes[1].transAxes)
     for ax in axes:
-        ax.set_xscale("log")
-        ax.set_xlabel("cycles (cycle 0 drawn at 1)")
-        ax.grid(alpha=0.3, which="both")
+        ax.set_xlabel("cycles (markers: the cycles simulated)")
+        ax.grid(alpha=0.3)
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=8)
     fig.suptitle(f"{study.scene.name}: {study.cycles:.3g} cycles by cycle jumping (at most "
