@@ -162,13 +162,15 @@ def _wear(args) -> int:
     from .results.wear import write_wear
     from .studies.wear import wear_study
     argument("--cycles", args.cycles)
-    argument("--max-change", args.max_change)
+    if args.max_change is not None:
+        argument("--max-change", args.max_change)
     scene = load_scene(args.scene)
     out = Path(args.out) if args.out else Path("results") / scene.name
     check_writable(out)
     check_target(out)
-    study = wear_study(scene, args.cycles, args.max_change, check=not args.no_check, progress=True,
-                       log=lambda m: tqdm.write(f"rrr4 wear: {m}"))
+    given = {} if args.max_change is None else {"max_change": args.max_change}
+    study = wear_study(scene, args.cycles, check=not args.no_check, progress=True,
+                       log=lambda m: tqdm.write(f"rrr4 wear: {m}"), **given)
     summary, names = write_wear(study, out)
     for name, arm in summary["arms"].items():
         print(f"{name}: worn volume {arm['worn_volume_m3']:.3g} m^3 after {summary['cycles']:g} cycles "
@@ -354,9 +356,9 @@ def build_parser() -> argparse.ArgumentParser:
     wr.add_argument("scene", help="scene YAML file asking for wear, e.g. problems/paper_circle_wear.yaml")
     wr.add_argument("--cycles", type=float, required=True, help="number of cycles N (a whole number; one cycle is "
                                                                  "the path, or one revolution of a driven scene)")
-    wr.add_argument("--max-change", type=float, default=0.02, metavar="F",
-                    help="the deepest change of a wear profile per jump, in radial clearances (0 < F <= 1, "
-                         "default 0.02)")
+    wr.add_argument("--max-change", type=float, default=None, metavar="F",
+                    help="the deepest change of a wear profile per jump, in radial clearances (0 < F <= 1; "
+                         "default 0.02, rrr4.studies.wear.DEFAULT_MAX_CHANGE)")
     wr.add_argument("--no-check", action="store_true",
                     help="skip the jump-error check (the first arm again with half the jumps)")
     wr.add_argument("--out", help="directory (default results/<scene name>/); replaced atomically")
