@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import rrr4
+import rrr4.results.summary
 from rrr4 import SceneError
 from rrr4.contact.wear import (
     depth_at,
@@ -151,6 +152,24 @@ def test_dry_scene_equations_are_unchanged_and_a_zero_profile_is_the_dry_contact
     assert float(a["normal_force"]) > 1.0
     for k in ("qdd", "lambda", "normal_force", "penetration"):
         assert np.array_equal(np.array(a[k]), np.array(b[k])), k
+
+
+def test_a_joint_overrides_the_scenes_wear_and_the_numbers_are_inputs_not_structure():
+    data = read_yaml(ROOT / "problems" / "paper_circle_wear.yaml")
+    data["joints"].setdefault("per_joint", {})["B1"] = {"wear": {"surfaces": "none"}}
+    p = Problem.from_scene(parse_scene(data))
+    eqs = p.equations()
+    assert [t for t in eqs.terms if "wear" in t] == ["wear (Archard, bearing) at B2 B3 B4 C1 C2 C3 C4"]
+    assert [j for j, _, _ in eqs.worn] == ["B2", "B3", "B4", "C1", "C2", "C3", "C4"]
+    set_key(data, "effects.wear.coefficient", 2.6e-4)
+    q = Problem.from_scene(parse_scene(data))
+    assert q.equations().parametric is eqs.parametric  # one structure: a sweep over k compiles once
+    k = eqs.profile_start - 3  # the last worn joint's wear coefficient
+    assert q.contact_parameters[k] == 2.6e-4 and p.contact_parameters[k] == 1.3e-4
+    lines = rrr4.results.summary.contact_lines(rrr4.results.summary.contact_numbers(q))
+    assert [line.split(":")[0] for line in lines if line.startswith("wear")] == [
+        f"wear at {j}" for j in ("B2", "B3", "B4", "C1", "C2", "C3", "C4")]
+    assert "wear at B2: Archard on bearing, k = 0.00026, H = 8e+09 Pa, length 0.01 m, 36 profile coefficients" in lines
 
 
 def test_a_profile_update_compiles_nothing():
