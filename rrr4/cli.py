@@ -152,6 +152,34 @@ def _robustness(args) -> int:
     return 0
 
 
+def _wear(args) -> int:
+    from pathlib import Path
+
+    from tqdm import tqdm
+
+    from .mechanism import load_scene
+    from .results import check_target
+    from .results.wear import write_wear
+    from .studies.wear import wear_study
+    argument("--cycles", args.cycles)
+    if args.max_change is not None:
+        argument("--max-change", args.max_change)
+    scene = load_scene(args.scene)
+    out = Path(args.out) if args.out else Path("results") / scene.name
+    check_writable(out)
+    check_target(out)
+    given = {} if args.max_change is None else {"max_change": args.max_change}
+    study = wear_study(scene, args.cycles, check=not args.no_check, progress=True,
+                       log=lambda m: tqdm.write(f"rrr4 wear: {m}"), **given)
+    summary, names = write_wear(study, out)
+    for name, arm in summary["arms"].items():
+        print(f"{name}: worn volume {arm['worn_volume_m3']:.3g} m^3 after {summary['cycles']:g} cycles "
+              f"({arm['simulated_cycles']} simulated, {arm['wall_time_s']:.1f} s)")
+    for n in names:
+        print(out / n)
+    return 0
+
+
 def _key_values(option: str, text: str | None, what: str) -> dict:
     """'a,b=1:2' -> {'a': None, 'b': [1.0, 2.0]} (what: the value's form, for the message)."""
     from .errors import SceneError
@@ -337,6 +365,19 @@ def build_parser() -> argparse.ArgumentParser:
                     help="also identify each perturbed mechanism from its uncompensated run (rrr4 identify) and run "
                          "the compensated controller with the identified and with the true model")
     rb.set_defaults(func=_robustness)
+    wr = sub.add_parser("wear", help="Archard wear of the clearance joints over many cycles by cycle jumping "
+                                     "(the scene's effects.wear); writes wear profiles (polar), their history "
+                                     "over the cycles, history.csv, profiles.csv, summary.json and report.md")
+    wr.add_argument("scene", help="scene YAML file asking for wear, e.g. problems/paper_circle_wear.yaml")
+    wr.add_argument("--cycles", type=float, required=True, help="number of cycles N (a whole number; one cycle is "
+                                                                 "the path, or one revolution of a driven scene)")
+    wr.add_argument("--max-change", type=float, default=None, metavar="F",
+                    help="the deepest change of a wear profile per jump, in radial clearances (0 < F <= 1; "
+                         "default 0.02, rrr4.studies.wear.DEFAULT_MAX_CHANGE)")
+    wr.add_argument("--no-check", action="store_true",
+                    help="skip the jump-error check (the first arm again with half the jumps)")
+    wr.add_argument("--out", help="directory (default results/<scene name>/); replaced atomically")
+    wr.set_defaults(func=_wear)
     idn = sub.add_parser("identify", help="identify clearances, friction, contact stiffness or link lengths of a "
                                           "scene from measured task poses, actuator angles and efforts (a CSV with "
                                           "the column names of a study's timeseries.csv); writes identified.yaml, "

@@ -37,7 +37,16 @@ import numpy as np
 
 from .checks import argument, describe, unknown_value
 from .contact import V_MIN, joint_stiffness
-from .dynamics.builder import BAUMGARTE_OMEGA, EFFECT_PARAMETERS, INPUTS, Equations, build_equations, lubricated_joints
+from .dynamics.builder import (
+    BAUMGARTE_OMEGA,
+    EFFECT_PARAMETERS,
+    INPUTS,
+    Equations,
+    build_equations,
+    lubricated_joints,
+    worn_joints,
+    worn_surfaces,
+)
 from .dynamics.elements import element_coordinate, element_forces_function
 from .dynamics.family import EffortFamily, graph_family
 from .dynamics.inverse import inverse_dynamics_function
@@ -154,7 +163,9 @@ class Problem:
         stiffness [N/m^n], journal and bearing radius [m], then restitution, damping and the
         friction law's coefficients (:data:`rrr4.dynamics.builder.EFFECT_PARAMETERS`), then per
         lubricated joint viscosity [Pa s], bearing length [m] and threshold (none without
-        lubrication); empty without a clearance joint (no contact)."""
+        lubrication), then per worn joint its wear coefficient, hardness [Pa] and bearing length [m],
+        then the wear profiles' node depths [m] (zeros: unworn; :func:`rrr4.dynamics.builder.worn_surfaces`);
+        empty without a clearance joint (no contact)."""
         per = [(self.joint_stiffness(j), self.joint(j).journal_radius, self.joint(j).bearing_radius)
                for j in self.clearance_joints]
         if not per:
@@ -164,8 +175,11 @@ class Problem:
                       static_coefficient=fe.static_coefficient, v0=fe.v0, v1=fe.v1,
                       stribeck_velocity=fe.stribeck_velocity)
         films = [(f.viscosity, f.length, f.threshold) for _, f in lubricated_joints(self.model, self.scene.effects)]
+        worn = [(w.coefficient, w.hardness, w.length) for _, w in worn_joints(self.model, self.scene.effects)]
+        nodes = sum(m for *_, m in worn_surfaces(self.model, self.scene.effects))
         return np.array([*(v for row in per for v in row), *(values[k] for k in EFFECT_PARAMETERS),
-                         *(v for row in films for v in row)], float)
+                         *(v for row in films for v in row), *(v for row in worn for v in row), *np.zeros(nodes)],
+                        float)
 
     @functools.cached_property
     def start_coordinates(self) -> np.ndarray:
@@ -245,7 +259,8 @@ class Problem:
         ce, fe = s.effects.contact, s.effects.friction
         effects = replace(s.effects, contact=replace(ce, restitution=1.0, damping=0.0, stiffness=None),
                           friction=replace(fe, coefficient=0.0, static_coefficient=0.0, v0=1.0, v1=2.0,
-                                           stribeck_velocity=1.0), lubrication=_film(s.effects.lubrication))
+                                           stribeck_velocity=1.0), lubrication=_film(s.effects.lubrication),
+                          wear=_wear(s.effects.wear))
         actuators = tuple(replace(a, limit=1.0) for a in s.graph.actuators)
         a, n = s.actuation, self.model.n_actuators
         preload = replace(a.preload, min_force=float(a.preload.min_force > 0), weights=(1.0,) * n,
@@ -297,7 +312,8 @@ class Problem:
         actuation = replace(s.actuation, kp=0.0, kd=0.0, control_rate=None, compensation="none")
         return replace(s, name="", description="", source="", integrator=None, initial=None,
                        graph=_without_clearance_numbers(s.graph),
-                       effects=replace(s.effects, contact=None, friction=None, lubrication=None), actuation=actuation)
+                       effects=replace(s.effects, contact=None, friction=None, lubrication=None, wear=None),
+                       actuation=actuation)
 
     def structure(self, key: str) -> Problem:
         """The Problem of one of the structure keys ('controller', 'plant', 'geometry',
@@ -396,9 +412,15 @@ def _film(f):
     return None if f is None else replace(f, viscosity=1.0, length=1.0, threshold=0.5)
 
 
+def _wear(w):
+    """A joint's wear without its numbers (the surfaces and nodes are structure, k, H and L inputs)."""
+    return None if w is None else replace(w, coefficient=1.0, hardness=1.0, length=1.0)
+
+
 def _without_clearance_numbers(graph):
-    """`graph` with its clearance joints' journal radius, clearance and film numbers neutral."""
-    joints = tuple(replace(j, journal_radius=1.0, radial_clearance=1.0, lubrication=_film(j.lubrication))
+    """`graph` with its clearance joints' journal radius, clearance, film and wear numbers neutral."""
+    joints = tuple(replace(j, journal_radius=1.0, radial_clearance=1.0, lubrication=_film(j.lubrication),
+                           wear=_wear(j.wear))
                    if j.clearance else j for j in graph.joints)
     return replace(graph, joints=joints)
 

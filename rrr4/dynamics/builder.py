@@ -15,8 +15,10 @@ with exactly the effects the scene asks for:
   law; the friction term exists only if the friction law is not 'none'; the oil film's
   force (:mod:`rrr4.contact.lubrication`) only at the clearance joints whose lubrication
   law is not 'none': w(eps) F(min(eps, threshold), eps_dot, whirl), acting at the joint
-  centres, handed over to the dry laws between the threshold and eps = 1; with no clearance
-  joint there is no contact code at all;
+  centres, handed over to the dry laws between the threshold and eps = 1; the wear profiles
+  (:mod:`rrr4.contact.wear`) only at the clearance joints that wear: the penetration is
+  |e| - c0 - w(psi) and the normal force acts along its gradient, with the profiles' node
+  depths among the input ``parameters``; with no clearance joint there is no contact code at all;
 - tau (actuator efforts, generalised force S^T tau with S = ds/dq): 'free' -> 0 (no
   effort inputs in the graph); 'torque' -> the input ``effort``, what the controller
   (:mod:`rrr4.control`) commands; 'prescribed' -> tau = -lambda of the driving
@@ -36,7 +38,8 @@ penetration (nc,) [m], delta_dot (nc,) [m/s], eccentricity (2, nc) [m], power_in
 the film's power -F_film . e_dot), power_friction [W] (dissipated), driver_effort
 (n_drivers,) [N m or N] (what each driver applies along its joint coordinate, -lambda of
 its row); with lubrication also film_force (2, nc) [N] on the journal (0 at dry joints)
-and power_film [W] (the film's share of power_damping).
+and power_film [W] (the film's share of power_damping); with wear also wear_rate (the
+node depth rates [m/s] of every wear profile, Equations.worn order: Archard's law).
 
 ``residual`` (for implicit Newton methods such as Bathe or Newmark): q, qd, qdd, lambda and
 the other refs -> dynamics (nq,) = M qdd + Phi_q^T lambda - Q, constraint (m,) = Phi_q qdd -
@@ -95,6 +98,7 @@ from ..contact import (
 )
 from ..contact.lubrication import film_force, film_rates, film_weight
 from ..contact.normal import V_MIN, power
+from ..contact.wear import archard_volume_rate, node_depth_rates, profile_depth, spline_slopes, spline_weights
 from ..errors import SceneError
 from ..functions import fix_last_input
 from ..mechanism.model import Model, geometry_parameters
@@ -102,8 +106,9 @@ from ..mechanism.tree import tree_map
 from ..scene import Effects
 from .elements import N_PARAMETERS, force_terms
 
-__all__ = ["Equations", "build_equations", "INPUTS", "lubricated_joints",
-           "BAUMGARTE_OMEGA", "JOINT_PARAMETERS", "EFFECT_PARAMETERS", "LUBRICATION_PARAMETERS"]
+__all__ = ["Equations", "build_equations", "with_parameters", "with_profiles", "profiles_of", "INPUTS",
+           "lubricated_joints", "worn_joints", "worn_surfaces", "BAUMGARTE_OMEGA", "JOINT_PARAMETERS",
+           "EFFECT_PARAMETERS", "LUBRICATION_PARAMETERS", "WEAR_PARAMETERS"]
 
 INPUTS = ("contact", "geometry")  # build_equations(inputs=...): the numbers the parametric equations take
 
@@ -142,6 +147,10 @@ class Equations:
     # every problem of the same structure, so that compiled code built on them is too
     parameters: np.ndarray = field(default_factory=lambda: np.zeros(0), compare=False, repr=False)
     parametric: Equations | None = field(default=None, compare=False, repr=False)
+    # the wear profiles (rrr4.contact.wear): ((joint, surface, nodes), ...) in the order of the
+    # profile's node depths [m] in ``parameters`` (from profile_start) and of the output wear_rate
+    worn: tuple = ()
+    profile_start: int = 0
 
 
 # The contact numbers that enter the equations as part of their input ``parameters`` rather
@@ -151,12 +160,69 @@ EFFECT_PARAMETERS = ("restitution", "damping", "friction_coefficient", "static_c
                      "stribeck_velocity")
 # then per lubricated joint (graph order), the film's numbers
 LUBRICATION_PARAMETERS = ("viscosity", "length", "threshold")
+# then per worn joint (graph order) its wear numbers, then the node depths [m] of every worn
+# surface (worn_surfaces): the wear profile is an input, so updating it compiles nothing
+WEAR_PARAMETERS = ("coefficient", "hardness", "length")
 
 
 def lubricated_joints(model: Model, effects: Effects) -> tuple:
     """((name, LubricationEffect), ...) of the clearance joints with an oil film, graph order."""
     films = ((j, effects.lubrication_of(model.graph.joint(j))) for j in model.clearance_joints)
     return tuple((j, f) for j, f in films if f.law != "none")
+
+
+def worn_joints(model: Model, effects: Effects) -> tuple:
+    """((name, WearEffect), ...) of the clearance joints that wear, graph order."""
+    wear = ((j, effects.wear_of(model.graph.joint(j))) for j in model.clearance_joints)
+    return tuple((j, w) for j, w in wear if w.worn)
+
+
+def worn_surfaces(model: Model, effects: Effects) -> tuple:
+    """((joint, surface, nodes), ...): the wear profiles, in the order of their node depths."""
+    return tuple((j, s, w.nodes) for j, w in worn_joints(model, effects) for s in w.worn)
+
+
+def with_parameters(eqs: Equations, parameters) -> Equations:
+    """The equations of `eqs`'s structure with their input ``parameters`` fixed to `parameters`
+    (e.g. another wear profile: nothing is rebuilt or compiled)."""
+    par = eqs.parametric
+    p = np.asarray(parameters, float)
+    k = len(JOINT_PARAMETERS)
+    return replace(par, stiffness=tuple(p[:k * len(par.clearance_joints):k]), parameters=p, parametric=par,
+                   **{k: fix_last_input(getattr(par, k), p) for k in ("acceleration", "residual", "contact_update",
+                                                                       "energy", "actuator_coordinates",
+                                                                       "tree_acceleration", "tree_state",
+                                                                       "tree_coordinates") if getattr(par, k)})
+
+
+def with_profiles(eqs: Equations, profiles: dict) -> Equations:
+    """`eqs` on worn profiles: `profiles` maps joint -> surface -> node depths (M,) [m] (finite,
+    >= 0; a profile not given stays as it is). Nothing is rebuilt or compiled. Raises SceneError
+    naming a joint, surface or length that does not fit."""
+    p = np.array(eqs.parameters, float)
+    at = eqs.profile_start
+    known = {(j, s): (a, m) for (j, s, m), a in zip(eqs.worn, np.cumsum([at, *(m for *_, m in eqs.worn)]),
+                                                     strict=False)}
+    for joint, by_surface in profiles.items():
+        for surface, depths in by_surface.items():
+            if (joint, surface) not in known:
+                raise unknown_value("wear", "worn surface", f"{joint}.{surface}", [f"{j}.{s}" for j, s in known])
+            a, m = known[(joint, surface)]
+            d = np.asarray(depths, float).ravel()
+            if d.shape != (m,) or not np.all(np.isfinite(d)) or np.any(d < 0):
+                raise SceneError(f"wear: the profile of {joint}.{surface} is not allowed ({m} finite depths >= 0 "
+                                 "in m are required)")
+            p[int(a):int(a) + m] = d
+    return with_parameters(eqs, p)
+
+
+def profiles_of(eqs: Equations) -> dict:
+    """The wear profiles the equations use: joint -> surface -> node depths (M,) [m]."""
+    out, at = {}, eqs.profile_start
+    for joint, surface, m in eqs.worn:
+        out.setdefault(joint, {})[surface] = np.array(eqs.parameters[at:at + m], float)
+        at += m
+    return out
 
 
 def build_equations(model: Model, effects: Effects, mode: str, parameters, v_min: float = V_MIN,
@@ -179,14 +245,7 @@ def build_equations(model: Model, effects: Effects, mode: str, parameters, v_min
     if inputs not in INPUTS:
         raise unknown_value("inputs", "value", inputs, INPUTS)
     par = _parametric(model, effects, mode, float(v_min), float(baumgarte), inputs == "geometry", tuple(forces))
-    p = np.asarray(parameters, float)
-    nc = len(par.clearance_joints)
-    k = len(JOINT_PARAMETERS)
-    return replace(par, stiffness=tuple(p[:k * nc:k]), parameters=p, parametric=par,
-                   **{k: fix_last_input(getattr(par, k), p) for k in ("acceleration", "residual", "contact_update",
-                                                                       "energy", "actuator_coordinates",
-                                                                       "tree_acceleration", "tree_state",
-                                                                       "tree_coordinates") if getattr(par, k)})
+    return with_parameters(replace(par, parametric=par), parameters)
 
 
 @functools.lru_cache(maxsize=16)
@@ -213,9 +272,15 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
     ref_names = ["q", "qd", "effort", "theta_ref", "theta_d_ref", "theta_dd_ref", "delta_dot0", "in_contact", "t"]
 
     films = dict(lubricated_joints(model, effects))
+    worn = dict(worn_joints(model, effects))
+    surfaces = worn_surfaces(model, effects)
     nk0 = (len(JOINT_PARAMETERS) * nc + len(EFFECT_PARAMETERS)) if nc else 0
-    nk = nk0 + len(LUBRICATION_PARAMETERS) * len(films)
-    nf = N_PARAMETERS * len(forces)
+    nk1 = nk0 + len(LUBRICATION_PARAMETERS) * len(films)
+    nk2 = nk1 + len(WEAR_PARAMETERS) * len(worn)  # the profiles' node depths from here
+    nk = nk2 + sum(m for _, _, m in surfaces)
+    ends = np.cumsum([0, *(m for *_, m in surfaces)])
+    starts = {(j, s): nk2 + int(a) for (j, s, _), a in zip(surfaces, ends, strict=False)}
+    nf = N_PARAMETERS * len(forces)  # the force elements' numbers after the contact numbers
     P = ca.SX.sym("parameters", nk + nf + (geometry_parameters(graph).size if geometry else 0))
     G = P[nk + nf:] if geometry else None  # masses, inertias, joint points (else constants)
     m_diag = model.masses(G)[0]
@@ -245,6 +310,7 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
         restitution, damping, mu, mu_s, v0, v1, v_s = ca.vertsplit(P[len(JOINT_PARAMETERS) * nc:nk0])
         fe = replace(fe, coefficient=mu, static_coefficient=mu_s, v0=v0, v1=v1, stribeck_velocity=v_s)
     cols = {k: [] for k in ("f", "fn", "ft", "delta", "delta_dot", "e", "film")}
+    wear_rates = []
     V_contact, p_damp, p_fric, p_film = ca.SX(0), ca.SX(0), ca.SX(0), ca.SX(0)
     delta_list = []
     if nc:
@@ -253,6 +319,8 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
             terms.append(f"friction ({fe.law})")
         for law in sorted({f.law for f in films.values()}):
             terms.append(f"lubrication ({law}) at {' '.join(j for j, f in films.items() if f.law == law)}")
+        for on in sorted({w.surfaces for w in worn.values()}):
+            terms.append(f"wear (Archard, {on}) at {' '.join(j for j, w in worn.items() if w.surfaces == on)}")
     for j, name in enumerate(clear):
         spec = graph.joint(name)
         pts = model.joint_points(q, spec, G)
@@ -263,6 +331,28 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
         e_dot = (g_j - g_b) @ qd
         w_b, w_j = 0 if i_b is None else qd[i_b], 0 if i_j is None else qd[i_j]
         kin = clearance_kinematics(p_j - p_b, e_dot, w_b, w_j, r_j, r_b)
+        profiles = []
+        if name in worn:  # the worn clearance in the journal's direction: c0 + w_B(psi_B) + w_J(psi_J)
+            # the direction of e; (1, 0) for a journal within 1e-3 c of the centre, where the depth
+            # does not matter and atan2's derivative would be 0/0
+            near = ca.dot(kin.eccentricity, kin.eccentricity) < (1e-3 * (r_b - r_j)) ** 2
+            angle = ca.atan2(ca.if_else(near, 0.0, kin.normal[1]), ca.if_else(near, 1.0, kin.normal[0]))
+            depth, slope, m = ca.SX(0), ca.SX(0), worn[name].nodes
+            grad = ca.SX.zeros(nq)  # d depth / dq: through each surface's angle psi_s = angle - theta_s
+            for surface in worn[name].worn:
+                at = starts[(name, surface)]
+                i_s, r_s = (i_b, r_b) if surface == "bearing" else (i_j, r_j)
+                psi = angle - (0 if i_s is None else q[i_s])
+                weights = spline_weights(psi, m)
+                depth += profile_depth(P[at:at + m], weights)
+                s = profile_depth(P[at:at + m], spline_slopes(psi, m))  # dw_s / dpsi_s [m/rad]
+                slope += s
+                if i_s is not None:
+                    grad[i_s] -= s
+                profiles.append((weights, r_s, m))
+            tilt = ca.if_else(near, 0.0, slope / (kin.penetration + r_b - r_j))  # d depth / d(e . t), |e| > 0
+            grad += (g_j - g_b).T @ (tilt * kin.tangent)
+            kin = replace(kin, penetration=kin.penetration - depth, delta_dot=kin.delta_dot - ca.dot(grad, qd))
         dd0_eff = ca.if_else(inc[j] > 0.5, dd0[j], ca.fmax(kin.delta_dot, v_min))
         fn = normal_force(ce.law, kin.penetration, kin.delta_dot, dd0_eff, K, ce.exponent, restitution, damping,
                           v_min)
@@ -270,6 +360,13 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
         ft = friction_force(fe, kin.v_t, fn) if fe.law != "none" else ca.SX(0)
         Qc, f = contact_generalized_forces(kin, fn, ft, g_b, g_j, i_b, i_j, r_j, r_b, nq)
         Q = Q + Qc
+        if profiles:  # the normal along the worn surface's: -F_n d delta / dq; Archard onto the nodes
+            Q = Q + fn * grad
+            f = f + fn * tilt * kin.tangent
+            k_w, hardness, length = (P[nk1 + len(WEAR_PARAMETERS) * list(worn).index(name) + k]
+                                     for k in range(len(WEAR_PARAMETERS)))
+            volume_rate = archard_volume_rate(k_w, hardness, fn, kin.v_t)
+            wear_rates += [node_depth_rates(volume_rate, w, length, r_s, m) for w, r_s, m in profiles]
         f_film = ca.SX.zeros(2)
         if name in films:  # the oil film, at the joint centres (its pressure passes through them)
             mu_oil, length, eps_t = (P[nk0 + len(LUBRICATION_PARAMETERS) * list(films).index(name) + k]
@@ -345,6 +442,9 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
     # ca.cse merges repeated subexpressions (each body's sin/cos is built once per joint point
     # otherwise): about 11 % fewer instructions on the reference scene.
     film_out = ([stack("film", 2), p_film], ["film_force", "power_film"]) if films else ([], [])
+    wear_rate = ca.vertcat(*wear_rates)
+    if worn:
+        film_out = ([*film_out[0], wear_rate], [*film_out[1], "wear_rate"])
     acc = ca.Function(
         "acceleration", [*refs, P],
         ca.cse([qdd, lam, tau, reaction, contact_force, fn_v, ft_v, delta_v, dd_v, ecc, power_in, p_damp, p_fric,
@@ -403,15 +503,16 @@ def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: 
         if forces:
             power_t += on_tree(elements.power_load)
         coordinate = ca.substitute(tree.coordinate, tree.q_symbols, q)
+        wear_t = ([on_tree(wear_rate)], ["wear_rate"]) if worn else ([], [])
         tree_fns = (
             ca.Function("tree_acceleration", [p, pd, *refs[2:], P],
-                        ca.cse([pdd, power_t, on_tree(p_damp), on_tree(p_fric)]),
+                        ca.cse([pdd, power_t, on_tree(p_damp), on_tree(p_fric), *wear_t[0]]),
                         ["p", "pd", *ref_names[2:], "parameters"], ["pdd", "power_in", "power_damping",
-                                                                    "power_friction"]),
+                                                                    "power_friction", *wear_t[1]]),
             ca.Function("tree_state", [p, pd, P], [tree.q, J @ pd], ["p", "pd", "parameters"], ["q", "qd"]),
             ca.Function("tree_coordinates", [q, qd, P], [coordinate, ca.jtimes(coordinate, q, qd)],
                         ["q", "qd", "parameters"], ["p", "pd"]))
 
     actuators = ca.Function("actuator_coordinates", [q, P], [theta, S], ["q", "parameters"], ["s", "S"])
     return Equations(model, clear, ideal, reacting, mode, tuple(terms), (), nq, n, n_con, acc, res, upd,
-                     energy, v_min, omega, actuators, *tree_fns)
+                     energy, v_min, omega, actuators, *tree_fns, worn=surfaces, profile_start=nk2)

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..contact import V_MIN, hysteresis_factor
-from ..dynamics.builder import lubricated_joints
+from ..dynamics.builder import lubricated_joints, worn_joints
 from ..functions import graph_size
 from ..mechanism import wrap_angle
 from ..mechanism.workspace import path_kinematics
@@ -59,6 +59,10 @@ def contact_numbers(problem: Problem, v_min: float = V_MIN) -> dict | None:
     if films:  # only scenes with an oil film say so
         out["lubrication"] = {j: {"law": m.law, "viscosity_Pa_s": m.viscosity, "length_m": m.length,
                                   "threshold": m.threshold} for j, m in films}
+    worn = worn_joints(problem.model, problem.scene.effects)
+    if worn:  # only scenes with wear say so
+        out["wear"] = {j: {"surfaces": w.surfaces, "coefficient": w.coefficient, "hardness_Pa": w.hardness,
+                           "length_m": w.length, "nodes": w.nodes} for j, w in worn}
     return out
 
 
@@ -84,7 +88,9 @@ def contact_lines(numbers: dict | None) -> list[str]:
     friction = (f"friction: {fr['law']}, " + ", ".join(terms)) if terms else "friction: none (no friction terms)"
     films = [f"lubrication at {j}: {m['law']}, viscosity {m['viscosity_Pa_s']:g} Pa s, length {m['length_m']:g} m, "
              f"dry laws take over from eps = {m['threshold']:g} to 1" for j, m in n.get("lubrication", {}).items()]
-    return [", ".join(law), f"  stiffness from {n['stiffness_from']}: {stiff}", friction, *films]
+    wear = [f"wear at {j}: Archard on {m['surfaces']}, k = {m['coefficient']:g}, H = {m['hardness_Pa']:g} Pa, "
+            f"length {m['length_m']:g} m, {m['nodes']} profile coefficients" for j, m in n.get("wear", {}).items()]
+    return [", ".join(law), f"  stiffness from {n['stiffness_from']}: {stiff}", friction, *films, *wear]
 
 
 def _preload(study: Study) -> dict:

@@ -35,14 +35,15 @@ from .schema import (
     Platform,
     PreloadSettings,
     Scene,
+    WearEffect,
 )
 from .time_table import TIME_TABLE_COLUMNS, check_time_table, read_time_table, time_table_text
 from .vocabulary import GROUND, MATERIALS, choices
 
 __all__ = [
     "SceneError", "Scene", "Link", "Chain", "Platform", "NRRRSpec", "Material", "JointSpec", "ContactEffect",
-    "FrictionEffect", "LubricationEffect", "Effects", "PreloadSettings", "Actuation", "PathSpec", "Initial",
-    "IntegratorSettings",
+    "FrictionEffect", "LubricationEffect", "WearEffect", "Effects", "PreloadSettings", "Actuation", "PathSpec",
+    "Initial", "IntegratorSettings",
     "Body", "AssemblyMode", "ActuatorSpec", "DriverSpec", "Graph", "GROUND", "MATERIALS", "PASSIVE_JOINTS", "choices",
     "read_scene", "parse_scene", "read_yaml", "load_yaml",
     "expand_nrrr", "bare_nrrr_graph", "get_key", "set_key", "key_steps",

@@ -56,6 +56,7 @@ from .vocabulary import (
     TIME_LAWS,
     choices,
 )
+from .wear import read_wear
 
 __all__ = ["read_scene", "parse_scene", "read_yaml", "load_yaml", "MAX_BYTES", "MAX_DEPTH", "MAX_NODES"]
 
@@ -167,8 +168,9 @@ def _joints(sec: Section, n_chains: int) -> tuple[JointSpec, ...]:
         mj = _material(s.raw("journal_material"), s.key("journal_material"))
         mb = _material(s.raw("bearing_material"), s.key("bearing_material"))
         film = read_lubrication(s.raw("lubrication"), s.key("lubrication")) if s.has("lubrication") else None
+        wear = read_wear(s.raw("wear"), s.key("wear")) if s.has("wear") else None
         s.done()
-        out.append(JointSpec(name, name in cl, rj, c, mj, mb, lubrication=film))
+        out.append(JointSpec(name, name in cl, rj, c, mj, mb, lubrication=film, wear=wear))
     sec.done()
     return tuple(out)
 
@@ -203,6 +205,8 @@ def _clearance(v, key: str, bodies: tuple[str, str]) -> dict:
            "bearing_material": _material(s.raw("bearing_material", "steel"), s.key("bearing_material"))}
     if s.has("lubrication"):
         out["lubrication"] = read_lubrication(s.raw("lubrication"), s.key("lubrication"))
+    if s.has("wear"):
+        out["wear"] = read_wear(s.raw("wear"), s.key("wear"))
     s.done()
     return out
 
@@ -406,9 +410,10 @@ def _effects(sec: Section) -> Effects:
     f.done()
     g = sec.vector("gravity", 2, [0.0, 0.0])
     film = read_lubrication(sec.raw("lubrication"), sec.key("lubrication"))
+    wear = read_wear(sec.raw("wear"), sec.key("wear"))
     sec.done()
     return Effects(ContactEffect(law, cr, exponent, stiffness, damping),
-                   FrictionEffect(flaw, mu, mus, v0, v1, vs), g, film)
+                   FrictionEffect(flaw, mu, mus, v0, v1, vs), g, film, wear)
 
 
 def _actuation(sec: Section, n: int, graph: Graph | None = None) -> tuple[Actuation, tuple[float, ...]]:

@@ -33,7 +33,9 @@ PROBES = {
     "paper_circle.yaml": [
         {"joints.per_joint.B1": {"radial_clearance": 5e-5, "journal_radius": 0.005, "journal_material": "bronze",
                                  "bearing_material": {"youngs_modulus": 2e11, "poisson_ratio": 0.3},
-                                 "lubrication": {"law": "short-bearing", "viscosity": 0.04, "length": 0.02}}},
+                                 "lubrication": {"law": "short-bearing", "viscosity": 0.04, "length": 0.02},
+                                 "wear": {"surfaces": "both", "coefficient": 1e-4, "hardness": 8e9, "length": 0.01,
+                                          "nodes": 36}}},
         {"path.type": "waypoints", "path.points": [[0.25, 0.25, 0.0], [0.26, 0.25, 0.0]]},
         {"path.type": "line", "path.start": [0.25, 0.25, 0.0], "path.end": [0.26, 0.25, 0.0]},
         {"forces": [{"type": "spring_damper", "name": "s", "bodies": ["ground", "platform"],
@@ -50,7 +52,9 @@ PROBES = {
         {"mechanism.drivers[0]": {"joint": "O", "speed": 10.0}},
         {"mechanism.joints[0].clearance": {"radial_clearance": 5e-4, "journal_radius": 0.01,
                                            "lubrication": {"law": "long-bearing", "viscosity": 0.04,
-                                                           "length": 0.02}}},
+                                                           "length": 0.02},
+                                           "wear": {"surfaces": "bearing", "coefficient": 1e-4, "hardness": 8e9,
+                                                    "length": 0.01}}},
     ],
 }
 _NAMED = (  # free names in key paths -> their placeholder

@@ -12,8 +12,8 @@ from .time_table import check_time_table
 from .vocabulary import GROUND
 
 __all__ = ["Link", "Chain", "Platform", "NRRRSpec", "Material", "JointSpec", "Body", "AssemblyMode", "ActuatorSpec",
-           "DriverSpec", "Graph", "ContactEffect", "FrictionEffect", "LubricationEffect", "Effects", "PreloadSettings",
-           "Actuation", "PathSpec", "Initial", "IntegratorSettings", "Scene", "PASSIVE_JOINTS"]
+           "DriverSpec", "Graph", "ContactEffect", "FrictionEffect", "LubricationEffect", "WearEffect", "Effects",
+           "PreloadSettings", "Actuation", "PathSpec", "Initial", "IntegratorSettings", "Scene", "PASSIVE_JOINTS"]
 
 @dataclass(frozen=True)
 class Link:
@@ -76,6 +76,24 @@ class LubricationEffect:
 
 
 @dataclass(frozen=True)
+class WearEffect:
+    """Archard wear of a clearance joint (:mod:`rrr4.contact.wear`): the surfaces that wear
+    ('none', 'bearing', 'journal' or 'both'), the dimensionless wear coefficient k,
+    the hardness H [Pa] of the wearing surface, the bearing length L [m] and the nodes of
+    the wear profile over the bearing angle."""
+    surfaces: str = "none"
+    coefficient: float = 0.0
+    hardness: float = 0.0
+    length: float = 0.0
+    nodes: int = 72
+
+    @property
+    def worn(self) -> tuple[str, ...]:
+        """The wearing surfaces, in the order ('bearing', 'journal')."""
+        return {"none": (), "both": ("bearing", "journal")}.get(self.surfaces, (self.surfaces,))
+
+
+@dataclass(frozen=True)
 class JointSpec:
     """A joint between two bodies (or a body and 'ground').
 
@@ -99,6 +117,7 @@ class JointSpec:
     angle: float = 0.0
     journal: int = 1
     lubrication: LubricationEffect | None = None  # this clearance joint's film; None: the scene's (Effects)
+    wear: WearEffect | None = None  # this clearance joint's wear; None: the scene's (Effects)
 
     @property
     def bearing_radius(self) -> float:
@@ -213,10 +232,15 @@ class Effects:
     friction: FrictionEffect
     gravity: tuple[float, float]
     lubrication: LubricationEffect = LubricationEffect()  # every clearance joint's, unless the joint says
+    wear: WearEffect = WearEffect()  # every clearance joint's, unless the joint says
 
     def lubrication_of(self, joint: JointSpec) -> LubricationEffect:
         """The film of clearance joint `joint`: its own if it gives one, else the scene's."""
         return self.lubrication if joint.lubrication is None else joint.lubrication
+
+    def wear_of(self, joint: JointSpec) -> WearEffect:
+        """The wear of clearance joint `joint`: its own if it gives one, else the scene's."""
+        return self.wear if joint.wear is None else joint.wear
 
 
 @dataclass(frozen=True)

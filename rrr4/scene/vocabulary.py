@@ -10,9 +10,9 @@ from __future__ import annotations
 
 __all__ = ["MECHANISM_KINDS", "JOINT_TYPES", "PATH_TYPES", "TIME_LAWS", "ACTUATION_MODES", "CONTACT_LAWS",
            "FRICTION_LAWS", "LUBRICATION_LAWS", "ASSEMBLY_MEASURES", "CONTACT_LAW_KEYS", "FRICTION_LAW_KEYS",
-           "LUBRICATION_LAW_KEYS", "FORCE_ELEMENTS", "LOAD_FRAMES", "INTEGRATORS", "ERROR_CONTROLLED", "NEWTON",
-           "COORDINATES", "PRELOAD_METHODS", "COMPENSATIONS", "QP_SOLVERS", "JOURNAL_STARTS", "OBJECTIVES",
-           "IDENTIFICATION_METHODS", "MATERIALS",
+           "LUBRICATION_LAW_KEYS", "WEAR_SURFACES", "FORCE_ELEMENTS", "LOAD_FRAMES", "INTEGRATORS",
+           "ERROR_CONTROLLED", "NEWTON", "COORDINATES", "PRELOAD_METHODS", "COMPENSATIONS", "QP_SOLVERS",
+           "JOURNAL_STARTS", "OBJECTIVES", "IDENTIFICATION_METHODS", "MATERIALS",
            "GROUND", "choices", "registry"]
 
 GROUND = "ground"  # the fixed frame's name in a graph
@@ -46,6 +46,8 @@ LUBRICATION_LAW_KEYS = {
     "none": (),
     **{law: ("viscosity", "length", "threshold") for law in LUBRICATION_LAWS},
 }
+# effects.wear.surfaces: which surfaces of a clearance joint wear (Archard); a scene may also say 'none'
+WEAR_SURFACES = ("bearing", "journal")
 FORCE_ELEMENTS = ("spring_damper", "rotational_spring_damper", "load")  # forces[].type
 LOAD_FRAMES = ("ground", "body")  # forces[].frame of a load: the frame its force components are given in
 INTEGRATORS = ("bathe", "newmark", "generalized-alpha", "ros2", "rk4", "erk", "rosenbrock", "cvodes", "idas", "rk45",
@@ -72,6 +74,7 @@ _CHOICES = {
     "contact law": CONTACT_LAWS,
     "friction law": ("none", *FRICTION_LAWS),
     "lubrication law": ("none", *LUBRICATION_LAWS),
+    "wear surfaces": ("none", *WEAR_SURFACES, "both"),
     "integrator": INTEGRATORS,
     "error control": ERROR_CONTROLLED,
     "coordinates": COORDINATES,
@@ -94,6 +97,7 @@ def registry(names: tuple[str, ...], implementations: dict) -> dict:
 
 
 def choices(what: str) -> tuple[str, ...]:
-    """The allowed names of a scene setting: 'contact law', 'friction law', 'lubrication law', 'integrator',
-    'error control', 'coordinates', 'newton', 'preload method', 'compensation', 'qp solver' or 'force element'."""
+    """The allowed names of a scene setting: 'contact law', 'friction law', 'lubrication law', 'wear surfaces',
+    'integrator', 'error control', 'coordinates', 'newton', 'preload method', 'compensation', 'qp solver' or
+    'force element'."""
     return _CHOICES[what]

@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..contact import seat_gap_function
-from ..dynamics.builder import Equations
+from ..contact.wear import depth_at
+from ..dynamics.builder import Equations, profiles_of
 from ..dynamics.family import graph_family
 from ..problem import Problem
 from ..trajectory import trajectory_function
@@ -36,11 +37,28 @@ def seated_offsets(problem: Problem, eqs: Equations, q0, qdd0, tau0) -> np.ndarr
     clearance = np.array([[problem.joint(j).radial_clearance for j in joints]])
     gaps, _ = seat_gap_function().map(len(joints))(rj, clearance, np.array([eqs.stiffness]),
                                                     problem.scene.effects.contact.exponent, 0.0)
-    return np.array(gaps).T
+    gaps = np.array(gaps).T
+    for joint, by_surface in profiles_of(eqs).items():  # on a worn profile: the seat lies deeper by w(psi)
+        k, gap = joints.index(joint), gaps[joints.index(joint)]
+        size = np.linalg.norm(gap)
+        if size > 0:
+            spec = problem.joint(joint)
+            bodies = {"bearing": spec.bearing_body, "journal": spec.journal_body}
+            e = gap if spec.journal == 1 else -gap  # the eccentricity, journal - bearing
+            angle = np.arctan2(e[1], e[0])
+            depth = sum(float(depth_at(d, angle - _angle(problem, q0, bodies[s]))) for s, d in by_surface.items())
+            gaps[k] = gap * (size + depth) / size
+    return gaps
+
+
+def _angle(problem: Problem, q, body: str) -> float:
+    """The rotation [rad] of `body` in the coordinates q (0 for the ground)."""
+    i = problem.model.rotation_index(body)
+    return 0.0 if i is None else float(q[i])
 
 
 def initial_state(problem: Problem, eqs: Equations, efforts, tree: bool, settings) -> np.ndarray:
-    """x0 = [t = 0, y0, W_in, D_damping, D_friction = 0, delta_dot0 = v_min, in_contact,
+    """x0 = [t = 0, y0, W_in, D_damping, D_friction = 0, the wear quadratures = 0, delta_dot0 = v_min, in_contact,
     losses = 0 (nc each), the equations' parameters, the controller's settings]; y0 = [q,
     qd], or the tree coordinates with `tree`. efforts(t, q, qd): the controller's efforts at
     states (torque mode), for the seated journals' loads."""
@@ -64,4 +82,5 @@ def initial_state(problem: Problem, eqs: Equations, efforts, tree: bool, setting
         q0 = problem.seated_coordinates(target, offsets, guess=q0)
         seated = np.any(offsets != 0, axis=1).astype(float)
     y0 = np.r_[q0, qd0] if not tree else np.hstack([np.array(v).ravel() for v in eqs.tree_coordinates(q0, qd0)])
-    return np.r_[0.0, y0, 0.0, 0.0, 0.0, np.full(nc, eqs.v_min), seated, np.zeros(nc), eqs.parameters, settings]
+    worn = np.zeros(sum(m for *_, m in eqs.worn))  # the wear quadratures
+    return np.r_[0.0, y0, 0.0, 0.0, 0.0, worn, np.full(nc, eqs.v_min), seated, np.zeros(nc), eqs.parameters, settings]

@@ -58,6 +58,7 @@ class Outputs:
         self.last = np.empty(system.kept)  # the kept state of the last output
         self.seconds = 0.0
         self.bad: int | None = None
+        self.n_wear = sum(m for *_, m in eqs.worn)  # wear quadratures after the energy's
         head, peaks = system.kept_entries
         self(-1, np.r_[np.asarray(x0, float)[head], np.asarray(x0, float)[peaks]][None, :])
 
@@ -96,7 +97,7 @@ class Outputs:
         if not finite.all():
             self.bad = a + int(np.argmax(~finite))
             return
-        W, Dd, Df, z = rest[:, 0], rest[:, 1], rest[:, 2], rest[:, 3:]
+        W, Dd, Df, z = rest[:, 0], rest[:, 1], rest[:, 2], rest[:, 3 + self.n_wear:]
         t = self.t[a:a + m]
         out = {name: v[a:a + m] for name, v in self.arrays.items()}  # views: written in place
         out["q"][:], out["qd"][:] = q, qd
@@ -138,10 +139,14 @@ class Outputs:
         self.flush()
         eqs, model, nc = self.eqs, self.problem.model, len(self.eqs.clearance_joints)
         z = self.last[1 + self.system.ny:]
+        wear, at = {}, 1 + self.system.ny - self.n_wear
+        for joint, surface, m in eqs.worn:  # the depths worn over the run, per profile
+            wear.setdefault(joint, {})[surface] = self.last[at:at + m].copy()
+            at += m
         losses = {j: 0 for j in model.passive_joints}
         losses.update({j: int(round(v)) for j, v in zip(eqs.clearance_joints, z[2 * nc:3 * nc], strict=True)})
         return Simulation(
             scene=self.problem.scene, clearance_joints=eqs.clearance_joints,
             ideal_passive_joints=eqs.passive_ideal_joints, terms=eqs.terms, t=self.t, **self.arrays,
             contact_loss_events=losses, energy=self.energy, energy_audit_residual=energy_audit_residual(self.energy),
-            extremes=extremes(eqs, self.last[self.system.kept - self.system.n_peaks:]), stats=stats)
+            extremes=extremes(eqs, self.last[self.system.kept - self.system.n_peaks:]), stats=stats, wear=wear)

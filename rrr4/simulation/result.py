@@ -35,7 +35,10 @@ class Simulation:
     :func:`rrr4.simulation.system.extremes`); film_force (N, nc, 2) [N]: the oil film's share
     of contact_force (zeros at dry joints; :mod:`rrr4.contact.lubrication`); stats: solver
     statistics (method, step, steps, graph sizes; wall_time [s]: the stepping, without making
-    its frame inputs, input_time [s], or its outputs, output_time [s]).
+    its frame inputs, input_time [s], or its outputs, output_time [s]); wear: at the joints
+    that wear (``effects.wear``), joint -> surface ('bearing', 'journal') -> the node depths
+    (M,) [m] worn over the run, Archard's law integrated at every step
+    (:mod:`rrr4.contact.wear`; empty without wear).
     :meth:`body` gives the (N, 3) pose of any body.
     """
     scene: Scene
@@ -63,6 +66,7 @@ class Simulation:
     stats: dict = field(default_factory=dict)
     film_force: np.ndarray | None = None
     friction_force: np.ndarray | None = None
+    wear: dict = field(default_factory=dict)
 
     def body(self, name: str) -> np.ndarray:
         """(N, 3) pose [x, y, theta] [m, m, rad] of the centre of mass of the body `name`."""

@@ -35,6 +35,7 @@ from scipy.interpolate import CubicHermiteSpline
 
 from ..checks import argument, describe, unknown_value
 from ..control import CONTROLLERS, graph_references, interpolants, reference_function, step_inputs, tabulated
+from ..dynamics.builder import with_profiles
 from ..errors import SceneError, SimulationError
 from ..files import c_compiler
 from ..functions import graph_size, mapped
@@ -49,7 +50,7 @@ from .system import REFERENCES, Loop, in_tree, loop_of, measured, system_of
 __all__ = ["simulate", "OVERRIDES", "default_jit", "frame_times"]
 
 OVERRIDES = ("step", "output_rate", "preload", "v_min", "baumgarte", "jit", "progress", "references", "controller",
-             "model", "inputs")
+             "model", "inputs", "wear")
 MAX_STEPS = 1e10  # integrator steps one simulate call may take
 
 
@@ -150,7 +151,10 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
     which of the scene's numbers the compiled stepping takes as inputs rather than constants
     (see :func:`rrr4.dynamics.builder.build_equations`; the controller's gains, limits and
     preload numbers always are): 'contact' (default) or 'geometry' (with references='sampled',
-    scenes that differ in masses and geometry then share one compiled library).
+    scenes that differ in masses and geometry then share one compiled library), wear: the
+    wear profiles to start from at the joints that wear (joint -> surface -> node depths [m],
+    as :attr:`Simulation.wear` gives them; see :mod:`rrr4.contact.wear`): contact then uses the
+    worn clearance, and the run's wear is what it adds.
     """
     problem = Problem.from_scene(scene)
     scene = problem.scene
@@ -176,6 +180,8 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
         raise unknown_value("references", "value", mode, REFERENCES)
     kw = {k: overrides[k] for k in ("v_min", "baumgarte", "inputs") if k in overrides}
     eqs = problem.equations(**kw)
+    if overrides.get("wear"):  # worn profiles: other input numbers, the same compiled code
+        eqs = with_profiles(eqs, overrides["wear"])
     jit = overrides.get("jit")
     method = _integrator(scene.integrator, integrator, default_jit() if jit is None else bool(jit))
     model = problem.model

@@ -81,8 +81,9 @@ def measured(model: Model, q, qd, eqs: Equations | None = None, parameters=None)
 
 def system_of(problem: Problem, eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bool = False,
               inputs: str = "contact") -> System:
-    """The ODE y = [q, qd, W_in, D_damping, D_friction] (with `tree`, the tree coordinates
-    p, pd instead of q, qd: see :mod:`rrr4.mechanism.tree`) with discrete z = [delta_dot0,
+    """The ODE y = [q, qd, W_in, D_damping, D_friction, wear] (with `tree`, the tree coordinates
+    p, pd instead of q, qd: see :mod:`rrr4.mechanism.tree`; wear: the node depths [m] worn since
+    the start, per profile of ``eqs.worn``, none without wear) with discrete z = [delta_dot0,
     in_contact, losses] (nc each) followed by the equations' parameters (contact numbers,
     masses and geometry, see ``Problem.equation_parameters``) and the controller's settings
     (both constant: the discrete update keeps them), then the running maxima of the peaks
@@ -107,7 +108,8 @@ def _build_system(eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bo
     nq = par.tree_acceleration.size1_in(0) if tree else eqs.nq  # the coordinates stepped
     ns = len(loop.settings)
     n_peaks = 3 * nc + (n if eqs.mode == "torque" else 0)
-    t, y = ca.SX.sym("t"), ca.SX.sym("y", 2 * nq + 3)
+    nw = sum(m for *_, m in eqs.worn)  # the wear profiles' node depths: quadratures after the energy's
+    t, y = ca.SX.sym("t"), ca.SX.sym("y", 2 * nq + 3 + nw)
     z = ca.SX.sym("z", 3 * nc + len(eqs.parameters) + ns + n_peaks)
     width = {"exact": 0, "sampled": 10 * n, "held": n}[loop.kind]
     u = ca.SX.sym("u", 2 + width)
@@ -148,6 +150,8 @@ def _build_system(eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bo
     else:
         out = par.acceleration(q=q, qd=qd, **refs_in)
         ydot = ca.vertcat(qd, out["qdd"], out["power_in"], out["power_damping"], out["power_friction"])
+    if nw:
+        ydot = ca.vertcat(ydot, out["wear_rate"])
     ode = ca.Function("ode", [t, y, z, u], [ydot], ["t", "y", "z", "u"], ["y_dot"])
     dd0n, incn, loss = par.contact_update(q, qd, dd0, inc, parameters)
     disc = ca.Function("discrete", [t, y, z], [ca.vertcat(dd0n, incn, losses + loss, parameters, settings, peaks)],

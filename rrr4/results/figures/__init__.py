@@ -6,6 +6,7 @@
 - :mod:`.sweep`: the figures of a sweep's results.csv (``rrr4 sweep``);
 - :mod:`.map`: the workspace maps (``rrr4 map``);
 - :mod:`.robustness`: the robustness cases (``rrr4 robustness``);
+- :mod:`.wear`: the wear profiles and their history over the cycles (``rrr4 wear``);
 - :mod:`.identification`: the fit, residuals and correlation of an identification (``rrr4 identify``);
 - :mod:`.work_precision`: the work-precision diagram (``rrr4 bench accuracy``).
 """

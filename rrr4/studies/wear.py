@@ -1,0 +1,183 @@
+"""Wear of the clearance joints over many cycles, by cycle jumping (``rrr4 wear``).
+
+One cycle is the scene's path (a task scene) or one revolution of its first driver (a driven
+scene). Each step of the study simulates one cycle on the current wear profiles
+(:func:`rrr4.simulate` with ``wear=``: contact uses the worn clearance; the journals start
+seated on the worn profile), takes the wear that cycle adds (Archard's law integrated at
+every integrator step, :mod:`rrr4.contact.wear`), and scales it by the number of cycles n
+for which the deepest change stays within ``max_change`` times the joint's radial clearance:
+
+    w <- w + n dw,   n = max(1, floor(max_change c0 / max dw)),   capped at what is left of N
+
+(Flores 2009, Mech. Mach. Theory 44; Mukras et al. 2010, Wear 268: the wear of a cycle is
+extrapolated while the profile changes little). This is explicit Euler in the cycle count:
+its error is first order in the jump, and :func:`wear_study` reports it against a run with
+half the jumps. The last step simulates the cycle at N on the final profiles, so every
+history ends at N.
+
+Arms (task scene): ``with_preload`` and ``without_preload`` (:func:`rrr4.studies.study.arm_scene`;
+only ``without_preload`` when the controller does not preload); a driven scene: ``with_clearance``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ..checks import argument
+from ..contact.wear import node_depths, profile_volume
+from ..errors import SceneError
+from ..problem import Problem
+from ..results.wear import WearArm, WearStudy
+from ..scene import Scene
+from ..simulation import simulate
+from .study import arm_scene
+
+__all__ = ["jump_cycles", "wear_study", "cycle_duration", "DEFAULT_MAX_CHANGE", "MAX_CYCLES"]
+
+DEFAULT_MAX_CHANGE = 0.02  # the deepest change of a profile per jump, in radial clearances
+MAX_CYCLES = 1e12
+
+
+def jump_cycles(cycle, clearance: dict, cycles: int, max_change: float, progress: str = ""):
+    """Cycle jumping to `cycles` cycles. cycle(profiles) -> (wear of one cycle on `profiles`:
+    joint -> surface -> node depths (M,) [m], a record of the cycle); profiles None at the
+    start (unworn). clearance: joint -> radial clearance c0 [m]. Returns (profiles after
+    `cycles` cycles, the cycle counts where a cycle was simulated (K + 1,), the jumps (K,),
+    the records (K + 1)): the last cycle simulated is the one at `cycles`. progress: the
+    label of a progress bar over the cycles ('' for none)."""
+    profiles, done, at, jumps, records = None, 0, [], [], []
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=cycles, desc=progress, unit="cycle", leave=False)
+    while True:
+        wear, record = cycle(profiles)
+        at.append(done)
+        records.append(record)
+        if done >= cycles:
+            if bar is not None:
+                bar.close()
+            return profiles, np.array(at), np.array(jumps, int), records
+        rate = max((float(np.max(d)) / clearance[j] for j, by in wear.items() for d in by.values()), default=0.0)
+        n = cycles - done if rate <= 0 else int(min(cycles - done, max(1, math.floor(max_change / rate))))
+        profiles = {j: {s: (0.0 if profiles is None else profiles[j][s]) + n * d for s, d in by.items()}
+                    for j, by in wear.items()}
+        done += n
+        jumps.append(n)
+        if bar is not None:
+            bar.update(n)
+
+
+def cycle_duration(problem: Problem) -> float:
+    """One cycle [s]: the path's duration (a task scene), or one revolution of the first
+    driver (a driven scene); raises SceneError for a driver that does not turn."""
+    scene = problem.scene
+    if problem.model.task is not None:
+        return scene.path.duration
+    drivers = scene.graph.drivers
+    if not drivers or scene.graph.joint(drivers[0].joint).type != "revolute" or drivers[0].speed == 0:
+        raise SceneError("mechanism.drivers: rrr4 wear needs a task path or a first driver that turns a revolute "
+                         "joint at a non-zero speed (one cycle is one revolution)")
+    return 2.0 * math.pi / abs(drivers[0].speed)
+
+
+def _arms(problem: Problem) -> dict:
+    if problem.model.task is None:
+        return {"with_clearance": problem.scene}
+    names = ("with_preload", "without_preload") if problem.has_preload else ("without_preload",)
+    return {name: arm_scene(problem, name) for name in names}
+
+
+def _cycle(problem: Problem, scene: Scene, t_end: float):
+    """cycle(profiles) of :func:`jump_cycles` for `scene` (an arm of `problem`): one simulated
+    cycle on the profiles and its record (per joint in the order of ``WearArm.joints``)."""
+    joints = _joints(problem)
+
+    def run(profiles):
+        wall = time.perf_counter()
+        sim = simulate(scene, t_end=t_end, wear=profiles)
+        e, volume = sim.platform_error, _volumes(problem, profiles)
+        record = {"platform_error_rms_m": float(np.sqrt(np.mean(e**2))), "platform_error_max_m": float(np.max(e)),
+                  "contact_loss_events": int(sum(sim.contact_loss_events[j] for j in sim.clearance_joints)),
+                  "dissipated_friction_J": float(sim.energy["dissipated_friction"][-1]),
+                  "peak_contact_force_N": [float(sim.extremes["normal_force_max"][sim.clearance_joints.index(j)])
+                                           for j in joints],
+                  "volume_m3": [volume.get(j, 0.0) for j in joints],
+                  "deepest_m": [max((float(np.max(node_depths(d))) for d in (profiles or {}).get(j, {}).values()),
+                                    default=0.0) for j in joints],
+                  "wear_per_cycle_m": [max(float(np.max(d)) for d in sim.wear[j].values()) for j in joints],
+                  "wall_time_s": time.perf_counter() - wall}
+        return sim.wear, record
+    return run
+
+
+def _joints(problem: Problem) -> tuple[str, ...]:
+    """The clearance joints that wear, graph order."""
+    return tuple(dict.fromkeys(j for j, _, _ in problem.equations().worn))
+
+
+def wear_study(scene: Scene | Problem, cycles: float, max_change: float = DEFAULT_MAX_CHANGE,
+               check: bool = True, progress: bool = False, log=None) -> WearStudy:
+    """The wear of every clearance joint of `scene` (which must ask for wear: ``effects.wear``
+    or a joint's ``wear``) after `cycles` cycles, in each arm (see the module docstring).
+    max_change in (0, 1]: the deepest change of a profile per jump, in radial clearances.
+    check: also run the first arm with half the jumps and report the difference (the jump's
+    error). progress: a progress bar over the cycles; log: callable taking one line per stage."""
+    say = log or (lambda _m: None)
+    problem = Problem.from_scene(scene)
+    cycles = argument("cycles", cycles)
+    if cycles != int(cycles) or cycles > MAX_CYCLES:
+        raise SceneError(f"cycles: {cycles:g} is not allowed (a whole number from 1 to {MAX_CYCLES:g})")
+    cycles = int(cycles)
+    max_change = argument("max_change", max_change)
+    if max_change > 1:
+        raise SceneError(f"max_change: {max_change:g} is not allowed (a fraction of the radial clearance in (0, 1])")
+    worn = problem.equations().worn
+    if not worn:
+        raise SceneError("effects.wear: 'none' is not allowed for rrr4 wear (no clearance joint wears: give "
+                         "effects.wear with surfaces, coefficient, hardness and length)")
+    t_cycle = cycle_duration(problem)
+    clearance = {j: problem.joint(j).radial_clearance for j, _, _ in worn}
+    arms = {}
+    for name, sc in _arms(problem).items():
+        say(f"{name.replace('_', ' ')}: {cycles:g} cycles of {t_cycle:g} s, jumps of at most {max_change:g} c")
+        wall = time.perf_counter()
+        profiles, at, jumps, records = jump_cycles(_cycle(problem, sc, t_cycle), clearance, cycles, max_change,
+                                                   progress=name.replace("_", " ") if progress else "")
+        arms[name] = WearArm(name=name, joints=_joints(problem), cycles=at, jumps=jumps, profiles=profiles,
+                             volume=_volumes(problem, profiles), records=records,
+                             wall_time=time.perf_counter() - wall)
+    jump_error = None
+    if check:
+        first = next(iter(arms))
+        say(f"{first.replace('_', ' ')}: again with half the jumps (max change {max_change / 2:g} c), for the "
+            "jump's error")
+        profiles, *_ = jump_cycles(_cycle(problem, _arms(problem)[first], t_cycle), clearance, cycles,
+                                   max_change / 2, progress="half jumps" if progress else "")
+        jump_error = _jump_error(problem, arms[first], profiles, max_change)
+    return WearStudy(scene=problem.scene, cycles=cycles, max_change=max_change, cycle_time=t_cycle, arms=arms,
+                     jump_error=jump_error)
+
+
+def _volumes(problem: Problem, profiles) -> dict:
+    """joint -> worn volume [m^3] of its profiles (0 for None: unworn)."""
+    out = {}
+    for joint, by in (profiles or {}).items():
+        spec, w = problem.joint(joint), problem.scene.effects.wear_of(problem.joint(joint))
+        radius = {"bearing": spec.bearing_radius, "journal": spec.journal_radius}
+        out[joint] = sum(profile_volume(d, w.length, radius[s]) for s, d in by.items())
+    return out
+
+
+def _jump_error(problem: Problem, arm: WearArm, finer: dict, max_change: float) -> dict:
+    """The difference of `arm` (jumps of max_change c) from the run with half its jumps:
+    the largest profile difference over the largest depth, and per joint the worn volume's."""
+    diff = max(float(np.max(np.abs(node_depths(arm.profiles[j][s] - finer[j][s])))) for j in finer for s in finer[j])
+    deepest = max(float(np.max(node_depths(finer[j][s]))) for j in finer for s in finer[j])
+    fine_volume = _volumes(problem, finer)
+    return {"arm": arm.name, "max_change": max_change, "finer_max_change": max_change / 2,
+            "profile_error": diff / deepest if deepest > 0 else 0.0,
+            "volume_error": {j: abs(arm.volume[j] - v) / v if v > 0 else 0.0 for j, v in fine_volume.items()}}
