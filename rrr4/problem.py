@@ -42,8 +42,9 @@ from .dynamics.builder import (
     EFFECT_PARAMETERS,
     INPUTS,
     Equations,
-    build_equations,
     lubricated_joints,
+    parametric_equations,
+    with_parameters,
     worn_joints,
     worn_surfaces,
 )
@@ -345,9 +346,11 @@ class Problem:
             raise unknown_value("inputs", "value", inputs, INPUTS)
         geometry = inputs == "geometry"
         key = self.structure("geometry" if geometry else "plant")
-        return self.memo(("equations", v_min, baumgarte, inputs), lambda: build_equations(
-            key.model, key.scene.effects, key.mode, self.equation_parameters(geometry), v_min=v_min,
-            baumgarte=baumgarte, inputs=inputs, forces=key.scene.forces))
+        parametric = key.memo(("parametric", v_min, baumgarte, inputs), lambda: parametric_equations(
+            key.model, key.scene.effects, key.mode, v_min=v_min, baumgarte=baumgarte, inputs=inputs,
+            forces=key.scene.forces))
+        return self.memo(("equations", v_min, baumgarte, inputs),
+                         lambda: with_parameters(parametric, self.equation_parameters(geometry)))
 
     def inverse_dynamics(self, gravity=None):
         """The n-RRR's closed-form 'inverse_dynamics' Function (pose, pose_d, pose_dd ->

@@ -106,7 +106,7 @@ from ..mechanism.tree import tree_map
 from ..scene import Effects
 from .elements import N_PARAMETERS, force_terms
 
-__all__ = ["Equations", "build_equations", "with_parameters", "with_profiles", "profiles_of", "INPUTS",
+__all__ = ["Equations", "build_equations", "parametric_equations", "with_parameters", "with_profiles", "profiles_of", "INPUTS",
            "lubricated_joints", "worn_joints", "worn_surfaces", "BAUMGARTE_OMEGA", "JOINT_PARAMETERS",
            "EFFECT_PARAMETERS", "LUBRICATION_PARAMETERS", "WEAR_PARAMETERS"]
 
@@ -240,12 +240,20 @@ def build_equations(model: Model, effects: Effects, mode: str, parameters, v_min
     their numbers follow the contact numbers in ``parameters``). Raises SceneError if the
     actuation mode over-constrains the mechanism.
     """
+    return with_parameters(parametric_equations(model, effects, mode, v_min, baumgarte, inputs, forces), parameters)
+
+
+def parametric_equations(model: Model, effects: Effects, mode: str, v_min: float = V_MIN,
+                         baumgarte: float = BAUMGARTE_OMEGA, inputs: str = "contact", forces: tuple = ()) -> Equations:
+    """The parametric equations of the structure (every number of ``parameters`` an input;
+    see :func:`build_equations`), before any numbers are folded in: :func:`with_parameters`
+    folds them. :meth:`rrr4.problem.Problem.equations` keeps them on the structure's Problem."""
     v_min = argument("v_min", v_min)
     baumgarte = argument("baumgarte", baumgarte, allow_zero=True)
     if inputs not in INPUTS:
         raise unknown_value("inputs", "value", inputs, INPUTS)
     par = _parametric(model, effects, mode, float(v_min), float(baumgarte), inputs == "geometry", tuple(forces))
-    return with_parameters(replace(par, parametric=par), parameters)
+    return replace(par, parametric=par)
 
 
 @functools.lru_cache(maxsize=16)
