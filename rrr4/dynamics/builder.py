@@ -106,8 +106,8 @@ from ..mechanism.tree import tree_map
 from ..scene import Effects
 from .elements import N_PARAMETERS, force_terms
 
-__all__ = ["Equations", "build_equations", "parametric_equations", "with_parameters", "with_profiles", "profiles_of", "INPUTS",
-           "lubricated_joints", "worn_joints", "worn_surfaces", "BAUMGARTE_OMEGA", "JOINT_PARAMETERS",
+__all__ = ["Equations", "build_equations", "parametric_equations", "with_parameters", "with_profiles", "profiles_of",
+           "INPUTS", "lubricated_joints", "worn_joints", "worn_surfaces", "BAUMGARTE_OMEGA", "JOINT_PARAMETERS",
            "EFFECT_PARAMETERS", "LUBRICATION_PARAMETERS", "WEAR_PARAMETERS"]
 
 INPUTS = ("contact", "geometry")  # build_equations(inputs=...): the numbers the parametric equations take
