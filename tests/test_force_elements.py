@@ -4,6 +4,7 @@ springs, dampers and loads, the equations without them unchanged, the controller
 a process load, and one-line errors for bad elements."""
 
 import copy
+import json
 import subprocess
 import sys
 from dataclasses import replace
@@ -349,3 +350,18 @@ def test_a_tabulated_load_steps_in_compiled_c_as_in_the_virtual_machine(tmp_path
     np.testing.assert_allclose(compiled.q, vm.q, rtol=0, atol=1e-12)
     free = damped(vm.t, 0.1, 0.0, M_CARRIAGE + M_MASS, 200.0, 2.0)  # without the load
     assert np.max(np.abs(vm.body("mass")[:, 0] - free)) > 1e-3  # the table's fx moved the mass
+
+
+def test_summary_and_report_name_the_force_elements():
+    """summary.json lists each element with its numbers (units in the keys) and report.md a
+    line per element; a scene without forces has neither."""
+    from rrr4.results.summary import force_element_summary
+    from rrr4.results.tables import report_markdown
+    scene = rrr4.load_scene(PROCESS)
+    (load,) = [force_element_summary(e) for e in scene.forces]
+    assert load["type"] == "load" and load["force_N"] == [-10.0, 0.0] and load["known"] is True
+    summary = json.loads((ROOT / "results" / "process_load_circle" / "summary.json").read_text())
+    assert summary["forces"] == [load]
+    assert "- force element `cutting`: load on platform" in report_markdown(summary)
+    plain = json.loads((ROOT / "results" / "paper_circle" / "summary.json").read_text())
+    assert "forces" not in plain and "force element" not in report_markdown(plain)

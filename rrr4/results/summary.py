@@ -134,6 +134,25 @@ def target_checks(summary: dict) -> dict:
     return out
 
 
+def force_element_summary(e) -> dict:
+    """A scene's force element for summary.json: its name, type, bodies and numbers with units
+    in the keys (a tabulated load: its rows' count and time span)."""
+    out = {"name": e.name, "type": e.type, "bodies": list(e.bodies)}
+    if e.type == "load":
+        out["frame"], out["known"] = e.frame, e.known
+        if e.table:
+            out.update(table_rows=len(e.table), table_span_s=[e.table[0][0], e.table[-1][0]])
+        else:
+            out.update(force_N=list(e.force), torque_Nm=e.torque)
+        return out
+    unit = "m" if e.type == "spring_damper" else "rad"
+    spring = "N_per_m" if e.type == "spring_damper" else "Nm_per_rad"
+    out.update({f"stiffness_{spring}": e.stiffness, f"damping_{spring}_s": e.damping,
+                f"free_{'length' if unit == 'm' else 'angle'}_{unit}": e.free_length,
+                f"preload_{'N' if unit == 'm' else 'Nm'}": e.preload})
+    return out
+
+
 def study_summary(study: Study) -> dict:
     """JSON-ready summary of a study (see the README's "What the main job prints")."""
     problem = study.problem
@@ -144,6 +163,7 @@ def study_summary(study: Study) -> dict:
            "clearance_joints": list(sc.clearance_joints),
            "contact": contact_numbers(problem, _v_min(study)),
            "initial_journals": sc.initial.journals,
+           **({"forces": [force_element_summary(e) for e in sc.forces]} if sc.forces else {}),
            "preload": _preload(study)}
     if sc.actuation.mode == "torque" and model.n_actuators:  # a controller ran: its gains, and how each arm ran it
         out.update(gains={"kp_Nm_per_rad": sc.actuation.kp, "kd_Nms_per_rad": sc.actuation.kd},

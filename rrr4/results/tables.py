@@ -132,8 +132,11 @@ def report_markdown(summary: dict) -> str:
             pre_line += f" In the simulations {pre['efforts_in_simulation']}."
     else:
         pre_line = f"No preload arm: {pre['reason']}."
+    forces = [f"- force element `{e['name']}`: {e['type'].replace('_', ' ')} on {', '.join(e['bodies'])}; "
+              + ", ".join(f"{k} = {v}" for k, v in e.items() if k not in ("name", "type", "bodies"))
+              for e in summary.get("forces", ())]
     lines = [f"# Study of `{summary['scene']}`", "", summary["description"], "", pre_line, "", *_contact(summary),
-             *_window(summary), *rows, *per]
+             *forces, *([""] if forces else []), *_window(summary), *rows, *per]
     tg = summary.get("targets") or {}
     if tg:
         lines += ["", "Targets: zero losses with preload over the whole run: "
