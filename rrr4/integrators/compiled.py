@@ -14,7 +14,13 @@ import casadi as ca
 
 from ..codegen.build import compilations, library, load
 
-__all__ = ["compiled", "compilations"]
+__all__ = ["compiled", "compilations", "inline_min_max"]
+
+INLINE_MIN_MAX = True  # read at call time: benchmarks/bench_flags.py swaps it
+# C99 fmax/fmin: the other operand where one is NaN (NaN only if both are); else x > y ? x : y
+# (x < y ? x : y), which is what glibc's maxsd (minsd) returns for +0 and -0 as well
+_MIN_MAX = {"  return fmax(x, y);": "  return x > y ? x : (y != y ? x : y);",
+            "  return fmin(x, y);": "  return x < y ? x : (y != y ? x : y);"}
 
 
 def compiled(f: ca.Function, sources=()) -> ca.Function:
@@ -28,4 +34,13 @@ def compiled(f: ca.Function, sources=()) -> ca.Function:
     """
     cg = ca.CodeGenerator(f"{f.name()}.c", {"with_header": False})
     cg.add(f)
-    return load(f.name(), library(f.name(), {f"{f.name()}.c": cg.dump()}, extra=sources))
+    text = inline_min_max(cg.dump()) if INLINE_MIN_MAX else cg.dump()
+    return load(f.name(), library(f.name(), {f"{f.name()}.c": text}, extra=sources))
+
+
+def inline_min_max(text: str) -> str:
+    """CasADi's generated C with ``casadi_fmax``/``casadi_fmin`` computing C99's fmax/fmin inline
+    instead of calling the C library (see the module docstring)."""
+    for call, inline in _MIN_MAX.items():
+        text = text.replace(call, inline)
+    return text
