@@ -10,7 +10,7 @@ import sys
 from . import __version__
 from .checks import argument, unknown_value
 from .errors import Rrr4Error, SceneError
-from .files import check_writable
+from .files import check_writable, request_stop
 from .scene.vocabulary import IDENTIFICATION_METHODS, OBJECTIVES
 
 
@@ -440,13 +440,15 @@ def main(argv=None) -> int:
 
     def on_signal(signum, frame):
         interrupted.append(signum)
+        request_stop(signum)  # should the interrupt be lost inside a CasADi solver, nothing is written
         raise KeyboardInterrupt
 
     # SIGTERM unwinds like Ctrl-C, so temporary files are removed; the handlers are restored after
     previous = {s: signal.signal(s, on_signal) for s in (signal.SIGTERM, signal.SIGINT)}
     try:
         with _compiling(f"rrr4 {args.command}"):
-            return args.func(args)
+            status = args.func(args)
+        return _interrupted(interrupted) if interrupted else status
     except Rrr4Error as e:
         _say(f"rrr4: error: {type(e).__name__}: {e}")
         return 2
@@ -462,6 +464,7 @@ def main(argv=None) -> int:
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
+        request_stop(None)
 
 
 class _compiling:

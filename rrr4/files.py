@@ -6,7 +6,11 @@
   the target only when complete (an interrupted or failed run leaves an earlier result as
   it was);
 - :func:`run_c_compiler`: the system C compiler (``$CC``, else ``cc`` or ``gcc``), for the
-  compiled stepping and for the generated controller alike.
+  compiled stepping and for the generated controller alike;
+- :func:`request_stop`: after it (the command line calls it on Ctrl-C or SIGTERM) nothing is
+  moved into place any more. The interrupt itself can be lost: a signal that lands inside a
+  CasADi solver stops only that solver, which returns as if it had not converged, and the
+  run would go on to write its results; the stop request is kept until the run ends.
 """
 
 from __future__ import annotations
@@ -20,7 +24,28 @@ from pathlib import Path
 from .errors import Rrr4Error, SceneError
 
 __all__ = ["atomic_file", "write_atomic", "atomic_directory", "check_target", "check_writable", "run_c_compiler",
-           "c_compiler", "BuildError"]
+           "c_compiler", "BuildError", "request_stop", "stop_requested"]
+
+_stop: list = []  # signals received since the command started (see request_stop)
+
+
+def request_stop(signum: int | None = None) -> None:
+    """From now on, :func:`atomic_file` and :func:`atomic_directory` raise KeyboardInterrupt
+    instead of moving anything into place; request_stop(None) clears the request."""
+    if signum is None:
+        _stop.clear()
+    else:
+        _stop.append(signum)
+
+
+def stop_requested() -> bool:
+    """Whether a stop was requested (see :func:`request_stop`)."""
+    return bool(_stop)
+
+
+def _check_stop() -> None:
+    if _stop:
+        raise KeyboardInterrupt
 
 
 class BuildError(Rrr4Error, RuntimeError):
@@ -45,6 +70,7 @@ def atomic_file(path, fill) -> Path:
     try:
         fill(tmp)
         os.chmod(tmp, 0o666 & ~_umask())
+        _check_stop()
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -104,6 +130,7 @@ def atomic_directory(out, fill, marker: str) -> Path:
     try:
         fill(tmp)
         os.chmod(tmp, 0o777 & ~_umask())
+        _check_stop()
         if out.exists():
             old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
             os.replace(out, old / out.name)

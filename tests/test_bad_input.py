@@ -450,3 +450,32 @@ def test_building_a_qpoases_preload_prints_no_banner(paper_data, capfd):
     sol = rrr4.solve_preload(scene, "qp", qp_solver="qpoases", sample_rate=50.0, signs=1.0)
     out, err = capfd.readouterr()
     assert out == "" and err == "" and np.all(np.isfinite(sol.alpha))
+
+
+def test_an_interrupt_lost_inside_the_work_still_stops_the_command(tmp_path, monkeypatch, capsys):
+    """A Ctrl-C that lands inside a CasADi solver can stop only that solver, which returns
+    as if unconverged; the run goes on. The command must still write nothing and exit 130."""
+    import argparse
+    import signal
+
+    from rrr4 import cli
+    from rrr4.files import atomic_directory, stop_requested
+
+    out = tmp_path / "res"
+
+    def work(args):
+        try:
+            os.kill(os.getpid(), signal.SIGINT)  # the handler runs here ...
+        except KeyboardInterrupt:
+            pass  # ... and the interrupt is lost, as in a solver that swallows it
+        atomic_directory(out, lambda d: (d / "summary.json").write_text("{}"), "summary.json")
+        return 0
+
+    parser = argparse.ArgumentParser()
+    parser.add_argument("command")
+    parser.set_defaults(func=work)
+    monkeypatch.setattr(cli, "build_parser", lambda: parser)
+    assert cli.main(["run"]) == 130
+    assert not out.exists() and not list(tmp_path.iterdir())
+    assert "interrupted; earlier results are left as they were" in capsys.readouterr().err
+    assert not stop_requested()  # cleared when the command ends

@@ -139,6 +139,8 @@ def test_a_scene_carries_the_optimal_time_law(law, paper, tmp_path):
     ([(0, 0, 0), (1, 1, -2)], "s_dot = -2"),
     ([(0, 0, 0), (1, float("nan"), 1)], "finite"),
     ([(0, 0, 0)], "at least 2"),
+    ([[0, 0]], r"row 0 \[0, 0\] is not allowed \(three numbers"),
+    ([(0, 0, 0), (1, "a", 1)], r"row 1 \(1, 'a', 1\) is not allowed"),
 ])
 def test_bad_time_tables_end_in_one_line(rows, words):
     scene = rrr4.load_scene(PAPER)

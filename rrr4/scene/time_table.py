@@ -33,9 +33,18 @@ def check_time_table(rows, key: str = "time_table") -> tuple[tuple[float, float,
     """The rows (t, s, s_dot) as a tuple of float triples, checked (see the module docstring);
     SceneError naming the row and the rule otherwise."""
     try:
-        table = tuple((float(t), float(s), float(sd)) for t, s, sd in rows)
-    except (TypeError, ValueError):
-        raise SceneError(f"{key}: rows must be (t, s, s_dot) numbers") from None
+        rows = list(rows)
+    except TypeError:
+        raise SceneError(f"{key}: {rows!r} is not allowed (a list of rows (t, s, s_dot) or a CSV file)") from None
+    table = []
+    for k, row in enumerate(rows):
+        try:
+            t, s, sd = row
+            table.append((float(t), float(s), float(sd)))
+        except (TypeError, ValueError):
+            raise SceneError(f"{key}: row {k} {row!r} is not allowed (three numbers t [s], s [-], s_dot [1/s])"
+                             ) from None
+    table = tuple(table)
     if len(table) < 2:
         raise SceneError(f"{key}: {len(table)} rows is not allowed (at least 2)")
     if len(table) > MAX_TABLE_ROWS:
