@@ -52,12 +52,20 @@ def _spec(cases: int, t_end: float) -> dict:
 
 
 def warm_case(cases: int, t_end: float) -> dict:
-    """Median seconds of a warm case (run_case) and of its stepping, in this process."""
-    from rrr4.problem import Problem
+    """Median seconds of a warm case (run_case) and of its stepping, in this process. Runs on
+    this tree and on trees before the problem layer (fe908c3: ``rrr4.sweeps``, ``rrr4.study``)."""
+    import yaml
+
     from rrr4.scene import parse_scene
     from rrr4.simulation import default_jit, simulate
-    from rrr4.studies.study import arm_scene
-    from rrr4.studies.sweeps import case_options, case_scene, parse_spec, run_case
+    try:
+        from rrr4.problem import Problem
+        from rrr4.studies.study import arm_scene
+        from rrr4.studies.sweeps import case_options, case_scene, parse_spec, run_case
+    except ImportError:  # before the problem layer
+        from rrr4.study import arm_scene
+        from rrr4.sweeps import case_options, case_scene, parse_spec, run_case
+        Problem = None
     spec = parse_spec(_spec(cases, t_end))
     jit, options = default_jit(), case_options(spec)
     texts = [case_scene(spec.base, spec.scene_path, c)[1] for c in spec.cases]
@@ -67,9 +75,9 @@ def warm_case(cases: int, t_end: float) -> dict:
         rows = run_case(text, spec.scene_path.stem, t_end, spec.arms, jit, options)[0]
         times.append(time.perf_counter() - t0)
         assert all(r["status"] == "ok" for r in rows), rows
-    import yaml
-    problem = Problem.from_scene(parse_scene(yaml.safe_load(texts[-1]), name="case", source=""))
-    stepping = sum(simulate(arm_scene(problem, a), t_end=t_end, **options).stats["wall_time"] for a in spec.arms)
+    scene = parse_scene(yaml.safe_load(texts[-1]), name="case", source="")
+    built = scene if Problem is None else Problem.from_scene(scene)
+    stepping = sum(simulate(arm_scene(built, a), t_end=t_end, **options).stats["wall_time"] for a in spec.arms)
     return {"case": float(np.median(times[2:])), "first": times[0], "stepping": stepping}
 
 
