@@ -280,7 +280,8 @@ class Problem:
         forces = tuple(replace(e, stiffness=1.0, damping=1.0, free_length=0.0, preload=0.0, force=(0.0, 0.0),
                                torque=0.0, known=True) for e in self.scene.forces)  # their numbers are inputs
         return replace(s, actuation=replace(s.actuation, preload=None, kp=0.0, kd=0.0,
-                                            control_rate=None, compensation="none"), forces=forces)
+                                            control_rate=None, compensation="none",
+                                            seat_model="quasi_static"), forces=forces)
 
     @functools.cached_property
     def geometry_key(self) -> Scene:
@@ -310,7 +311,8 @@ class Problem:
         friction and lubrication, the clearance joints' numbers, the controller's gains, rate
         and compensation, the integrator or the initial state."""
         s = self.scene
-        actuation = replace(s.actuation, kp=0.0, kd=0.0, control_rate=None, compensation="none")
+        actuation = replace(s.actuation, kp=0.0, kd=0.0, control_rate=None, compensation="none",
+                            seat_model="quasi_static")
         return replace(s, name="", description="", source="", integrator=None, initial=None,
                        graph=_without_clearance_numbers(s.graph),
                        effects=replace(s.effects, contact=None, friction=None, lubrication=None, wear=None),

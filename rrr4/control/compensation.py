@@ -8,6 +8,21 @@ ideal chain whose platform point is moved by -(g_B + g_C)
 (:func:`rrr4.mechanism.kinematics.chain_ik`), so its compensated IK is closed form; any
 other graph closes its loops around the gaps by Newton (:func:`compensated_ik`). The seated
 journals' friction moments are overcome by a minimum-norm feed-forward, by virtual power.
+
+How a seat follows friction (``actuation.seat_model``):
+
+- ``quasi_static`` (default): the friction force is the friction law's at the planned slip
+  velocity, so it reverses with the slip, at once.
+- ``rolling`` (:func:`rolling_friction`): when the slip reverses, the journal does not slide
+  back at once: it rolls on its bearing from one friction angle to the other (the slip
+  velocity at the contact is R_J w_J - R_B w_B + c dpsi/dt, zero while it rolls), and the
+  friction force turns with the contact angle. Rolling through the friction angle phi =
+  atan(mu) takes a slip of phi c (c: the radial clearance), so the friction coefficient
+  along the path is lambda mu with lambda' = s / (phi c), clipped to [-1, 1] (s: the planned
+  slip velocity; lambda = 0 at rest). This is Dahl's friction model with the rolling
+  distance as its characteristic displacement; nothing in it is fitted. It depends on the
+  slip's history, so the controller's references are tabulated along the path (as a graph
+  scene's are) rather than computed by the closed-form step.
 """
 
 from __future__ import annotations
@@ -25,7 +40,7 @@ from ..problem import Problem
 from ..scene import FrictionEffect
 
 __all__ = ["seat_gaps", "seats", "contact_numbers", "nrrr_slip", "friction_feed_forward", "slip_rows",
-           "compensated_ik"]
+           "compensated_ik", "rolling_friction"]
 
 
 def contact_numbers(problem: Problem, contact) -> tuple[dict, FrictionEffect]:
@@ -40,11 +55,13 @@ def contact_numbers(problem: Problem, contact) -> tuple[dict, FrictionEffect]:
     return per, fe
 
 
-def seats(problem: Problem, r, slip, contact):
+def seats(problem: Problem, r, slip, contact, mu=None):
     """(gaps (2, nj) [m], friction forces f_t (nj,) [N]) of the passive revolute joints
     (``Model.preload_joints`` order) under their planned reactions r (2, nj) [N] and slip
     velocities slip (nj,) [m/s] (None: frictionless), symbolic, with the contact numbers
-    from `contact` (see :func:`contact_numbers`); 0 at ideal joints."""
+    from `contact` (see :func:`contact_numbers`); 0 at ideal joints. mu (nj,): the signed
+    friction coefficients to use instead of the friction law's at the slip (e.g.
+    :func:`rolling_friction`'s)."""
     names = problem.model.preload_joints
     per, fe = contact_numbers(problem, contact) if problem.clearance_joints else ({}, problem.scene.effects.friction)
     n_exp = problem.scene.effects.contact.exponent
@@ -55,10 +72,13 @@ def seats(problem: Problem, r, slip, contact):
             f_t.append(0.0)
             continue
         stiffness, r_journal, r_bearing = per[name]
-        mu = 0.0 if slip is None or fe.law == "none" else friction_force(fe, slip[j], 1.0)
-        gap, f_n = seat_gap(r[:, j], r_bearing - r_journal, stiffness, n_exp, mu)
+        if mu is not None:
+            mu_j = mu[j]
+        else:
+            mu_j = 0.0 if slip is None or fe.law == "none" else friction_force(fe, slip[j], 1.0)
+        gap, f_n = seat_gap(r[:, j], r_bearing - r_journal, stiffness, n_exp, mu_j)
         cols.append(gap)
-        f_t.append(mu * f_n)
+        f_t.append(mu_j * f_n)
     return ca.horzcat(*cols), ca.vertcat(*f_t)
 
 
@@ -121,20 +141,48 @@ def slip_rows(problem: Problem) -> np.ndarray:
 
 
 def compensated_ik(problem: Problem, task: np.ndarray, r: np.ndarray, slip: np.ndarray,
-                   guess: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                   guess: np.ndarray, mu: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Actuator coordinates (N, n) that put the task at `task` (N, k) with every clearance
     joint opened by its predicted seat under the reactions r (N, nj, 2) and slip velocities
     (N, nj), by Newton from `guess` (N, nq); and the seated journals' friction forces f_t
-    (N, nj) [N]."""
+    (N, nj) [N]. mu (N, nj): signed friction coefficients instead of the law's at the slip
+    (see :func:`seats`)."""
     mech, model = problem.mechanism, problem.model
     names = model.preload_joints
     clear = [names.index(j) for j in model.clearance_joints]
     out, f_t = np.empty((len(task), mech.n)), np.zeros((len(task), len(names)))
     contact = problem.contact_parameters
     for i in range(len(task)):
-        gaps, ft = seats(problem, ca.DM(r[i].T), ca.DM(slip[i]), contact)
+        gaps, ft = seats(problem, ca.DM(r[i].T), ca.DM(slip[i]), contact, None if mu is None else ca.DM(mu[i]))
         offsets = np.array(ca.evalf(gaps)).T[clear]
         f_t[i] = np.array(ca.evalf(ft)).ravel()
         qi = mech.assemble(task[i], offsets, guess=guess[i])
         out[i] = np.array(model.actuator_coordinates_function(qi)[0]).ravel()
     return out, f_t
+
+
+def rolling_friction(problem: Problem, t: np.ndarray, slip: np.ndarray) -> np.ndarray:
+    """Signed friction coefficients (N, nj) of the passive revolute joints
+    (``Model.preload_joints``) along the times t (N,) [s] under the planned slip velocities
+    slip (N, nj) [m/s], by the rolling seat model (module docstring): lambda mu with
+    lambda' = s / (atan(mu) c) clipped to [-1, 1] from lambda = 0 at t[0] (trapezoidal in s),
+    signed as the friction law signs its force; 0 at ideal joints and without friction."""
+    slip = np.asarray(slip, float)
+    out = np.zeros_like(slip)
+    fe = problem.scene.effects.friction
+    if not problem.clearance_joints or fe.law == "none" or fe.coefficient <= 0:
+        return out
+    per, fe = contact_numbers(problem, problem.contact_parameters)
+    mu = float(fe.coefficient)
+    sign = float(np.sign(float(friction_force(fe, 1.0, 1.0))))  # the law's sign for a positive slip
+    dt = np.diff(np.asarray(t, float))
+    for j, name in enumerate(problem.model.preload_joints):
+        if name not in per:
+            continue
+        _, r_journal, r_bearing = (float(v) for v in per[name])
+        distance = np.arctan(mu) * max(r_bearing - r_journal, 1e-12)  # slip that rolls through one friction angle
+        lam = 0.0
+        for i in range(1, len(dt) + 1):
+            lam = min(1.0, max(-1.0, lam + 0.5 * (slip[i - 1, j] + slip[i, j]) * dt[i - 1] / distance))
+            out[i, j] = sign * lam * mu
+    return out

@@ -24,7 +24,7 @@ from ..preload import solve_preload
 from ..problem import Problem
 from ..scene import PathSpec
 from ..trajectory import trajectory_function
-from .compensation import compensated_ik, slip_rows
+from .compensation import compensated_ik, rolling_friction, slip_rows
 from .step import controller_function, pointwise_controller
 
 __all__ = ["References", "graph_references", "reference_function", "tabulated", "path_rows"]
@@ -129,9 +129,10 @@ def graph_references(problem: Problem, t: np.ndarray, preload=None) -> Reference
         qd = mech.motion(q, pd[:, :k], pdd[:, :k])[0]
         slip = qd @ W.T
         dt = 1e-4 * (t[1] - t[0] if N > 1 else 1e-3)
-        th, f_t = compensated_ik(problem, p[:, :k], r, slip, q)
+        mu = rolling_friction(problem, t, slip) if problem.scene.actuation.seat_model == "rolling" else None
+        th, f_t = compensated_ik(problem, p[:, :k], r, slip, q, mu)
         shifted = [compensated_ik(problem, p[:, :k] + s * dt * pd[:, :k], r + s * dt * np.gradient(r, t, axis=0),
-                                  slip, q)[0] for s in (1.0, -1.0)]
+                                  slip, q, mu)[0] for s in (1.0, -1.0)]
         th_d = (shifted[0] - shifted[1]) / (2 * dt)
         th_dd = np.gradient(th_d, t, axis=0) if N > 2 else np.zeros_like(th_d)
         if problem.scene.effects.friction.law != "none":  # the friction moments, by virtual power (see the n-RRR step)

@@ -43,6 +43,9 @@ def pointwise_controller(problem: Problem) -> str:
     else why not (then the simulation tabulates its references)."""
     if not problem.closed_form:
         return "a graph scene has no closed-form IK (its references are tabulated on the path samples)"
+    if problem.compensates and problem.scene.actuation.seat_model == "rolling":
+        return ("the rolling seat model follows the journals' slip along the path (its references are tabulated "
+                "on the path samples)")
     return why_not_pointwise(problem)
 
 

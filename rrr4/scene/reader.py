@@ -455,9 +455,10 @@ def _actuation(sec: Section, n: int, graph: Graph | None = None) -> tuple[Actuat
     gains.done()
     rate = sec.number("control_rate", positive=True) if sec.raw("control_rate") is not None else None
     compensation = sec.choice("compensation", choices("compensation"), "none")
+    seat_model = sec.choice("seat_model", choices("seat model"), "quasi_static")  # where references are compensated
     sec.done()
     return Actuation(mode, PreloadSettings(method, fmin, weights, qp, smooth, turn), kp, kd, rate,
-                     compensation), limits
+                     compensation, seat_model), limits
 
 
 def _path(sec: Section, task: bool = True, base: Path = Path()) -> PathSpec:

@@ -264,6 +264,9 @@ class Actuation:
     kd: float  # [N m s/rad]
     control_rate: float | None = None  # [Hz] sampled controller (zero-order hold); None: continuous
     compensation: str = "none"         # 'clearance': references closed around the predicted journal seats
+    # how those seats follow friction: 'quasi_static' (the friction angle of the planned slip
+    # velocity) or 'rolling' (the journals roll between friction angles as the slip reverses)
+    seat_model: str = "quasi_static"
 
 
 @dataclass(frozen=True)

@@ -57,6 +57,7 @@ NEWTON = ("simplified", "full")  # integrator.newton of the implicit methods
 COORDINATES = ("auto", "tree", "reference-point")  # integrator.coordinates
 PRELOAD_METHODS = ("exact", "qp", "nlp")  # a scene may also say 'none'
 COMPENSATIONS = ("none", "clearance")  # actuation.compensation
+SEAT_MODELS = ("quasi_static", "rolling")  # actuation.seat_model: how the compensation's seats follow friction
 QP_SOLVERS = ("qrqp", "osqp", "daqp", "qpoases")  # actuation.preload.qp_solver (CasADi conic plugins)
 JOURNAL_STARTS = ("centred", "seated")  # initial.journals
 IDENTIFICATION_METHODS = ("seated", "dynamic")  # rrr4.identify(method=...), rrr4 identify --method
@@ -81,6 +82,7 @@ _CHOICES = {
     "newton": NEWTON,
     "preload method": ("none", *PRELOAD_METHODS),
     "compensation": COMPENSATIONS,
+    "seat model": SEAT_MODELS,
     "qp solver": QP_SOLVERS,
     "force element": FORCE_ELEMENTS,
 }
@@ -98,6 +100,6 @@ def registry(names: tuple[str, ...], implementations: dict) -> dict:
 
 def choices(what: str) -> tuple[str, ...]:
     """The allowed names of a scene setting: 'contact law', 'friction law', 'lubrication law', 'wear surfaces',
-    'integrator', 'error control', 'coordinates', 'newton', 'preload method', 'compensation', 'qp solver' or
-    'force element'."""
+    'integrator', 'error control', 'coordinates', 'newton', 'preload method', 'compensation', 'seat model',
+    'qp solver' or 'force element'."""
     return _CHOICES[what]
