@@ -40,7 +40,7 @@ from ..problem import Problem
 from ..scene import FrictionEffect
 
 __all__ = ["seat_gaps", "seats", "contact_numbers", "nrrr_slip", "friction_feed_forward", "slip_rows",
-           "compensated_ik", "rolling_friction"]
+           "compensated_ik", "rolling_friction", "seat_function"]
 
 
 def contact_numbers(problem: Problem, contact) -> tuple[dict, FrictionEffect]:
@@ -150,15 +150,37 @@ def compensated_ik(problem: Problem, task: np.ndarray, r: np.ndarray, slip: np.n
     mech, model = problem.mechanism, problem.model
     names = model.preload_joints
     clear = [names.index(j) for j in model.clearance_joints]
-    out, f_t = np.empty((len(task), mech.n)), np.zeros((len(task), len(names)))
-    contact = problem.contact_parameters
-    for i in range(len(task)):
-        gaps, ft = seats(problem, ca.DM(r[i].T), ca.DM(slip[i]), contact, None if mu is None else ca.DM(mu[i]))
-        offsets = np.array(ca.evalf(gaps)).T[clear]
-        f_t[i] = np.array(ca.evalf(ft)).ravel()
-        qi = mech.assemble(task[i], offsets, guess=guess[i])
+    N, nj = len(task), len(names)
+    out = np.empty((N, mech.n))
+    given = mu is not None
+    f = seat_function(problem, given).map(N)
+    r_cols = np.asarray(r, float).transpose(2, 0, 1).reshape(2, N * nj)  # (2, nj) blocks, one per instant
+    args = [r_cols, np.asarray(slip, float).T, *([np.asarray(mu, float).T] if given else []),
+            np.repeat(problem.contact_parameters[:, None], N, axis=1)]
+    gaps, f_t = (np.array(v) for v in f(*args))
+    gaps = gaps.reshape(2, N, nj)
+    f_t = f_t.T
+    for i in range(N):
+        qi = mech.assemble(task[i], gaps[:, i, :].T[clear], guess=guess[i])
         out[i] = np.array(model.actuator_coordinates_function(qi)[0]).ravel()
     return out, f_t
+
+
+def seat_function(problem: Problem, given_mu: bool = False) -> ca.Function:
+    """SX Function 'seats' of :func:`seats`: r (2, nj) [N], slip (nj,) [m/s], (with given_mu:
+    mu (nj,)), contact (the vector of ``Problem.contact_parameters``) -> gaps (2, nj) [m],
+    f_t (nj,) [N]; built once per controller structure."""
+    structure = problem.structure("controller")
+
+    def build():
+        nj = len(structure.model.preload_joints)
+        r, slip = ca.SX.sym("r", 2, nj), ca.SX.sym("slip", nj)
+        mu = [ca.SX.sym("mu", nj)] if given_mu else []
+        contact = ca.SX.sym("contact", problem.contact_parameters.size)
+        gaps, f_t = seats(structure, r, slip, contact, *(mu or [None]))
+        return ca.Function("seats", [r, slip, *mu, contact], [gaps, f_t],
+                           ["r", "slip", *(["mu"] if given_mu else []), "contact"], ["gaps", "f_t"])
+    return structure.memo(("seat_function", given_mu), build)
 
 
 def rolling_friction(problem: Problem, t: np.ndarray, slip: np.ndarray) -> np.ndarray:
