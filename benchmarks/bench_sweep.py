@@ -32,6 +32,7 @@ structure (2.4x its stepping of 0.027 s; 3.3x less).
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import os
 import subprocess
@@ -58,11 +59,11 @@ def warm_case(cases: int, t_end: float) -> dict:
 
     from rrr4.scene import parse_scene
     from rrr4.simulation import default_jit, simulate
-    try:
+    if importlib.util.find_spec("rrr4.problem") is not None:
         from rrr4.problem import Problem
         from rrr4.studies.study import arm_scene
         from rrr4.studies.sweeps import case_options, case_scene, parse_spec, run_case
-    except ImportError:  # before the problem layer
+    else:  # a tree before the problem layer
         from rrr4.study import arm_scene
         from rrr4.sweeps import case_options, case_scene, parse_spec, run_case
         Problem = None

@@ -440,7 +440,7 @@ def main(argv=None) -> int:
 
     def on_signal(signum, frame):
         interrupted.append(signum)
-        request_stop(signum)  # should the interrupt be lost inside a CasADi solver, nothing is written
+        request_stop()  # should the interrupt be lost inside a CasADi solver, nothing is written and loops stop
         raise KeyboardInterrupt
 
     # SIGTERM unwinds like Ctrl-C, so temporary files are removed; the handlers are restored after
@@ -450,6 +450,8 @@ def main(argv=None) -> int:
             status = args.func(args)
         return _interrupted(interrupted) if interrupted else status
     except Rrr4Error as e:
+        if interrupted:  # e.g. a solver stopped by the interrupt reported that it had not converged
+            return _interrupted(interrupted)
         _say(f"rrr4: error: {type(e).__name__}: {e}")
         return 2
     except KeyboardInterrupt:
@@ -464,7 +466,7 @@ def main(argv=None) -> int:
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
-        request_stop(None)
+        request_stop(False)
 
 
 class _compiling:

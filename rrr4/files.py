@@ -8,9 +8,11 @@
 - :func:`run_c_compiler`: the system C compiler (``$CC``, else ``cc`` or ``gcc``), for the
   compiled stepping and for the generated controller alike;
 - :func:`request_stop`: after it (the command line calls it on Ctrl-C or SIGTERM) nothing is
-  moved into place any more. The interrupt itself can be lost: a signal that lands inside a
-  CasADi solver stops only that solver, which returns as if it had not converged, and the
-  run would go on to write its results; the stop request is kept until the run ends.
+  moved into place any more, and the long loops (the simulation's stepping, a sweep's cases)
+  raise KeyboardInterrupt at their next block (:func:`stop_requested`). The interrupt itself
+  can be lost: a signal that lands inside a CasADi solver stops only that solver, which
+  returns as if it had not converged, and the run would go on to write its results; the stop
+  request is kept until the command ends.
 """
 
 from __future__ import annotations
@@ -26,25 +28,23 @@ from .errors import Rrr4Error, SceneError
 __all__ = ["atomic_file", "write_atomic", "atomic_directory", "check_target", "check_writable", "run_c_compiler",
            "c_compiler", "BuildError", "request_stop", "stop_requested"]
 
-_stop: list = []  # signals received since the command started (see request_stop)
+_stop = [False]  # whether a stop was requested since the command started (see request_stop)
 
 
-def request_stop(signum: int | None = None) -> None:
+def request_stop(on: bool = True) -> None:
     """From now on, :func:`atomic_file` and :func:`atomic_directory` raise KeyboardInterrupt
-    instead of moving anything into place; request_stop(None) clears the request."""
-    if signum is None:
-        _stop.clear()
-    else:
-        _stop.append(signum)
+    instead of moving anything into place, and :func:`stop_requested` is true;
+    request_stop(False) clears the request."""
+    _stop[0] = bool(on)
 
 
 def stop_requested() -> bool:
     """Whether a stop was requested (see :func:`request_stop`)."""
-    return bool(_stop)
+    return _stop[0]
 
 
 def _check_stop() -> None:
-    if _stop:
+    if _stop[0]:
         raise KeyboardInterrupt
 
 

@@ -266,7 +266,8 @@ class Problem:
         a, n = s.actuation, self.model.n_actuators
         preload = replace(a.preload, min_force=float(a.preload.min_force > 0), weights=(1.0,) * n,
                           qp_solver="qrqp", smoothness_weight=0.0, max_turn_rate=0.0)  # not in a pointwise law
-        actuation = replace(a, kp=0.0, kd=0.0, control_rate=None, preload=preload)
+        actuation = replace(a, kp=0.0, kd=0.0, control_rate=None, preload=preload,
+                            seat_model=a.seat_model if self.compensates else "quasi_static")
         return replace(s, name="", description="", source="", path=None, integrator=None, initial=None,
                        graph=replace(_without_clearance_numbers(s.graph), actuators=actuators), effects=effects,
                        actuation=actuation, forces=self.controller_loads)

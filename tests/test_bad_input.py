@@ -471,11 +471,27 @@ def test_an_interrupt_lost_inside_the_work_still_stops_the_command(tmp_path, mon
         atomic_directory(out, lambda d: (d / "summary.json").write_text("{}"), "summary.json")
         return 0
 
-    parser = argparse.ArgumentParser()
-    parser.add_argument("command")
-    parser.set_defaults(func=work)
-    monkeypatch.setattr(cli, "build_parser", lambda: parser)
-    assert cli.main(["run"]) == 130
-    assert not out.exists() and not list(tmp_path.iterdir())
-    assert "interrupted; earlier results are left as they were" in capsys.readouterr().err
-    assert not stop_requested()  # cleared when the command ends
+    def fails(args):  # a solver stopped by the interrupt reports that it did not converge
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+        except KeyboardInterrupt:
+            pass
+        raise SceneError("preload: not converged")
+
+    def steps(args):  # the interrupt lost, then a simulation: its stepping stops at its next block
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+        except KeyboardInterrupt:
+            pass
+        rrr4.simulate(rrr4.load_scene(PAPER), t_end=0.01)
+        raise AssertionError("the simulation ran on")
+
+    for func in (work, fails, steps):
+        parser = argparse.ArgumentParser()
+        parser.add_argument("command")
+        parser.set_defaults(func=func)
+        monkeypatch.setattr(cli, "build_parser", lambda parser=parser: parser)
+        assert cli.main(["run"]) == 130, func.__name__
+        assert not out.exists() and not list(tmp_path.iterdir())
+        assert "interrupted; earlier results are left as they were" in capsys.readouterr().err
+        assert not stop_requested()  # cleared when the command ends

@@ -197,31 +197,34 @@ def test_graph_compensation_by_newton_equals_the_nrrr_closed_form(paper_scene):
 
 
 def test_rolling_seat_friction_rolls_through_the_friction_angle_over_its_slip_distance(paper_scene):
-    """The rolling seat model's friction coefficient under a slip that starts, holds and
-    reverses: from 0 it reaches mu after a slip of atan(mu) c and holds there; after the
-    reversal it crosses 0 after another atan(mu) c and reaches -mu after 2 atan(mu) c;
-    the friction law's sign; 0 without friction."""
-    from rrr4.contact import friction_force
-    from rrr4.control.compensation import rolling_friction
+    """The rolled fraction under a slip that starts, holds and reverses: from 0 it reaches 1
+    after the slip distance and holds; after the reversal it crosses 0 after another distance
+    and reaches -1 after two. On the reference scene the friction coefficient is that
+    fraction of mu, opposes the planned slip once rolled, and does not depend on the grid it
+    is asked on (integrated from the path's start); 0 without friction."""
+    from rrr4.control.compensation import planned_slip, rolled_fraction, rolling_friction
+    v, distance = 1e-3, 1e-5  # m/s, m
+    t = np.linspace(0.0, 0.2, 20001)
+    lam = rolled_fraction(t, np.where(t < 0.1, v, -v), distance)
+    one = distance / v  # s to roll through one friction angle
+    np.testing.assert_allclose(np.interp(0.5 * one, t, lam), 0.5, rtol=1e-9)
+    np.testing.assert_array_equal(lam[(t > one + 1e-4) & (t < 0.1)], 1.0)
+    crossing = t[np.argmax((t > 0.1) & (lam <= 0))]
+    assert abs(crossing - (0.1 + one)) < 2e-5
+    np.testing.assert_array_equal(lam[t > 0.1 + 2 * one + 1e-4], -1.0)
     problem = build(paper_scene)
     mu = paper_scene.effects.friction.coefficient
-    joint = problem.joint("B1")
-    distance = np.arctan(mu) * (joint.bearing_radius - joint.journal_radius)
-    v = 1e-3  # m/s
-    t = np.linspace(0.0, 0.2, 20001)
-    slip = np.where(t < 0.1, v, -v)[:, None] * np.ones((1, len(problem.model.preload_joints)))
-    m = rolling_friction(problem, t, slip)
-    sign = np.sign(float(friction_force(paper_scene.effects.friction, 1.0, 1.0)))
-    k = problem.model.preload_joints.index("B1")
-    one = distance / v  # s to roll through one friction angle
-    np.testing.assert_allclose(np.interp(0.5 * one, t, m[:, k]), 0.5 * sign * mu, rtol=1e-6)
-    np.testing.assert_allclose(m[(t > one + 1e-4) & (t < 0.1), k], sign * mu, rtol=1e-12)
-    crossing = t[np.argmax((t > 0.1) & (sign * m[:, k] <= 0))]
-    assert abs(crossing - (0.1 + one)) < 2e-5
-    np.testing.assert_allclose(m[t > 0.1 + 2 * one + 1e-4, k], -sign * mu, rtol=1e-12)
+    fine = np.linspace(0.0, 1.0, 1001)
+    m = rolling_friction(problem, fine)
+    assert np.max(np.abs(m)) == pytest.approx(mu)
+    slip = planned_slip(problem, fine)
+    rolled = (np.abs(m) == mu) & (np.abs(slip) > 1e-4)  # not the instant the slip reverses
+    assert rolled.mean() > 0.5 and np.all(np.sign(m[rolled]) == -np.sign(slip[rolled]))
+    late = np.linspace(0.3, 1.0, 15)  # a coarse grid that starts late: the same values
+    np.testing.assert_allclose(rolling_friction(problem, late), m[np.searchsorted(fine, late)], atol=1e-15)
     dry = replace(paper_scene, effects=replace(paper_scene.effects, friction=replace(paper_scene.effects.friction,
                                                                                       law="none")))
-    assert not rolling_friction(build(dry), t, slip).any()
+    assert not rolling_friction(build(dry), fine).any()
 
 
 def test_rolling_seats_halve_the_compensated_error_of_the_reference_scene(paper_scene):

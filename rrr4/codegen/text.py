@@ -148,10 +148,11 @@ extern "C" {{
 #define RRR4_MIN_FORCE {a.preload.min_force!r} /* required reaction at every passive joint [N] */
 {extra}/* The controller step's preload: method (none, exact, qp or nlp) and its fixed sign (+1 / -1:
  * the exact branch or the QP's axial-force sign); clearance compensation (none or
- * clearance); the rate it was designed to run at [Hz] (0: continuous in the simulation). */
+ * clearance) and its seat model; the rate it was designed to run at [Hz] (0: continuous in the simulation). */
 #define RRR4_PRELOAD_METHOD "{a.preload.method if problem.has_preload else 'none'}"
 #define RRR4_PRELOAD_SIGN {preload_sign(problem)}
 #define RRR4_COMPENSATION "{a.compensation if problem.compensates else 'none'}"
+#define RRR4_SEAT_MODEL "{a.seat_model if problem.compensates else 'none'}" /* quasi_static or rolling */
 #define RRR4_CONTROL_RATE {a.control_rate or 0.0!r}
 #define RRR4_PATH_DURATION {scene.path.duration!r} /* duration of rrr4_trajectory's path [s] */
 

@@ -19,7 +19,8 @@ How a seat follows friction (``actuation.seat_model``):
   friction force turns with the contact angle. Rolling through the friction angle phi =
   atan(mu) takes a slip of phi c (c: the radial clearance), so the friction coefficient
   along the path is lambda mu with lambda' = s / (phi c), clipped to [-1, 1] (s: the planned
-  slip velocity; lambda = 0 at rest). This is Dahl's friction model with the rolling
+  slip velocity; lambda = 0 at the path's start, where the journals rest centred in their
+  friction cone). This is Dahl's friction model with the rolling
   distance as its characteristic displacement; nothing in it is fitted. It depends on the
   slip's history, so the controller's references are tabulated along the path (as a graph
   scene's are) rather than computed by the closed-form step.
@@ -38,9 +39,11 @@ from ..dynamics.inverse import joint_reactions_function
 from ..mechanism import kinematics as kin
 from ..problem import Problem
 from ..scene import FrictionEffect
+from ..trajectory import trajectory_function
 
 __all__ = ["seat_gaps", "seats", "contact_numbers", "nrrr_slip", "friction_feed_forward", "slip_rows",
-           "compensated_ik", "rolling_friction", "seat_function"]
+           "compensated_ik", "rolling_friction", "seat_function", "planned_slip", "rolled_fraction",
+           "ROLLING_GRID"]
 
 
 def contact_numbers(problem: Problem, contact) -> tuple[dict, FrictionEffect]:
@@ -183,28 +186,52 @@ def seat_function(problem: Problem, given_mu: bool = False) -> ca.Function:
     return structure.memo(("seat_function", given_mu), build)
 
 
-def rolling_friction(problem: Problem, t: np.ndarray, slip: np.ndarray) -> np.ndarray:
+def planned_slip(problem: Problem, t: np.ndarray) -> np.ndarray:
+    """Slip velocities (N, nj) [m/s] R_J omega_J - R_B omega_B of the passive revolute joints
+    (``Model.preload_joints``) in the planned motion along the path at the times t (N,) [s]."""
+    mech, k = problem.mechanism, problem.mechanism.n_task
+    p, pd, pdd = (np.array(v).T for v in trajectory_function(problem.path).map(len(t))(np.asarray(t, float)[None, :]))
+    q = problem.path_coordinates(p, pd, pdd)
+    return mech.motion(q, pd[:, :k], pdd[:, :k])[0] @ slip_rows(problem).T
+
+
+ROLLING_GRID = 1e-3  # [s] the largest step on which rolling_friction integrates the rolling from the path's start
+
+
+def rolling_friction(problem: Problem, t: np.ndarray) -> np.ndarray:
     """Signed friction coefficients (N, nj) of the passive revolute joints
-    (``Model.preload_joints``) along the times t (N,) [s] under the planned slip velocities
-    slip (N, nj) [m/s], by the rolling seat model (module docstring): lambda mu with
-    lambda' = s / (atan(mu) c) clipped to [-1, 1] from lambda = 0 at t[0] (trapezoidal in s),
-    signed as the friction law signs its force; 0 at ideal joints and without friction."""
-    slip = np.asarray(slip, float)
-    out = np.zeros_like(slip)
+    (``Model.preload_joints``) at the times t (N,) [s] of the path, by the rolling seat model
+    (module docstring): lambda mu with lambda' = s / (atan(mu) c) clipped to [-1, 1] (s the
+    planned slip velocity, :func:`planned_slip`), integrated (trapezoidal) from lambda = 0 at
+    the path's start on a grid of at most :data:`ROLLING_GRID` and interpolated to t, so
+    that it does not depend on the grid asked for; opposing the slip as every friction law
+    does; 0 at ideal joints and without friction. Only the law's coefficient mu enters (its
+    transition speeds and a Stribeck law's static coefficient do not)."""
+    t = np.asarray(t, float)
+    out = np.zeros((len(t), len(problem.model.preload_joints)))
     fe = problem.scene.effects.friction
-    if not problem.clearance_joints or fe.law == "none" or fe.coefficient <= 0:
+    if not problem.clearance_joints or fe.law == "none" or fe.coefficient <= 0 or not len(t):
         return out
     per, fe = contact_numbers(problem, problem.contact_parameters)
     mu = float(fe.coefficient)
-    sign = float(np.sign(float(friction_force(fe, 1.0, 1.0))))  # the law's sign for a positive slip
-    dt = np.diff(np.asarray(t, float))
+    end = max(float(t.max()), 0.0)
+    grid = np.linspace(0.0, end, max(int(np.ceil(end / ROLLING_GRID)) + 1, 2))
+    slip = planned_slip(problem, grid)
     for j, name in enumerate(problem.model.preload_joints):
         if name not in per:
             continue
         _, r_journal, r_bearing = (float(v) for v in per[name])
-        distance = np.arctan(mu) * max(r_bearing - r_journal, 1e-12)  # slip that rolls through one friction angle
-        lam = 0.0
-        for i in range(1, len(dt) + 1):
-            lam = min(1.0, max(-1.0, lam + 0.5 * (slip[i - 1, j] + slip[i, j]) * dt[i - 1] / distance))
-            out[i, j] = sign * lam * mu
+        lam = rolled_fraction(grid, slip[:, j], np.arctan(mu) * (r_bearing - r_journal))
+        out[:, j] = -mu * np.interp(t, grid, lam)  # friction opposes the slip
     return out
+
+
+def rolled_fraction(t: np.ndarray, slip: np.ndarray, distance: float) -> np.ndarray:
+    """lambda (N,) at the times t (N,) [s]: from 0 at t[0], lambda' = slip / distance clipped
+    to [-1, 1] (trapezoidal in the slip velocity slip (N,) [m/s]); distance [m]: the slip that
+    rolls a journal through one friction angle (see :func:`rolling_friction`)."""
+    lam = np.zeros(len(t))
+    step = 0.5 * (slip[1:] + slip[:-1]) * np.diff(t) / distance
+    for i in range(1, len(t)):
+        lam[i] = min(1.0, max(-1.0, lam[i - 1] + step[i - 1]))
+    return lam

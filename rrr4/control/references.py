@@ -129,7 +129,7 @@ def graph_references(problem: Problem, t: np.ndarray, preload=None) -> Reference
         qd = mech.motion(q, pd[:, :k], pdd[:, :k])[0]
         slip = qd @ W.T
         dt = 1e-4 * (t[1] - t[0] if N > 1 else 1e-3)
-        mu = rolling_friction(problem, t, slip) if problem.scene.actuation.seat_model == "rolling" else None
+        mu = rolling_friction(problem, t) if problem.scene.actuation.seat_model == "rolling" else None
         th, f_t = compensated_ik(problem, p[:, :k], r, slip, q, mu)
         shifted = [compensated_ik(problem, p[:, :k] + s * dt * pd[:, :k], r + s * dt * np.gradient(r, t, axis=0),
                                   slip, q, mu)[0] for s in (1.0, -1.0)]

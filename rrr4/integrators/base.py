@@ -39,6 +39,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import Rrr4Error
+from ..files import stop_requested
 from ..functions import evaluate
 
 CALLS = 20  # calls from Python that a run's stepping is split into (progress-bar updates)
@@ -332,6 +333,8 @@ class FixedStepIntegrator(Integrator):
             bar = tqdm(total=n_frames, desc=f"simulate ({self.name})", unit="frame")
         try:
             for k0 in range(0, n_units, chunk):
+                if stop_requested():  # an interrupt lost inside a solver (see rrr4.files.request_stop)
+                    raise KeyboardInterrupt
                 k = min(chunk, n_units - k0)
                 if (key, k, keep) not in system.frames:  # the kept rows at each output and the last full state
                     xm, um = ca.MX.sym("x", x.size), ca.MX.sym("u", u_frames.shape[1], k * every)

@@ -13,12 +13,16 @@ and friction laws use about 90 of them per right-hand side, 6 % of the reference
 stepping. :func:`inline_min_max` rewrites their bodies as the same rule written out: the
 larger (smaller) operand, compared as x86's ``maxsd``/``minsd`` and glibc compare, and the
 other operand where one is NaN; so the stepping computes the same numbers bit for bit
-(``benchmarks/bench_flags.py`` checks it and times both). Computing each angle's sine and
-cosine by one ``sincos`` call, which the compiler does only in some functions, was measured
-too (bit for bit the same with glibc) and bought 0.4 %: not done.
+(``benchmarks/bench_flags.py`` checks it and times both). That is glibc's rule on x86-64
+only (elsewhere +0 may rank above -0), so only there is the rewrite made
+(:data:`INLINE_MIN_MAX`). Computing each angle's sine and cosine by one ``sincos`` call,
+which the compiler does only in some functions, was measured too (bit for bit the same with
+glibc) and bought 0.4 %: not done.
 """
 
 from __future__ import annotations
+
+import platform
 
 import casadi as ca
 
@@ -26,7 +30,10 @@ from ..codegen.build import compilations, library, load
 
 __all__ = ["compiled", "compilations", "inline_min_max"]
 
-INLINE_MIN_MAX = True  # read at call time: benchmarks/bench_flags.py swaps it
+# read at call time (benchmarks/bench_flags.py swaps it): the rule below is glibc's x86-64
+# fmax/fmin (maxsd/minsd: the second operand when both are zeros); aarch64's glibc (fmaxnm) and
+# other C libraries order +0 above -0, so elsewhere the library is called as CasADi writes it
+INLINE_MIN_MAX = platform.machine().lower() in ("x86_64", "amd64") and platform.libc_ver()[0] == "glibc"
 # C99 fmax/fmin: the other operand where one is NaN (NaN only if both are); else x > y ? x : y
 # (x < y ? x : y), which is what glibc's maxsd (minsd) returns for +0 and -0 as well
 _MIN_MAX = {"  return fmax(x, y);": "  return x > y ? x : (y != y ? x : y);",

@@ -195,8 +195,12 @@ def _v_min(study: Study) -> float:
 
 
 def _controller(study: Study) -> dict:
-    """How each arm's controller ran: in CasADi or its generated C, continuous or sampled."""
-    return {name: {k: arm.simulation.stats.get(k) for k in ("controller", "control_rate", "preload", "compensation")}
+    """How each arm's controller ran: in CasADi or its generated C, continuous or sampled; the
+    seat model of a compensated arm where it is not the default quasi-static one."""
+    keys = ("controller", "control_rate", "preload", "compensation")
+    return {name: {**{k: arm.simulation.stats.get(k) for k in keys},
+                   **({"seat_model": s} if (s := arm.simulation.stats.get("seat_model", "none")) not in
+                      ("none", "quasi_static") else {})}
             for name, arm in study.arms.items()}
 
 
@@ -365,6 +369,7 @@ def _scene_text(problem: Problem) -> str:
         pre = (f"{a.preload.method} preload (f_min = {a.preload.min_force:g} N)" if problem.has_preload
                else "no preload")
         comp = ", clearance compensation" if a.compensation == "clearance" else ""
+        comp += " (rolling seats)" if a.compensation == "clearance" and a.seat_model == "rolling" else ""
         rate = f"sampled at {a.control_rate:g} Hz" if a.control_rate else "continuous"
         effort = problem.effort_unit
         kp, kd = (" or ".join(dict.fromkeys(pair[u == "N"] for u in problem.effort_units)) or pair[0]

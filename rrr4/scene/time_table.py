@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 from ..errors import SceneError
@@ -32,10 +33,9 @@ CONSISTENCY_TOL = 1e-6
 def check_time_table(rows, key: str = "time_table") -> tuple[tuple[float, float, float], ...]:
     """The rows (t, s, s_dot) as a tuple of float triples, checked (see the module docstring);
     SceneError naming the row and the rule otherwise."""
-    try:
-        rows = list(rows)
-    except TypeError:
-        raise SceneError(f"{key}: {rows!r} is not allowed (a list of rows (t, s, s_dot) or a CSV file)") from None
+    if isinstance(rows, (str, bytes, Mapping)) or not isinstance(rows, Iterable):
+        raise SceneError(f"{key}: {rows!r} is not allowed (a list of rows (t, s, s_dot))")
+    rows = list(rows)
     table = []
     for k, row in enumerate(rows):
         try:

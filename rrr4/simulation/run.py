@@ -238,7 +238,8 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
              "control_rate": ctrl.scene.actuation.control_rate if held else None, "references": loop.kind,
              "preload": "given" if given is not None else (ctrl.scene.actuation.preload.method if ctrl.has_preload
                                                             and eqs.mode == "torque" else "none"),
-             "compensation": ctrl.scene.actuation.compensation if eqs.mode == "torque" else "none"}
+             "compensation": ctrl.scene.actuation.compensation if eqs.mode == "torque" else "none",
+             "seat_model": ctrl.scene.actuation.seat_model if eqs.mode == "torque" and ctrl.compensates else "none"}
     stats.update(run.stats)
     return outputs.simulation(stats)
 

@@ -52,7 +52,7 @@ import yaml
 
 from ..checks import describe
 from ..errors import Rrr4Error, SceneError
-from ..files import check_writable
+from ..files import check_writable, stop_requested
 from ..mechanism import check_scene
 from ..results.metrics import (
     DRIVEN_SCALAR_METRICS,
@@ -505,6 +505,8 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
                 from tqdm import tqdm
                 bar = tqdm(total=len(futures), desc="sweep", unit="case")
             for fut in as_completed(futures):
+                if stop_requested():  # an interrupt lost inside a solver (rrr4.files.request_stop)
+                    raise KeyboardInterrupt
                 cid, case = futures[fut]
                 try:
                     rows, n_built, found = fut.result()
