@@ -266,7 +266,7 @@ class DynamicData:
             if (nd, d - c) not in self._rolls:  # x and S carried from frame to frame
                 self._rolls[nd, d - c] = f.mapaccum("roll", d - c, 2)
             x_all, S_all, o, do = self._rolls[nd, d - c](x, S, self.u[c:d].T)
-            x, S = np.array(x_all[:, -1]).ravel(), np.array(S_all[:, S_all.shape[1] - nd:]).reshape(-1, nd)
+            x, S = np.array(x_all[:, -1]).ravel(), np.array(S_all[:, S_all.shape[1] - nd:]).reshape(x.size, nd)
             os.append(np.array(o).T)
             dos.append(np.array(do).T.reshape(d - c, nd, -1).transpose(0, 2, 1) if nd else
                        np.zeros((d - c, os[-1].shape[1], 0)))

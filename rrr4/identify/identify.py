@@ -19,7 +19,7 @@ from ..scene.vocabulary import IDENTIFICATION_METHODS
 from .dynamic import DynamicData
 from .least_squares import Z95, covariance, identifiability, levenberg_marquardt
 from .measurements import Measurements, measurements_from_simulation, read_measurements
-from .multiple_shooting import WindowedData
+from .multiple_shooting import WindowedData, check_windows, first_frame
 from .parameters import Parameter, identified_data, resolve_parameters, scene_yaml
 from .seated import SeatedData, noise_from_residuals
 
@@ -204,7 +204,7 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
         data = SeatedData(problem, m, params, effort_lag)
     else:
         data = DynamicData(problem, m, params, yaml_nominal)
-        if windows != 1:
+        if check_windows(windows, data.n_frames - first_frame(data), data.dt) > 1:
             data = WindowedData(data, windows)
     npar = len(params)
     # a windowed fit's start states: nuisance unknowns, unbounded, in the scaled coordinates (s - start) / scale

@@ -43,7 +43,7 @@ from ..checks import describe
 from ..errors import SceneError, SimulationError
 from .dynamic import CHAOS_LIMIT, FD_STEP, DynamicData
 
-__all__ = ["WindowedData", "check_windows", "STATE_SCALE", "DEFECT_SCALE", "MIN_FRAMES"]
+__all__ = ["WindowedData", "check_windows", "first_frame", "STATE_SCALE", "DEFECT_SCALE", "MIN_FRAMES"]
 
 STATE_SCALE = 1e-6  # the scale of a window's start coordinates [m or rad]; of their rates: this / frame length [s]
 DEFECT_SCALE = 1e-3  # a continuity defect's weight: 1 / (this x the state's scale) (1 nm, 1 nrad against 1 um)
@@ -60,6 +60,11 @@ def check_windows(windows, n_frames: int, dt: float) -> int:
     return int(windows)
 
 
+def first_frame(shooting: DynamicData) -> int:
+    """The frame of the first measured instant (the first window's start)."""
+    return int(np.floor(shooting.m.t[0] / shooting.dt + 1e-9))
+
+
 class WindowedData:
     """The measured run predicted by K windows of single shooting coupled by continuity (see
     the module docstring): the interface of :class:`DynamicData` on the unknowns
@@ -68,17 +73,23 @@ class WindowedData:
 
     def __init__(self, shooting: DynamicData, windows: int):
         self.shooting = s = shooting
-        self.windows = check_windows(windows, s.n_frames, s.dt)
-        self.bounds = np.round(np.linspace(0, s.n_frames, self.windows + 1)).astype(int)
+        first = first_frame(s)
+        self.windows = check_windows(windows, s.n_frames - first, s.dt)
+        self.bounds = np.round(np.linspace(first, s.n_frames, self.windows + 1)).astype(int)
+        self.free_first = first > 0  # a span after t = 0: its first window's start is an unknown too
         self.n_params = len(s.params)
         nq = (s.system.ny - 3) // 2  # the stepped coordinates; their rates follow, then the quadratures
         self.n_state = 2 * nq
         scale = np.r_[np.full(nq, STATE_SCALE), np.full(nq, STATE_SCALE / s.dt)]
-        self.nuisance_scale = np.tile(scale, self.windows - 1)
+        n_free = self.windows - 1 + self.free_first
+        self.nuisance_scale = np.tile(scale, n_free)
         # the states' first values: the nominal parameters' single-shooting run at the window starts
         p0 = np.array([q.nominal for q in s.params])
         x, S = s.start(p0, sensitivities=False)
-        starts = []
+        if self.free_first:
+            x, *_ = s.roll(x, S, 0, first)
+        self.before = x  # the nominal run's state at the first window's start (its discrete state)
+        starts = [x[1:1 + self.n_state]] if self.free_first else []
         for a, b in zip(self.bounds[:-2], self.bounds[1:-1], strict=True):
             x, *_ = s.roll(x, S, a, b)
             starts.append(x[1:1 + self.n_state])
@@ -103,14 +114,20 @@ class WindowedData:
 
     # ------------------------------------------------------------------ the runs
 
+    def state_columns(self, k: int) -> np.ndarray | None:
+        """The columns of window k's start state among the unknowns w (None: the scene's initial state)."""
+        j = k - 1 + self.free_first
+        return None if j < 0 else self.n_params + j * self.n_state + np.arange(self.n_state)
+
     def _window_start(self, k: int, w: np.ndarray, previous_end: np.ndarray) -> np.ndarray:
-        """The frame state at window k >= 1's start: s_k, the discrete state carried from the
-        previous window's end and updated at s_k (an implicit method's memory started again)."""
+        """The frame state at a free window start: s_k, the discrete state carried from the
+        previous window's end (the first window: the nominal run's) and updated at s_k (an
+        implicit method's memory started again)."""
         s, system = self.shooting, self.shooting.system
         ny, nz = system.ny, system.nz
         x = previous_end[:1 + ny + nz].copy()
-        a = self.n_params + (k - 1) * self.n_state
-        x[1:1 + self.n_state] = w[a:a + self.n_state]
+        x[1:1 + self.n_state] = w[self.state_columns(k)]
+        x[s.parameter_rows] = s.contact_numbers(w[:self.n_params])
         x[1 + ny:] = np.array(system.discrete(x[0], x[1:1 + ny], x[1 + ny:])).ravel()
         extra = getattr(s.method, "initial_extra", None)
         return np.r_[x, extra(system, x, s.u[self.bounds[k]])] if extra else x
@@ -127,10 +144,11 @@ class WindowedData:
         nw = w.size
         o_all, do_all = None, None
         defects, dD, x_starts = np.zeros((K - 1, ns)), np.zeros((K - 1, ns, nw)), []
-        x, S = s.start(w[:npar], sensitivities)
+        x, S = (self.before, None) if self.free_first else s.start(w[:npar], sensitivities)
         for k in range(K):
             a, b = self.bounds[k], self.bounds[k + 1]
-            if k:
+            own = self.state_columns(k)
+            if own is not None:
                 x = self._window_start(k, w, x)
                 S = np.zeros((x.size, npar + ns)) if sensitivities else np.zeros((x.size, 0))
                 if sensitivities:
@@ -142,15 +160,15 @@ class WindowedData:
                 o_all = np.zeros((s.n_frames, o.shape[1]))
                 do_all = np.zeros((s.n_frames, o.shape[1], nw)) if sensitivities else None
             o_all[a:b] = o
-            cols = np.r_[np.arange(npar), npar + (k - 1) * ns + np.arange(ns)] if k else np.arange(npar)
+            cols = np.arange(npar) if own is None else np.r_[np.arange(npar), own]
             if sensitivities:
                 do_all[a:b][:, :, cols] = do
             if k < K - 1:
-                nxt = npar + k * ns
-                defects[k] = x[1:1 + ns] - w[nxt:nxt + ns]
+                nxt = self.state_columns(k + 1)
+                defects[k] = x[1:1 + ns] - w[nxt]
                 if sensitivities:
                     dD[k][:, cols] = S[1:1 + ns]
-                    dD[k][:, nxt:nxt + ns] -= np.eye(ns)
+                    dD[k][:, nxt] -= np.eye(ns)
         if not (np.all(np.isfinite(o_all)) and np.all(np.isfinite(defects))
                 and (do_all is None or np.all(np.isfinite(do_all)))):
             values = dict(zip([q.key for q in self.params], w[:npar].tolist(), strict=True))
@@ -206,7 +224,7 @@ class WindowedData:
                 up, down = s.shifted(p, i, FD_STEP), s.shifted(p, i, -FD_STEP)
                 r = []
                 for v in (up, down):
-                    x = s.start(v, False)[0] if k == 0 else starts[k].copy()
+                    x = s.start(v, False)[0] if self.state_columns(k) is None else starts[k].copy()
                     x[s.parameter_rows] = s.contact_numbers(v)
                     r.append(rows(s.roll(x, np.zeros((x.size, 0)), a, b)[2], None, a, b))
                 cols.append((r[0] - r[1]) / (up[i] - down[i]))
@@ -222,10 +240,10 @@ class WindowedData:
         return worst
 
     def _refusal(self, k: int, t0: float, t1: float, d: float) -> str:
-        top = max(self.shooting.n_frames // MIN_FRAMES, 1)
-        more = min(2 * self.windows, top)
+        frames = self.bounds[-1] - self.bounds[0]
+        more = min(2 * self.windows, max(frames // MIN_FRAMES, 1))
         hint = (f"use shorter windows (windows={more}, --windows {more}: about "
-                f"{1e3 * self.shooting.n_frames * self.dt / more:.3g} ms each)" if more > self.windows else
+                f"{1e3 * frames * self.dt / more:.3g} ms each)" if more > self.windows else
                 "the windows cannot be shorter; fit a shorter span, or a preloaded run with 'seated'")
         return (f"method 'dynamic': window {k + 1} of {self.windows} ({1e3 * t0:.3g} to {1e3 * t1:.3g} ms) is too "
                 f"sensitive to its parameters for shooting (its sensitivities and central differences of runs "
