@@ -37,6 +37,7 @@ output reads), an extra unknown of the fit. The unknowns are w = [p, s_1, .., s_
 
 from __future__ import annotations
 
+import casadi as ca
 import numpy as np
 
 from ..checks import describe
@@ -58,6 +59,26 @@ def check_windows(windows, n_frames: int, dt: float) -> int:
         raise SceneError(f"windows: {describe(windows)} is not allowed (a whole number from 1 to {top}: each window "
                          f"holds at least {MIN_FRAMES} of the run's {n_frames} frames of {1e3 * dt:g} ms)")
     return int(windows)
+
+
+def clearance_map(shooting: DynamicData) -> ca.Function:
+    """'clearance_map' (c (n,), ratio (nc,), parameters) -> (coordinates (n,), d/dc, d/dratio):
+    the stepped coordinates c with every clearance joint's eccentricity scaled by its clearance's
+    ratio to the nominal one (the least change of c that does it, to first order: c + E^+
+    ((ratio - 1) e), E = de/dc), so that a journal keeps its place in its clearance (a seated
+    journal its penetration) when a candidate clearance changes. Built once per problem."""
+    eqs, tree = shooting.eqs, shooting.tree
+
+    def build():
+        par, nc = eqs.parametric, len(eqs.clearance_joints)
+        n = (shooting.system.ny - 3) // 2
+        c, ratio, P = ca.SX.sym("c", n), ca.SX.sym("ratio", nc), ca.SX.sym("parameters", len(eqs.parameters))
+        q = par.tree_state(c, ca.SX.zeros(n), P)[0] if tree else c
+        e = ca.vec(par.acceleration(q=q, qd=ca.SX.zeros(q.shape[0]), parameters=P)["eccentricity"])
+        E = ca.jacobian(e, c)
+        moved = c + E.T @ ca.solve(E @ E.T, ca.vec(ca.repmat(ca.transpose(ratio - 1), 2, 1)) * e)
+        return ca.Function("clearance_map", [c, ratio, P], [moved, ca.jacobian(moved, c), ca.jacobian(moved, ratio)])
+    return shooting.problem.memo(("identify_clearance_map", tree), build)
 
 
 def first_frame(shooting: DynamicData) -> int:
@@ -95,6 +116,7 @@ class WindowedData:
             starts.append(x[1:1 + self.n_state])
         self.nuisance_start = np.concatenate(starts) if starts else np.zeros(0)
         self.chaos, self.chaos_windows, self._cache = None, [], {}
+        self.cmap = clearance_map(s)
         for name in ("problem", "m", "params", "angles_measured", "preload", "lag", "dt"):
             setattr(self, name, getattr(s, name))
 
@@ -119,22 +141,56 @@ class WindowedData:
         j = k - 1 + self.free_first
         return None if j < 0 else self.n_params + j * self.n_state + np.arange(self.n_state)
 
-    def _window_start(self, k: int, w: np.ndarray, previous_end: np.ndarray) -> np.ndarray:
-        """The frame state at a free window start: s_k, the discrete state carried from the
-        previous window's end (the first window: the nominal run's) and updated at s_k (an
-        implicit method's memory started again)."""
-        s, system = self.shooting, self.shooting.system
+    def ratios(self, p) -> tuple[np.ndarray, np.ndarray]:
+        """Each clearance joint's clearance over its nominal one at the parameter values p (nc,),
+        and its derivative (nc, np)."""
+        clear = list(self.shooting.eqs.clearance_joints)
+        ratio, R = np.ones(len(clear)), np.zeros((len(clear), self.n_params))
+        for i, q in enumerate(self.params):
+            if q.kind == "clearance":
+                for j in q.joints:
+                    ratio[clear.index(j)], R[clear.index(j), i] = p[i] / q.nominal, 1.0 / q.nominal
+        return ratio, R
+
+    def placed(self, k: int, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Window k's start state (n_state,) from its unknowns (the state with the nominal
+        clearances, :func:`clearance_map`) at the parameters w[:np], and its derivatives to the
+        parameters (n_state, np) and to the unknowns (n_state, n_state)."""
+        p, own, n = w[:self.n_params], self.state_columns(k), self.n_state // 2
+        ratio, R = self.ratios(p)
+        moved, Jc, Jr = self.cmap(w[own[:n]], ratio, self.shooting.contact_numbers(p))
+        d_s = np.eye(self.n_state)
+        d_s[:n, :n] = np.array(Jc)
+        d_p = np.zeros((self.n_state, self.n_params))
+        d_p[:n] = np.array(Jr) @ R
+        return np.r_[np.array(moved).ravel(), w[own[n:]]], d_p, d_s
+
+    def _window_start(self, k: int, w: np.ndarray, previous_end: np.ndarray, sensitivities: bool):
+        """(x, S) at a free window start: its placed state (:meth:`placed`), the discrete state
+        carried from the previous window's end (the first window: the nominal run's) and updated
+        there (an implicit method's memory started again), and the sensitivities (nx, np +
+        n_state) to the parameters and the window's unknowns (no columns without
+        `sensitivities`)."""
+        s, system, npar = self.shooting, self.shooting.system, self.n_params
         ny, nz = system.ny, system.nz
         x = previous_end[:1 + ny + nz].copy()
-        x[1:1 + self.n_state] = w[self.state_columns(k)]
-        x[s.parameter_rows] = s.contact_numbers(w[:self.n_params])
+        start, d_p, d_s = self.placed(k, w)
+        x[1:1 + self.n_state] = start
+        x[s.parameter_rows] = s.contact_numbers(w[:npar])
         x[1 + ny:] = np.array(system.discrete(x[0], x[1:1 + ny], x[1 + ny:])).ravel()
         extra = getattr(s.method, "initial_extra", None)
-        return np.r_[x, extra(system, x, s.u[self.bounds[k]])] if extra else x
+        x = np.r_[x, extra(system, x, s.u[self.bounds[k]])] if extra else x
+        S = np.zeros((x.size, npar + self.n_state if sensitivities else 0))
+        if sensitivities:
+            S[s.parameter_rows, :npar] = s.D
+            S[1:1 + self.n_state, :npar] = d_p
+            S[1:1 + self.n_state, npar:] = d_s
+        return x, S
 
-    def run(self, w, sensitivities: bool = True, starts: list | None = None):
+    def run(self, w, sensitivities: bool = True):
         """(o (n_frames, n_out), dO (n_frames, n_out, n_w) or None, defects (K-1, n_state), their
-        Jacobian (K-1, n_state, n_w) or None, the windows' start states) at the unknowns w."""
+        Jacobian (K-1, n_state, n_w) or None, the state each window starts from (the previous
+        window's end, the nominal run's before the first)) at the unknowns w."""
         w = np.asarray(w, float)
         key = tuple(w.tolist())
         if key in self._cache and (self._cache[key][1] is not None or not sensitivities):
@@ -143,18 +199,14 @@ class WindowedData:
         s.runs += 1
         nw = w.size
         o_all, do_all = None, None
-        defects, dD, x_starts = np.zeros((K - 1, ns)), np.zeros((K - 1, ns, nw)), []
+        defects, dD, before = np.zeros((K - 1, ns)), np.zeros((K - 1, ns, nw)), []
         x, S = (self.before, None) if self.free_first else s.start(w[:npar], sensitivities)
         for k in range(K):
             a, b = self.bounds[k], self.bounds[k + 1]
             own = self.state_columns(k)
+            before.append(x)
             if own is not None:
-                x = self._window_start(k, w, x)
-                S = np.zeros((x.size, npar + ns)) if sensitivities else np.zeros((x.size, 0))
-                if sensitivities:
-                    S[s.parameter_rows, :npar] = s.D
-                    S[1 + np.arange(ns), npar + np.arange(ns)] = 1.0
-            x_starts.append(x)
+                x, S = self._window_start(k, w, x, sensitivities)
             x, S, o, do = s.roll(x, S, a, b)
             if o_all is None:
                 o_all = np.zeros((s.n_frames, o.shape[1]))
@@ -163,12 +215,14 @@ class WindowedData:
             cols = np.arange(npar) if own is None else np.r_[np.arange(npar), own]
             if sensitivities:
                 do_all[a:b][:, :, cols] = do
-            if k < K - 1:
+            if k < K - 1:  # continuity: this window's end is where the next one is placed
                 nxt = self.state_columns(k + 1)
-                defects[k] = x[1:1 + ns] - w[nxt]
+                start, d_p, d_s = self.placed(k + 1, w)
+                defects[k] = x[1:1 + ns] - start
                 if sensitivities:
                     dD[k][:, cols] = S[1:1 + ns]
-                    dD[k][:, nxt] -= np.eye(ns)
+                    dD[k][:, :npar] -= d_p
+                    dD[k][:, nxt] -= d_s
         if not (np.all(np.isfinite(o_all)) and np.all(np.isfinite(defects))
                 and (do_all is None or np.all(np.isfinite(do_all)))):
             values = dict(zip([q.key for q in self.params], w[:npar].tolist(), strict=True))
@@ -176,7 +230,7 @@ class WindowedData:
                                   f"parameters {values}")
         if len(self._cache) > 8:
             self._cache.clear()
-        out = (o_all, do_all, defects, dD if sensitivities else None, x_starts)
+        out = (o_all, do_all, defects, dD if sensitivities else None, before)
         self._cache[key] = out
         return out
 
@@ -224,8 +278,10 @@ class WindowedData:
                 up, down = s.shifted(p, i, FD_STEP), s.shifted(p, i, -FD_STEP)
                 r = []
                 for v in (up, down):
-                    x = s.start(v, False)[0] if self.state_columns(k) is None else starts[k].copy()
-                    x[s.parameter_rows] = s.contact_numbers(v)
+                    if self.state_columns(k) is None:
+                        x = s.start(v, False)[0]
+                    else:
+                        x = self._window_start(k, np.r_[v, w[npar:]], starts[k], False)[0]
                     r.append(rows(s.roll(x, np.zeros((x.size, 0)), a, b)[2], None, a, b))
                 cols.append((r[0] - r[1]) / (up[i] - down[i]))
             J_cd = np.column_stack(cols)
