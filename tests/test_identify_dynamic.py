@@ -163,3 +163,35 @@ def test_bad_window_options_are_refused_in_one_line(no_preload, paper, tmp_path,
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "--windows" in err and "'many'" in err, err
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.slow  # about 30 s; the first run on a machine compiles the frame with 39 directions (about 10 min)
+def test_windows_reproduce_single_shooting_where_both_work(paper):
+    """The preloaded start-up (0 to 30 ms): three windows of 10 to 11 ms (76 start states as nuisance
+    unknowns) give the clearance single shooting gives, with the same standard error (the
+    covariance under continuity is the single-shooting one), the truth inside the interval and
+    the continuity closed to far below the noise."""
+    m, noise = _measured(paper, "clearance +20 %", 0.03, seed=3)
+    one = identify(paper, m, [CLEARANCE], method="dynamic", noise=noise)
+    three = identify(paper, m, [CLEARANCE], method="dynamic", noise=noise, windows=3)
+    truth = 1.2e-4
+    lo, hi = three.interval[0]
+    assert lo <= truth <= hi, (three.estimate, three.interval)
+    assert abs(three.estimate[0] - one.estimate[0]) < 0.1 * one.standard_error[0]
+    assert three.standard_error[0] == pytest.approx(one.standard_error[0], rel=0.05)
+    assert three.fit["windows"] == 3 and three.fit["window_starts_s"] == pytest.approx([0.0, 0.01, 0.021])
+    position, rate = three.fit["continuity_defect_max"]
+    assert position < 1e-9 and rate < 1e-4 and max(three.fit["sensitivity_disagreement_windows"]) < 0.01
+
+
+def test_a_rattling_window_is_refused_in_one_line_naming_it(no_preload):
+    """Without preload the journals fly free (the data do not depend on the clearance), then
+    impact from about 47 ms: over 0 to 60 ms single shooting is refused, and so is the window
+    of six that holds the impacts, by name, with a shorter window length suggested."""
+    m, noise = _measured(no_preload, "clearance +20 %", 0.06, seed=7)
+    with pytest.raises(rrr4.SimulationError) as e:
+        identify(no_preload, m, [CLEARANCE], method="dynamic", noise=noise)
+    _one_line(e.value, "too sensitive", "windows=N")
+    with pytest.raises(rrr4.SimulationError) as e:
+        identify(no_preload, m, [CLEARANCE], method="dynamic", noise=noise, windows=6)
+    _one_line(e.value, "window 6 of 6 (51 to 61 ms)", "too sensitive", "windows=12", "--windows 12", "5.08 ms each")

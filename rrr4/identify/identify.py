@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..checks import unknown_value
-from ..errors import MeasurementError, SceneError
+from ..errors import MeasurementError, SceneError, SimulationError
 from ..problem import Problem
 from ..scene import Scene, parse_scene
 from ..scene.vocabulary import IDENTIFICATION_METHODS
@@ -26,6 +26,7 @@ from .seated import SeatedData, noise_from_residuals
 __all__ = ["identify", "Identification", "METHODS"]
 
 METHODS = IDENTIFICATION_METHODS
+FIT_LIMIT = 10.0  # the reduced chi^2 with every noise level given beyond which a dynamic fit is refused
 POOR = 0.5  # a standard error above half a parameter's scale (a factor 1.6 in a stiffness): barely determined
 
 
@@ -254,6 +255,12 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
     if start.size:  # the start states are nuisance unknowns: the parameters' columns with theirs projected out
         J = J[:, :npar] - J[:, npar:] @ np.linalg.lstsq(J[:, npar:], J[:, :npar], rcond=None)[0]
     cov = covariance(J, r, scale, dof=sum(float(np.sum(v)) for v in res["expected"].values()))
+    if method == "dynamic" and len(given) == len(sigma) and not cov["reduced_chi2"] <= FIT_LIMIT:
+        raise SimulationError(f"method 'dynamic': the fit does not reproduce the measurements (reduced chi^2 "
+                              f"{cov['reduced_chi2']:.3g} with the noise levels given, allowed {FIT_LIMIT:g}): the "
+                              "shooting ended in a local minimum (journals that rattle: the run it starts from is "
+                              "too far from the measured one) or the noise levels given are too small; no estimate is "
+                              "returned")
     se = cov["standard_error"]
     keys = [q.key for q in params]
     verdict = identifiability(J, keys, _excite(dict(zip(keys, params, strict=True))))
