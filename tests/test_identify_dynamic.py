@@ -167,7 +167,7 @@ def test_bad_window_options_are_refused_in_one_line(no_preload, paper, tmp_path,
 
 @pytest.mark.slow  # about 30 s; the first run on a machine compiles the frame with 39 directions (about 10 min)
 def test_windows_reproduce_single_shooting_where_both_work(paper):
-    """The preloaded start-up (0 to 30 ms): three windows of 10 to 11 ms (76 start states as nuisance
+    """The preloaded start-up (0 to 30 ms): three windows of about 10 ms (76 start states as nuisance
     unknowns) give the clearance single shooting gives, with the same standard error (the
     covariance under continuity is the single-shooting one), the truth inside the interval and
     the continuity closed to far below the noise."""
@@ -179,7 +179,7 @@ def test_windows_reproduce_single_shooting_where_both_work(paper):
     assert lo <= truth <= hi, (three.estimate, three.interval)
     assert abs(three.estimate[0] - one.estimate[0]) < 0.1 * one.standard_error[0]
     assert three.standard_error[0] == pytest.approx(one.standard_error[0], rel=0.05)
-    assert three.fit["windows"] == 3 and three.fit["window_starts_s"] == pytest.approx([0.0, 0.01, 0.021])
+    assert three.fit["windows"] == 3 and three.fit["window_starts_s"] == pytest.approx([0.0, 0.01, 0.02], abs=1e-3)
     position, rate = three.fit["continuity_defect_max"]
     assert position < 1e-9 and rate < 1e-4 and max(three.fit["sensitivity_disagreement_windows"]) < 0.01
 
