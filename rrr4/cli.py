@@ -407,8 +407,8 @@ def build_parser() -> argparse.ArgumentParser:
     idn.add_argument("--noise", help="noise levels COLUMN=STD, comma-separated (default: estimated from the "
                                      "residuals)")
     idn.add_argument("--window", help="fit only the rows with T0 <= t <= T1 [s], as T0:T1")
-    idn.add_argument("--windows", help="method dynamic: multiple shooting over N windows whose start states are extra "
-                                       "unknowns (default 1: single shooting from t = 0)")
+    idn.add_argument("--windows", metavar="N", help="method dynamic: multiple shooting over N windows whose start "
+                                                    "states are extra unknowns (default 1: single shooting from t = 0)")
     idn.add_argument("--out", help="directory (default results/<scene name>_identified/); replaced atomically")
     idn.set_defaults(func=_identify)
     sw = sub.add_parser("sweep", help="run the study over a grid of scene values or a tolerance Monte Carlo, on "

@@ -11,9 +11,9 @@ import pytest
 import yaml
 
 import rrr4
+from rrr4.cli import main
 from rrr4.errors import SceneError
 from rrr4.identify import Measurements, identify, measurements_from_simulation, resolve_parameters
-from rrr4.cli import main
 from rrr4.identify.dynamic import CHAOS_LIMIT, DynamicData
 from rrr4.identify.multiple_shooting import WindowedData
 from rrr4.identify.parameters import scene_yaml

@@ -187,7 +187,9 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
     :mod:`rrr4.identify.multiple_shooting`).
     effort_lag: the time constant [s] with which the measured friction efforts follow the
     seat model ('controller': the feedback's kd / kp; 0: none).
-    Raises SceneError / MeasurementError (one line) for bad input."""
+    Raises SceneError / MeasurementError (one line) for bad input; with 'dynamic'
+    SimulationError (one line) for a run or a window too sensitive to its parameters to shoot,
+    or a fit that does not reproduce the measurements."""
     problem = Problem.from_scene(scene)
     if method not in METHODS:
         raise unknown_value("method", "identification method", method, METHODS)
