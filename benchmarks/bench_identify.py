@@ -84,7 +84,7 @@ def main() -> None:
     print(f"machine: {machine()}; load average {', '.join(f'{v:.2f}' for v in os.getloadavg())}")
     print(f"scene {problem.name}, medians of {args.repeats} runs (dynamic: {min(args.repeats, 3)})")
     print(f"{'case':28s} {'samples':>7s} {'params':>6s} {'first [s]':>9s} {'median [s]':>10s} {'iters':>5s} "
-          f"{'verdict':>16s}  first estimate +- standard error")
+          f"{'verdict':>16s}  the first parameter's estimate +- standard error")
     medians = {}
     for name, (m, keys, method) in cases.items():
         method, windows = method if isinstance(method, tuple) else (method, 1)
@@ -99,7 +99,7 @@ def main() -> None:
         medians[name] = statistics.median(walls)
         verdict = "identifiable" if res.verdict["identifiable"] else "not identifiable"
         print(f"{name:28s} {len(m):7d} {len(keys):6d} {first:9.2f} {medians[name]:10.2f} "
-              f"{res.fit['iterations']:5d} {verdict:>16s}  {res.estimate[0]:.6g} +- {res.standard_error[0]:.3g}")
+              f"{res.fit['iterations']:5d} {verdict:>16s}  {res.estimate[0]:.9g} +- {res.standard_error[0]:.3g}")
     print(f"3 windows against single shooting on 30 ms: time ratio "
           f"{medians['dynamic, 30 ms, 3 windows'] / medians['dynamic, 30 ms']:.2f}")
     m, keys, _ = cases["dynamic, 0.1 s window"]

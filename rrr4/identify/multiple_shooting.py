@@ -1,12 +1,20 @@
 """Method 'dynamic' with windows: multiple shooting (Bock 1981; Baake et al. 1992 for chaotic
 data) for runs too sensitive to their parameters to shoot from t = 0.
 
-The frames of the run (:class:`rrr4.identify.dynamic.DynamicData`) are split into K windows
-of (nearly) equal length. Window 0 starts at the scene's initial state, as single shooting
-does; each later window k starts at its own state s_k, the mechanism's continuous state
-there (the stepped coordinates and their rates: with clearance the tree coordinates, the
-journals' positions in their clearances included; not the energy quadratures, which no
-output reads), an extra unknown of the fit. The unknowns are w = [p, s_1, .., s_{K-1}].
+The frames of the run (:class:`rrr4.identify.dynamic.DynamicData`) from the first measured
+instant on are split into K windows of (nearly) equal length. Window 0 starts at the scene's
+initial state, as single shooting does (or, when the measurements start after t = 0, from a
+state s_0 that is an unknown too); each later window k starts at its own state s_k, the
+mechanism's continuous state there (the stepped coordinates and their rates: with clearance
+the tree coordinates, which place the journals in their clearances; not the energy
+quadratures, which no output reads), an extra unknown of the fit. The unknowns are
+w = [p, s_1, .., s_{K-1}]; they start from the nominal parameters' single-shooting run.
+
+- **Journals keep their place in their clearance** (:func:`clearance_map`): s_k is the start
+  state at the nominal clearances; a candidate's clearances scale each journal's eccentricity
+  by their ratio to the nominal ones, so that a seated journal keeps its penetration (without
+  that, 1 % of the clearance at a fixed state is 1 um against a penetration of about 0.3 um,
+  and every window with a contact fails the check below).
 
 - **Runs.** Each window is stepped by the same compiled frame as single shooting, in forward
   mode with the directions [parameters, state entries] (window 0: the parameters only), so
@@ -18,7 +26,7 @@ output reads), an extra unknown of the fit. The unknowns are w = [p, s_1, .., s_
   runs once at s_k, so that a journal that s_k places in its bearing wall is in contact with
   its onset velocity captured there. They enter the sensitivities as constants (flags are
   piecewise constant; an onset velocity's dependence is left out as in single shooting).
-- **Continuity.** The defects d_k = y_end(window k-1) - s_k are residuals with the heavy
+- **Continuity.** The defects d_k = y_end(window k-1) - (window k's start) are residuals with the heavy
   weight 1 / (:data:`DEFECT_SCALE` x the state's scale), a nanometre (nanoradian) against
   the measurements' micrometre, in the Levenberg-Marquardt of the other methods: the same
   bounded solver, and a relaxed start (defects may open while the fit is far off, Bock's
@@ -32,7 +40,9 @@ output reads), an extra unknown of the fit. The unknowns are w = [p, s_1, .., s_
   sensitivities to the parameters against central differences of that window's run from its
   start state, +-:data:`~rrr4.identify.dynamic.FD_STEP` of each parameter's scale; a window
   whose disagreement exceeds :data:`~rrr4.identify.dynamic.CHAOS_LIMIT` is refused in one line
-  that names it and a shorter window length.
+  that names it and a shorter window length. A fit that passes it but does not reproduce the
+  measurements (a local minimum) is refused by :func:`rrr4.identify.identify` (its reduced
+  chi^2 with the noise levels given).
 """
 
 from __future__ import annotations
