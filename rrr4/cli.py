@@ -201,6 +201,17 @@ def _key_values(option: str, text: str | None, what: str) -> dict:
     return out
 
 
+def _windows(text: str | None) -> int:
+    """--windows N as an int (1 without it); the range is checked by identify."""
+    if text is None:
+        return 1
+    try:
+        return int(text)
+    except ValueError:
+        from .errors import SceneError
+        raise SceneError(f"--windows: {text!r} is not allowed (a whole number of windows >= 1, e.g. 10)") from None
+
+
 def _identify(args) -> int:
     import warnings
     from pathlib import Path
@@ -232,7 +243,8 @@ def _identify(args) -> int:
         measured = read_measurements(args.measurements, scene, arm=args.arm)
         if window is not None:
             measured = measured.window(*window)
-        ident = identify(scene, measured, parameters=parameters, method=args.method, noise=noise or None)
+        ident = identify(scene, measured, parameters=parameters, method=args.method, noise=noise or None,
+                         windows=_windows(args.windows))
     for w in caught:
         if issubclass(w.category, MeasurementWarning):
             _say(f"rrr4 identify: warning: {w.message}")
@@ -395,6 +407,8 @@ def build_parser() -> argparse.ArgumentParser:
     idn.add_argument("--noise", help="noise levels COLUMN=STD, comma-separated (default: estimated from the "
                                      "residuals)")
     idn.add_argument("--window", help="fit only the rows with T0 <= t <= T1 [s], as T0:T1")
+    idn.add_argument("--windows", metavar="N", help="method dynamic: multiple shooting over N windows whose start "
+                                                    "states are extra unknowns (default 1: single shooting from t = 0)")
     idn.add_argument("--out", help="directory (default results/<scene name>_identified/); replaced atomically")
     idn.set_defaults(func=_identify)
     sw = sub.add_parser("sweep", help="run the study over a grid of scene values or a tolerance Monte Carlo, on "

@@ -7,6 +7,8 @@ angles and efforts, with uncertainty and an identifiability verdict.
 - :mod:`.seated`: method 'seated', the quasi-static model of seated journals;
 - :mod:`.dynamic`: method 'dynamic', shooting with the forward sensitivities of the compiled
   stepping (refuses a run too chaotic to shoot);
+- :mod:`.multiple_shooting`: method 'dynamic' over windows (``windows=K``): the windows'
+  start states as nuisance unknowns, coupled by continuity, a chaos check per window;
 - :mod:`.least_squares`: Levenberg-Marquardt, covariance, identifiability;
 - :mod:`.identify`: the front door :func:`identify` and its result :class:`Identification`.
 """

@@ -158,7 +158,7 @@ class DynamicData:
         self.preload, self.lag = "simulated controller", 0.0
         self.n_frames = int(np.ceil(m.t[-1] / self.dt - 1e-9)) + 1  # frame starts 0, dt, ... cover t
         self.runs, self.chaos, self._cache, self._rolls = 0, None, {}, {}
-        self.u = self._frame_inputs(0, self.n_frames)
+        self.u = self.frame_inputs(0, self.n_frames)
         self.D = self._derivatives()
         self.seated = seated
 
@@ -167,7 +167,7 @@ class DynamicData:
 
     # ------------------------------------------------------------------ the runs
 
-    def _contact_numbers(self, p) -> np.ndarray:
+    def contact_numbers(self, p) -> np.ndarray:
         """The equations' parameters (contact numbers) at the parameter values p."""
         pb, v = self.problem, self.problem.equation_parameters().copy()
         k, clear = len(JOINT_PARAMETERS), list(self.eqs.clearance_joints)
@@ -194,10 +194,10 @@ class DynamicData:
         for i, q in enumerate(self.params):
             h = 1e-4 * q.scale
             e = np.eye(len(self.params))[i] * h
-            D[:, i] = (self._contact_numbers(nominal + e) - self._contact_numbers(nominal - e)) / (2 * h)
+            D[:, i] = (self.contact_numbers(nominal + e) - self.contact_numbers(nominal - e)) / (2 * h)
         return D
 
-    def _initial(self, p) -> np.ndarray:
+    def initial(self, p) -> np.ndarray:
         """x0 at the parameter values p: the scene's initial state with p's contact numbers
         (journals seated where the candidate's clearances put them)."""
         pb, eqs = self.problem, self.eqs
@@ -207,10 +207,10 @@ class DynamicData:
             eqs = pb.equations()
         x0 = initial_state(pb, eqs, self._efforts, self.tree, self.loop.settings)
         nc, ny = len(eqs.clearance_joints), self.system.ny
-        x0[1 + ny + 3 * nc:1 + ny + 3 * nc + len(eqs.parameters)] = self._contact_numbers(p)
-        x0 = self.system.started(x0, self._frame_inputs(0, 1)[0])
+        x0[1 + ny + 3 * nc:1 + ny + 3 * nc + len(eqs.parameters)] = self.contact_numbers(p)
+        x0 = self.system.started(x0, self.frame_inputs(0, 1)[0])
         extra = getattr(self.method, "initial_extra", None)  # an implicit method's memory and counters
-        return np.r_[x0, extra(self.system, x0, self._frame_inputs(0, 1)[0])] if extra else x0
+        return np.r_[x0, extra(self.system, x0, self.frame_inputs(0, 1)[0])] if extra else x0
 
     def _efforts(self, t, q, qd) -> np.ndarray:
         """The controller's efforts at the states (q, qd) at the times t (for seated journals' loads)."""
@@ -221,13 +221,56 @@ class DynamicData:
             out.append(np.array(tau[0] if isinstance(tau, (list, tuple)) else tau).ravel())
         return np.array(out)
 
-    def _frame_inputs(self, a: int, b: int) -> np.ndarray:
+    def frame_inputs(self, a: int, b: int) -> np.ndarray:
         """(b - a, nu) inputs of frames a..b-1: [t_a, t_b] (and a held controller's path rows at t_a)."""
         t = np.arange(a, b + 1) * self.dt
         cols = [t[:-1], t[1:]]
         if self.loop.kind == "held":
             cols.append(path_rows(self.problem.path, t[:-1]))
         return np.column_stack(cols)
+
+    def frame(self, n_directions: int) -> ca.Function:
+        """The compiled frame with `n_directions` sensitivity directions (see :func:`sensitivity_frame`)."""
+        return self.f if n_directions == len(self.params) else \
+            sensitivity_frame(self.problem, n_directions, self.dt)[0]
+
+    def start(self, p, sensitivities: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """(x0, S0 (nx, np), no columns without `sensitivities`): the run's initial state at the
+        parameter values p and its sensitivities (the contact numbers' d/dp; a seated start's
+        by forward differences)."""
+        nd, ny = (len(self.params) if sensitivities else 0), self.system.ny
+        x = self.initial(p)
+        S = np.zeros((x.size, nd))
+        if sensitivities:
+            S[self.parameter_rows] = self.D
+        if self.seated and sensitivities:  # the seated start moves with the clearances (only): forward differences
+            for i in (i for i, q in enumerate(self.params) if q.kind == "clearance"):
+                up = self.shifted(p, i)
+                S[1:1 + ny, i] = (self.initial(up)[1:1 + ny] - x[1:1 + ny]) / (up[i] - p[i])
+        return x, S
+
+    @property
+    def parameter_rows(self) -> slice:
+        """The entries of the frame's state x that hold the equations' parameters (contact numbers)."""
+        a = 1 + self.system.ny + 3 * len(self.eqs.clearance_joints)
+        return slice(a, a + len(self.eqs.parameters))
+
+    def roll(self, x, S, a: int, b: int):
+        """Frames a..b-1 from the state x with its sensitivities S (nx, nd): (x at frame b, S there,
+        o (b - a, n_out) at the frame starts, dO (b - a, n_out, nd))."""
+        nd = S.shape[1]
+        f = self.frame(nd)
+        os, dos = [], []
+        for c in range(a, b, CHUNK):
+            d = min(c + CHUNK, b)
+            if (nd, d - c) not in self._rolls:  # x and S carried from frame to frame
+                self._rolls[nd, d - c] = f.mapaccum("roll", d - c, 2)
+            x_all, S_all, o, do = self._rolls[nd, d - c](x, S, self.u[c:d].T)
+            x, S = np.array(x_all[:, -1]).ravel(), np.array(S_all[:, S_all.shape[1] - nd:]).reshape(x.size, nd)
+            os.append(np.array(o).T)
+            dos.append(np.array(do).T.reshape(d - c, nd, -1).transpose(0, 2, 1) if nd else
+                       np.zeros((d - c, os[-1].shape[1], 0)))
+        return x, S, np.vstack(os), np.concatenate(dos)
 
     def run(self, p, sensitivities: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
         """(o (n_frames, n_out), dO (n_frames, n_out, np)) at the frame starts with the parameter
@@ -238,28 +281,10 @@ class DynamicData:
         if key in self._cache and (self._cache[key][1] is not None or not sensitivities):
             return self._cache[key]
         self.runs += 1
-        nd, ny = (len(self.params) if sensitivities else 0), self.system.ny
-        f = self.f if sensitivities else sensitivity_frame(self.problem, 0, self.dt)[0]
-        x = self._initial(p)
-        S = np.zeros((x.size, nd))
-        nc = len(self.eqs.clearance_joints)
-        if sensitivities:
-            S[1 + ny + 3 * nc:1 + ny + 3 * nc + len(self.eqs.parameters)] = self.D
-        if self.seated and sensitivities:  # the seated start moves with the clearances (only): forward differences
-            for i in (i for i, q in enumerate(self.params) if q.kind == "clearance"):
-                up = self.shifted(p, i)
-                S[1:1 + ny, i] = (self._initial(up)[1:1 + ny] - x[1:1 + ny]) / (up[i] - p[i])
-        os, dos = [], []
-        for a in range(0, self.n_frames, CHUNK):
-            b = min(a + CHUNK, self.n_frames)
-            if (nd, b - a) not in self._rolls:  # x and S carried from frame to frame
-                self._rolls[nd, b - a] = f.mapaccum("roll", b - a, 2)
-            x_all, S_all, o, do = self._rolls[nd, b - a](x, S, self.u[a:b].T)
-            x, S = np.array(x_all[:, -1]).ravel(), np.array(S_all[:, S_all.shape[1] - nd:])
-            os.append(np.array(o).T)
-            if nd:
-                dos.append(np.array(do).T.reshape(b - a, nd, -1).transpose(0, 2, 1))
-        o, do = np.vstack(os), (np.concatenate(dos) if sensitivities else None)
+        x, S = self.start(p, sensitivities)
+        _, _, o, do = self.roll(x, S, 0, self.n_frames)
+        if not sensitivities:
+            do = None
         if not (np.all(np.isfinite(o)) and (do is None or np.all(np.isfinite(do)))):
             raise SimulationError(f"integrator.step: the run of {self.problem.name!r} is not finite with the "
                                   f"parameters {dict(zip([q.key for q in self.params], p.tolist(), strict=True))}")
@@ -277,7 +302,7 @@ class DynamicData:
 
     # ------------------------------------------------------------------ residuals
 
-    def _at_measured(self, o: np.ndarray, do: np.ndarray | None) -> tuple[dict, dict]:
+    def at_measured(self, o: np.ndarray, do: np.ndarray | None) -> tuple[dict, dict]:
         """{column: (N,)} and {column: (N, np)} (none without do) at the measured instants
         (linear in time between frame starts)."""
         t_f = np.arange(self.n_frames) * self.dt
@@ -296,7 +321,11 @@ class DynamicData:
     def residuals(self, p, sigma: dict, jacobian: bool = True) -> dict:
         """As :meth:`rrr4.identify.seated.SeatedData.residuals`; the Jacobian from the run's
         forward sensitivities (none without `jacobian`)."""
-        base, sens = self._at_measured(*self.run(p, jacobian))
+        return self.residuals_of(*self.at_measured(*self.run(p, jacobian)), sigma, jacobian)
+
+    def residuals_of(self, base: dict, sens: dict, sigma: dict, jacobian: bool = True) -> dict:
+        """The residuals of the predictions `base` {column: (N,)} with their sensitivities `sens`
+        {column: (N, n)} (see :meth:`residuals`)."""
         rs, js, raw, expected, explained = [], [], {}, {}, {}
         pose_ref, theta_ref = self._references()
         for c in self.columns():
@@ -363,5 +392,6 @@ class DynamicData:
                                   f"parameters for shooting (its sensitivities and central differences of runs "
                                   f"+-{100 * FD_STEP:g} % of a parameter's scale differ by {100 * d:.0f} %, allowed "
                                   f"{100 * CHAOS_LIMIT:.0f} %): journals that rattle make it chaotic; fit a shorter "
-                                  "span from the start, or a preloaded run with 'seated'")
+                                  "span from the start, split it into windows (windows=N, --windows N: multiple "
+                                  "shooting), or a preloaded run with 'seated'")
         return d

@@ -12,19 +12,21 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..checks import unknown_value
-from ..errors import MeasurementError, SceneError
+from ..errors import MeasurementError, SceneError, SimulationError
 from ..problem import Problem
 from ..scene import Scene, parse_scene
 from ..scene.vocabulary import IDENTIFICATION_METHODS
 from .dynamic import DynamicData
 from .least_squares import Z95, covariance, identifiability, levenberg_marquardt
 from .measurements import Measurements, measurements_from_simulation, read_measurements
+from .multiple_shooting import WindowedData, check_windows, first_frame
 from .parameters import Parameter, identified_data, resolve_parameters, scene_yaml
 from .seated import SeatedData, noise_from_residuals
 
 __all__ = ["identify", "Identification", "METHODS"]
 
 METHODS = IDENTIFICATION_METHODS
+FIT_LIMIT = 10.0  # the reduced chi^2 with every noise level given beyond which a dynamic fit is refused
 POOR = 0.5  # a standard error above half a parameter's scale (a factor 1.6 in a stiffness): barely determined
 
 
@@ -143,6 +145,16 @@ def _excite(params: dict[str, Parameter]):
     return hint
 
 
+def _continuity(data: WindowedData, defects: np.ndarray) -> dict:
+    """What a windowed fit adds to `fit`: its windows and the largest continuity defects left
+    (coordinates [m or rad], rates [m/s or rad/s])."""
+    half = data.n_state // 2
+    return {"windows": data.windows, "window_starts_s": [data.span(k)[0] for k in range(data.windows)],
+            "continuity_defect_max": [float(np.max(np.abs(defects[:, :half]))),
+                                      float(np.max(np.abs(defects[:, half:])))],
+            "sensitivity_disagreement_windows": list(data.chaos_windows)}
+
+
 def _measurements(problem: Problem, measurements, arm, noise) -> Measurements:
     if isinstance(measurements, Measurements):
         m = measurements
@@ -159,7 +171,7 @@ def _measurements(problem: Problem, measurements, arm, noise) -> Measurements:
 
 
 def identify(scene, measurements, parameters=None, method: str = "seated", noise: dict | None = None,
-             arm: str | None = None, effort_lag="controller") -> Identification:
+             arm: str | None = None, effort_lag="controller", windows: int = 1) -> Identification:
     """Identify `parameters` of `scene` (the nominal model: a Scene, a scene file or a
     Problem) from `measurements` (a CSV file, :class:`Measurements` or a Simulation).
 
@@ -169,13 +181,21 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
     preload; quasi-static) or 'dynamic' (single shooting through rrr4.simulate from the
     scene's initial state; contact numbers only; refuses a run too chaotic to shoot).
     noise: {column: standard deviation} (the rest is estimated from the residuals). arm:
-    the arm prefix of a study's timeseries.csv with several arms.
+    the arm prefix of a study's timeseries.csv with several arms. windows: with 'dynamic',
+    the number of windows of multiple shooting (1: single shooting from the scene's initial
+    state; K > 1: K windows whose start states are extra unknowns coupled by continuity, see
+    :mod:`rrr4.identify.multiple_shooting`).
     effort_lag: the time constant [s] with which the measured friction efforts follow the
     seat model ('controller': the feedback's kd / kp; 0: none).
-    Raises SceneError / MeasurementError (one line) for bad input."""
+    Raises SceneError / MeasurementError (one line) for bad input; with 'dynamic'
+    SimulationError (one line) for a run or a window too sensitive to its parameters to shoot,
+    or a fit that does not reproduce the measurements."""
     problem = Problem.from_scene(scene)
     if method not in METHODS:
         raise unknown_value("method", "identification method", method, METHODS)
+    if method != "dynamic" and not (isinstance(windows, int) and not isinstance(windows, bool) and windows == 1):
+        raise SceneError(f"windows: {windows!r} is not allowed with method {method!r} (windows of multiple shooting "
+                         "belong to method 'dynamic')")
     if method == "seated" and not problem.has_preload:
         raise SceneError(f"actuation.preload: method 'seated' needs the journals seated by a preload (scene "
                          f"{problem.name!r} does not preload; method 'dynamic' shoots through the simulation)")
@@ -187,22 +207,31 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
         data = SeatedData(problem, m, params, effort_lag)
     else:
         data = DynamicData(problem, m, params, yaml_nominal)
-    lower = np.array([q.coordinate(q.lower) for q in params])
-    upper = np.array([q.coordinate(q.upper) for q in params])
+        if check_windows(windows, data.n_frames - first_frame(data), data.dt) > 1:
+            data = WindowedData(data, windows)
+    npar = len(params)
+    # a windowed fit's start states: nuisance unknowns, unbounded, in the scaled coordinates (s - start) / scale
+    start, scale_s = (data.nuisance_start, data.nuisance_scale) if isinstance(data, WindowedData) else \
+        (np.zeros(0), np.zeros(0))
+    lower = np.r_[[q.coordinate(q.lower) for q in params], np.full(start.size, -np.inf)]
+    upper = np.r_[[q.coordinate(q.upper) for q in params], np.full(start.size, np.inf)]
     given = {c: float(s) for c, s in m.noise.items() if c in data.columns()}
     first = data.initial_noise()
     sigma = {**first, **given}
 
     def values(u):
-        return np.array([q.value(v) for q, v in zip(params, u, strict=True)])
+        return np.r_[[q.value(v) for q, v in zip(params, u[:npar], strict=True)], start + scale_s * u[npar:]]
+
+    def derivative(u):
+        return np.r_[[q.derivative(v) for q, v in zip(params, u[:npar], strict=True)], scale_s]
 
     def fun(u, jacobian):
         res = data.residuals(values(u), sigma, jacobian=jacobian)
         if not jacobian:
             return res["r"], None
-        return res["r"], res["J"] * np.array([q.derivative(v) for q, v in zip(params, u, strict=True)])
+        return res["r"], res["J"] * derivative(u)
 
-    u, iterations, converged = np.zeros(len(params)), 0, True
+    u, iterations, converged = np.zeros(npar + start.size), 0, True
     chaos_nominal = None
     if method == "dynamic":  # a run too chaotic to shoot is refused before fitting, and again at the end
         chaos_nominal = data.check_sensitivities(values(u), sigma, data.residuals(values(u), sigma)["J"])
@@ -219,13 +248,21 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
             u, r, J, it, ok = levenberg_marquardt(fun, u, lower, upper)
             iterations, converged = iterations + it, ok
             break
-    p = values(u)
-    res = data.residuals(p, sigma)
+    w = values(u)
+    res = data.residuals(w, sigma)
     if method == "dynamic":
-        data.check_sensitivities(p, sigma, res["J"])
-    scale = np.array([q.derivative(v) for q, v in zip(params, u, strict=True)])  # delta method in log coordinates
-    r, J = res["r"], res["J"] * scale
+        data.check_sensitivities(w, sigma, res["J"])
+    p, scale = w[:npar], derivative(u)[:npar]  # delta method in log coordinates
+    r, J = res["r"], res["J"] * derivative(u)
+    if start.size:  # the start states are nuisance unknowns: the parameters' columns with theirs projected out
+        J = J[:, :npar] - J[:, npar:] @ np.linalg.lstsq(J[:, npar:], J[:, :npar], rcond=None)[0]
     cov = covariance(J, r, scale, dof=sum(float(np.sum(v)) for v in res["expected"].values()))
+    if method == "dynamic" and len(given) == len(sigma) and not cov["reduced_chi2"] <= FIT_LIMIT:
+        raise SimulationError(f"method 'dynamic': the fit does not reproduce the measurements (reduced chi^2 "
+                              f"{cov['reduced_chi2']:.3g} with the noise levels given, allowed {FIT_LIMIT:g}): the "
+                              "shooting ended in a local minimum (journals that rattle: the run it starts from is "
+                              "too far from the measured one) or the noise levels given are too small; no estimate is "
+                              "returned")
     se = cov["standard_error"]
     keys = [q.key for q in params]
     verdict = identifiability(J, keys, _excite(dict(zip(keys, params, strict=True))))
@@ -250,6 +287,7 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
            "effort_lag_s": data.lag, **({"simulations": data.runs, "sensitivity_disagreement": data.chaos,
                                          "sensitivity_disagreement_nominal": chaos_nominal}
                                         if method == "dynamic" else {}),
+           **(_continuity(data, res["defect"]) if start.size else {}),
            "columns": data.columns()}
     return Identification(
         method, tuple(params), p, se, np.column_stack([p - Z95 * se, p + Z95 * se]), cov["covariance"],
