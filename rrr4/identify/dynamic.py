@@ -85,6 +85,10 @@ def _build(problem: Problem, nd: int, dt: float, jit: bool):
                          "the scene's controller: torque)")
     loop = loop_of(problem, eqs, "python", "exact", None)
     if not loop.pointwise:
+        if problem.closed_form and problem.compensates and problem.scene.actuation.seat_model == "rolling":
+            raise SceneError("actuation.seat_model: 'rolling' is not allowed with method 'dynamic' (it fits through "
+                             "the closed-form controller step; rolling seats tabulate the references: choose "
+                             "quasi_static for the fit)")
         raise SceneError(f"mechanism.kind: method 'dynamic' is built for n-RRR scenes with their closed-form "
                          f"controller (scene {problem.name!r} tabulates its references)")
     method = METHODS[scene.integrator.method].from_settings(scene.integrator, jit=False)
