@@ -18,9 +18,10 @@ How a seat follows friction (``actuation.seat_model``):
   velocity at the contact is R_J w_J - R_B w_B + c dpsi/dt, zero while it rolls), and the
   friction force turns with the contact angle. Rolling through the friction angle phi =
   atan(mu) takes a slip of phi c (c: the radial clearance), so the friction coefficient
-  along the path is lambda mu with lambda' = s / (phi c), clipped to [-1, 1] (s: the planned
-  slip velocity; lambda = 0 at the path's start, where the journals rest centred in their
-  friction cone). This is Dahl's friction model with the rolling
+  along the path is lambda mu with lambda' = w(s) s / (phi c), clipped to [-1, 1] (s: the
+  planned slip velocity; w(s): the share of mu the friction law gives at s, so that a slip
+  the law leaves without friction rolls nothing; lambda = 0 at the path's start, where the
+  journals rest centred in their friction cone). This is Dahl's friction model with the rolling
   distance as its characteristic displacement; nothing in it is fitted. It depends on the
   slip's history, so the controller's references are tabulated along the path (as a graph
   scene's are) rather than computed by the closed-form step.
@@ -201,8 +202,10 @@ ROLLING_GRID = 1e-3  # [s] the largest step on which rolling_friction integrates
 def rolling_friction(problem: Problem, t: np.ndarray) -> np.ndarray:
     """Signed friction coefficients (N, nj) of the passive revolute joints
     (``Model.preload_joints``) at the times t (N,) [s] of the path, by the rolling seat model
-    (module docstring): lambda mu with lambda' = s / (atan(mu) c) clipped to [-1, 1] (s the
-    planned slip velocity, :func:`planned_slip`), integrated (trapezoidal) from lambda = 0 at
+    (module docstring): lambda mu with lambda' = s w(s) / (atan(mu) c) clipped to [-1, 1] (s
+    the planned slip velocity, :func:`planned_slip`; w(s) = |f_law(s)| / (mu f_n), the share
+    of mu the friction law gives at s: a slip the law leaves without friction, e.g. below
+    Ambrosio's v0, rolls nothing), integrated (trapezoidal) from lambda = 0 at
     the path's start on a grid of at most :data:`ROLLING_GRID` and interpolated to t, so
     that it does not depend on the grid asked for; opposing the slip as every friction law
     does; 0 at ideal joints and without friction. Only the law's coefficient mu enters (its
@@ -217,11 +220,14 @@ def rolling_friction(problem: Problem, t: np.ndarray) -> np.ndarray:
     end = max(float(t.max()), 0.0)
     grid = np.linspace(0.0, end, max(int(np.ceil(end / ROLLING_GRID)) + 1, 2))
     slip = planned_slip(problem, grid)
+    v = ca.SX.sym("v")
+    acting = np.abs(np.array(ca.Function("law", [v], [friction_force(fe, v, 1.0)]).map(slip.size)(
+        slip.reshape(1, -1))).reshape(slip.shape)) / mu  # the share of mu the law gives at the slip
     for j, name in enumerate(problem.model.preload_joints):
         if name not in per:
             continue
         _, r_journal, r_bearing = (float(v) for v in per[name])
-        lam = rolled_fraction(grid, slip[:, j], np.arctan(mu) * (r_bearing - r_journal))
+        lam = rolled_fraction(grid, slip[:, j] * acting[:, j], np.arctan(mu) * (r_bearing - r_journal))
         out[:, j] = -mu * np.interp(t, grid, lam)  # friction opposes the slip
     return out
 
