@@ -291,7 +291,7 @@ def test_any_scheduler_address_ends_in_one_line_within_the_stated_time(tmp_path,
 def test_any_value_on_any_spec_key_is_a_spec_or_one_line(tmp_path):
     """Property (the bad-scene property, for sweep specs): whatever value lands on whatever
     key of a spec, parsing it ends in a SweepSpec or in a one-line SceneError."""
-    from hypothesis import HealthCheck, given, settings
+    from hypothesis import HealthCheck, example, given, settings
     from hypothesis import strategies as st
 
     base = yaml.safe_load(_spec(tmp_path).read_text())
@@ -305,6 +305,7 @@ def test_any_value_on_any_spec_key_is_a_spec_or_one_line(tmp_path):
 
     @settings(max_examples=120, deadline=None, suppress_health_check=list(HealthCheck))
     @given(key=st.sampled_from(keys), value=values)
+    @example(key="scene", value="\n")  # found by hypothesis: a file name with a newline in the message
     def check(key, value):
         spec = yaml.safe_load(yaml.safe_dump(base))
         head, _, rest = key.partition(".")
