@@ -663,8 +663,7 @@ def read_yaml(path, what: str = "scene"):
     """The data of a YAML file (`what` names it in errors: 'scene', 'sweep spec'), with the
     file checks: it exists, is a regular UTF-8 text file, valid YAML, no key given twice, not
     empty. Raises :class:`SceneError`."""
-    p = Path(path)
-    path = "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(path))  # one line, whatever its name
+    p, path = Path(path), "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(path))  # shown in one line
     if not p.exists():
         raise SceneError(f"{what} file '{path}' does not exist")
     if p.is_dir():
