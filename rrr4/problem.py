@@ -225,10 +225,15 @@ class Problem:
 
     @functools.cached_property
     def element_forces(self):
-        """'force_elements' Function (q, qd, t -> Q) of the time-independent force elements
-        (spring-dampers and the known constant loads), or None without any: what the effort family
-        of a graph balances besides gravity (tabulated loads are not in the controller's model)."""
-        return self._forces_function([i for i, e in enumerate(self.scene.forces) if e.known and not e.table])
+        """'force_elements' Function (q, qd, t -> Q) of the known time-independent force elements
+        (spring-dampers and constant loads) that the effort family balances besides gravity and
+        the closed form's :attr:`controller_loads`, or None without any (tabulated loads are not
+        in the controller's model). A graph's family balances them all; an n-RRR's closed form
+        takes its constant platform loads itself and these on top (:meth:`effort_family`), and
+        its controller then steps on tabulated references."""
+        taken = self.controller_loads
+        return self._forces_function([i for i, e in enumerate(self.scene.forces)
+                                      if e.known and not e.table and e not in taken])
 
     @functools.cached_property
     def plant_forces(self):
@@ -368,19 +373,25 @@ class Problem:
         task poses (N, 3) and their rates: the closed form of an n-RRR, else the graph's SVD
         (q: the graph's coordinates at the poses, if known). gravity (2,) [m/s^2]: default
         the scene's, with the force elements the controller knows (an n-RRR: constant loads on
-        the platform; a graph: spring-dampers and constant loads, :attr:`element_forces`);
+        the platform in closed form, and :attr:`element_forces`: spring-dampers and constant
+        loads anywhere);
         a given gravity means the inertial part with that gravity and no force elements."""
         pose, pose_d, pose_dd = (np.atleast_2d(np.asarray(v, float)) for v in (pose, pose_d, pose_dd))
+        mech, N = self.mechanism, pose.shape[0]
+        elements = self.element_forces if gravity is None else None
         if self.closed_form:
-            N = pose.shape[0]
-            return EffortFamily.from_raw(self.inverse_dynamics(gravity).map(N)(pose.T, pose_d.T, pose_dd.T))
-        mech = self.mechanism
+            fam = EffortFamily.from_raw(self.inverse_dynamics(gravity).map(N)(pose.T, pose_d.T, pose_dd.T))
+            if elements is None:
+                return fam
+            # the known elements the closed form does not take: their particular efforts and
+            # reactions (the family is linear in the loads; the null space is the same)
+            q, qd, _ = (np.array(v).T for v in mech.body_motion_function.map(N)(pose.T, pose_d.T, pose_dd.T))
+            external = np.array(elements.map(N)(q.T, qd.T, 0.0)).T
+            return fam.plus(graph_family(mech, q, np.zeros_like(q), (0.0, 0.0), external))
         k = mech.n_task
         q = mech.path_coordinates(pose[:, :k]) if q is None else np.asarray(q, float)
         qd, qdd, _, _ = mech.motion(q, pose_d[:, :k], pose_dd[:, :k])
-        external = None
-        if gravity is None and self.element_forces is not None:
-            external = np.array(self.element_forces.map(q.shape[0])(q.T, np.asarray(qd).T, 0.0)).T
+        external = None if elements is None else np.array(elements.map(N)(q.T, np.asarray(qd).T, 0.0)).T
         return graph_family(mech, q, qdd, self.gravity if gravity is None else gravity, external)
 
     def path_coordinates(self, pose, pose_d, pose_dd) -> np.ndarray:

@@ -88,7 +88,9 @@ class Mechanism:
         pad = ca.MX.zeros(rows.numel())
         qdm = ca.solve(A, ca.vertcat(pad, td), "lapacklu")
         _, gam, _, _ = self.constraint_jacobian_function(qm, qdm)
-        qddm = ca.solve(A, ca.vertcat(gam[:rows.numel()], tdd), "lapacklu")
+        # every row's gamma, the task rows' too: a task point off its body's origin moves on a
+        # circle about it, so its acceleration has the centripetal part -omega^2 u
+        qddm = ca.solve(A, gam + ca.vertcat(pad, tdd), "lapacklu")
         self.motion_function = ca.Function("motion", [qm, td, tdd], [qdm, qddm, Sm @ qdm, Sm @ qddm],
                                            ["q", "target_d", "target_dd"], ["qd", "qdd", "theta_d", "theta_dd"])
         self._n_rows = rows.numel()
@@ -542,6 +544,14 @@ class NRRRMechanism(Mechanism):
                                         z if pose_d is None else np.asarray(pose_d, float),
                                         z if pose_dd is None else np.asarray(pose_dd, float))
         return tuple(np.array(v).ravel() for v in out)
+
+    def assemble(self, target, offsets=None, guess=None) -> np.ndarray:
+        """As :meth:`Mechanism.assemble`; without a guess, Newton from the closed-form
+        coordinates in the scene's working modes (the bare graph names no assembly mode, so the
+        seeded search could close on another elbow)."""
+        if guess is None:
+            guess = self.body_motion(_vector("target", target, self.n_task))[0]
+        return super().assemble(target, offsets, guess)
 
     def seated_coordinates(self, pose, eccentricity) -> np.ndarray:
         """q (nq,) with the platform at pose (3,) and each passive joint B1..Bn, C1..Cn
