@@ -21,10 +21,11 @@ import yaml
 from rrr4 import build
 from rrr4.codegen import STEP_KERNELS, codegen, compile_library, load_library
 from rrr4.control import reference_grid, tabulated
+from rrr4.optimal import optimal_time_law
 from rrr4.preload import solve_preload
 from rrr4.scene import parse_scene
 
-from .test_right_numbers import path_case
+from .test_right_numbers import Case, path_case
 
 PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 LOAD = {"type": "load", "name": "gripper", "body": "distal_3", "point": [0.05, 0.01], "force": [1.5, -2.0],
@@ -44,7 +45,10 @@ def _scene(name: str, forces=(), **actuation):
 
 def _virtual_work_residual(problem, t, tau) -> float:
     """max_i |tau . d theta_i + W_i| / scale at the path instant t (see the module docstring)."""
-    case = path_case(problem, t)
+    return _case_residual(path_case(problem, t), tau)
+
+
+def _case_residual(case, tau) -> float:
     b = case.bodies
     _, qdd, _, _ = (v.ravel() for v in case.mech.motion(case.q0[None], case.v[None], case.a[None]))
     s, sd = b.element_coordinates(case.q0), case.rate(b.element_coordinates)
@@ -144,3 +148,17 @@ def _path_rows(problem, t):
 
     rows = path_rows(problem.path, t)
     return rows[:, 0:3], rows[:, 3:6], rows[:, 6:9]
+
+
+def test_time_optimal_law_on_a_graph_is_the_inverse_dynamics_of_its_motion():
+    """The five-bar's time-optimal law with a known load and spring (the contact condition on):
+    at grid points along it, its efforts satisfy the virtual work of its own motion."""
+    problem = build(_scene("redundant_five_bar", [LOAD, dict(SPRING, damping=0.0)]))
+    law = optimal_time_law(problem, points=60)
+    assert law.statistics["success"] and law.contact
+    k = problem.mechanism.n_task
+    for i in (7, 30, 52):
+        pose, v, a = law.pose[i, :k], law.pose_d[i, :k], law.pose_dd[i, :k]
+        case = Case(problem, lambda t, p=pose, v=v, a=a: p + v * t + a * t**2 / 2, v, a,
+                    problem.mechanism.assemble(pose))
+        assert _case_residual(case, law.efforts[i]) < 2e-6, i
