@@ -186,11 +186,7 @@ class Problem:
     def start_coordinates(self) -> np.ndarray:
         """q (nq,) of the ideal mechanism at t = 0: the task at the path's start, or the drivers
         at their initial values (the pose a spring's default free length is measured in)."""
-        mech = self.mechanism
-        if self.model.task is not None:
-            target = np.array(trajectory_function(self.scene.path)(0.0)[0]).ravel()[:mech.n_task]
-        else:
-            target = mech.driver_targets(0.0)[0]
+        target = self.start_target
         zero = np.zeros(len(target))
         return np.asarray(self.body_motion(target, zero, zero)[0], float).ravel()
 
@@ -394,6 +390,22 @@ class Problem:
         external = None if elements is None else np.array(elements.map(N)(q.T, np.asarray(qd).T, 0.0)).T
         return graph_family(mech, q, qdd, self.gravity if gravity is None else gravity, external)
 
+    @functools.cached_property
+    def branch_hint(self) -> str:
+        """'' or one sentence when the scene names no assembly mode and several close at t = 0
+        (:meth:`rrr4.Mechanism.branch_hint`): what a failure on the branch taken should add."""
+        if self.closed_form:
+            return ""
+        mech = self.mechanism
+        return mech.branch_hint(self.start_target)
+
+    @functools.cached_property
+    def start_target(self) -> np.ndarray:
+        """The task's coordinates at t = 0 (the path's start), or the drivers' initial values."""
+        if self.model.task is not None:
+            return np.array(trajectory_function(self.scene.path)(0.0)[0]).ravel()[:self.mechanism.n_task]
+        return self.mechanism.driver_targets(0.0)[0]
+
     def path_coordinates(self, pose, pose_d, pose_dd) -> np.ndarray:
         """q (N, nq) of every body with the task at poses (N, 3) (rates (N, 3) for the closed
         form): the closed form of an n-RRR, else Newton along the poses (continuation)."""
@@ -404,10 +416,14 @@ class Problem:
 
     def body_motion(self, target, target_d, target_dd):
         """q, qd, qdd (nq,) of every body with the task (or the drivers) at `target` and its
-        rates: the closed form of an n-RRR, else Newton and the velocity analysis."""
+        rates: the closed form of an n-RRR, else Newton and the velocity analysis. A point task
+        takes the first two entries of a pose [x, y, theta] and its rates (its body's angle is
+        free), as :meth:`rrr4.Mechanism.body_motion` does."""
         mech = self.mechanism
         if self.closed_form:
             return mech.body_motion(target, target_d, target_dd)
+        k = mech.n_task
+        target, target_d, target_dd = (np.asarray(v, float).ravel()[:k] for v in (target, target_d, target_dd))
         q0 = mech.assemble(target)
         qd0, qdd0, _, _ = (v.ravel() for v in mech.motion(q0, target_d, target_dd))
         return q0, qd0, qdd0

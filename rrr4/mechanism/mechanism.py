@@ -252,6 +252,43 @@ class Mechanism:
         return ", ".join(f"{j}: bend {sign(b)}, stretch {sign(d)} ({np.degrees(np.arctan2(b, d)):+.1f} deg)"
                          for j, (b, d) in zip(conds, v, strict=True))
 
+    def branches(self, target, starts: int = 48) -> list[np.ndarray]:
+        """One closure q per assembly branch that closes at `target` (from the pose guesses and
+        the first `starts` seeded starts), told apart by the bend sign at every knee (the joints
+        :meth:`branch_text` reports when no mode is named); [] when the scene names its mode (an
+        n-RRR names its chains' working modes) or has no knee."""
+        conds = _default_conditions(self.model)
+        if self.assembly or self.modes is not None or not conds:
+            return []
+        f = _mode_function(self.model, conds)
+        p = np.r_[_vector("target", target, self.n_task), np.zeros(self._n_rows)]
+        found: dict = {}
+        for q0 in itertools.chain([self.model.pose_guess], itertools.islice(self._seeds(), starts)):
+            q, res = self._newton(self._least_squares(q0, p), p)
+            signs = np.sign(np.array(f(q)).ravel()) if res <= 1e-9 else np.zeros(1)
+            if np.all(signs != 0):
+                found.setdefault(tuple(signs.astype(int)), self._chosen(q))
+        return list(found.values())
+
+    def branch_hint(self, target) -> str:
+        """'' or one sentence for a scene that names no assembly mode where several branches
+        close at `target`: how many, and the ``mechanism.assembly`` entries that name each."""
+        found = self.branches(target)
+        if len(found) < 2:
+            return ""
+        conds = _default_conditions(self.model)
+        f = _mode_function(self.model, conds)
+
+        def entries(q):
+            signs = np.array(f(q)).ravel()
+            return "[" + ", ".join(f"{{joint: {c.joint}, bend: '{'+' if v > 0 else '-'}'}}"
+                                   for c, v in zip(conds, signs, strict=True)) + "]"
+        taken = entries(self.assemble(target))
+        others = [e for e in map(entries, found) if e != taken]
+        more = f"; and {len(others) - 3} more" if len(others) > 3 else ""
+        return (f"{len(found)} assembly branches close here and the scene names none (the one taken: {taken}); "
+                f"another may be the one meant: name it in mechanism.assembly, e.g. {'; '.join(others[:3])}{more}")
+
     def tracked_coordinates(self, targets, q0) -> tuple[np.ndarray, np.ndarray]:
         """(q (N, nq), closed (N,) bool) along targets (N, n_task), by continuation from q0:
         each Newton solve starts from the last solution that closed (one ``mapaccum``, no Python
