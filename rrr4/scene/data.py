@@ -22,9 +22,11 @@ from .keys import key_steps, set_key
 __all__ = ["with_data", "values_changed", "changed_data", "data_describes", "set_values"]
 
 
-def with_data(scene, data):
+def with_data(scene, data, read):
     """`scene` holding a private copy of the mapping `data` it was parsed from, the table
-    files named there replaced by the rows the scene read (in scene order)."""
+    files named there replaced by the rows the scene read (in scene order), and the function
+    `read` (data, name -> Scene) that parsed it, which :meth:`Scene.with_values` calls again
+    (so this module and the schema need not import the reader)."""
     out = copy.deepcopy(data)
     path = out.get("path")
     if isinstance(path, dict) and isinstance(path.get("time_table"), str):
@@ -33,7 +35,7 @@ def with_data(scene, data):
     for e, element in zip(forces if isinstance(forces, list) else [], scene.forces, strict=False):
         if isinstance(e, dict) and isinstance(e.get("table"), str):
             e["table"] = [list(r) for r in element.table]
-    return replace(scene, data=out)
+    return replace(scene, data=out, read=read)
 
 
 def changed_data(scene, values: Mapping) -> dict:
@@ -45,7 +47,7 @@ def changed_data(scene, values: Mapping) -> dict:
                          "e.g. {'joints.radial_clearance': 1.2e-4})")
     for k in values:
         key_steps(k)  # one line naming a malformed key
-    if scene.data is None:
+    if scene.data is None or scene.read is None:
         raise SceneError(f"scene {scene.name!r}: has no YAML data to change (it was built from dataclasses or "
                          "changed with with_joints; read it with rrr4.load_scene or rrr4.scene.parse_scene)")
     if not scene.data_current:
@@ -64,16 +66,14 @@ def set_values(data: dict, values: Mapping) -> dict:
 
 def values_changed(scene, values: Mapping, name: str | None = None):
     """:meth:`rrr4.scene.Scene.with_values` (see there)."""
-    from .reader import parse_scene  # the reader builds scenes with this module's with_data
     data = changed_data(scene, values)
-    return parse_scene(data, name=scene.name if name is None else name)
+    return scene.read(data, name=scene.name if name is None else name)
 
 
 def data_describes(scene) -> bool:
     """True if ``scene.data`` read again gives `scene` (name included)."""
-    from .reader import parse_scene
     try:
-        again = parse_scene(scene.data, name=scene.name)
+        again = scene.read(scene.data, name=scene.name)
     except SceneError:
         return False
     return again == scene

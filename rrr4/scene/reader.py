@@ -587,7 +587,7 @@ def parse_scene(data, name: str = "scene", source: str = "") -> Scene:
     if scene.integrator.step > p.duration:
         raise SceneError(f"integrator.step: {scene.integrator.step:g} s is not allowed (must not exceed "
                          f"path.duration = {p.duration:g} s)")
-    return with_data(scene, data)
+    return with_data(scene, data, parse_scene)
 
 
 class _UniqueKeyLoader(yaml.SafeLoader):

@@ -4,7 +4,7 @@ key says otherwise. Plain data: nothing here knows how a scene is read or simula
 from __future__ import annotations
 
 import functools
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 
 from ..checks import argument, describe
@@ -337,6 +337,8 @@ class Scene:
     # the YAML mapping it was read from, table files inlined (rrr4.scene.data); None when
     # built from dataclasses. Read-only: change a scene with with_values.
     data: dict | None = field(default=None, compare=False, repr=False)
+    # what read it from its data (rrr4.scene.parse_scene), which with_values calls again
+    read: Callable | None = field(default=None, compare=False, repr=False)
 
     def with_values(self, values: Mapping, name: str | None = None) -> Scene:
         """This scene with the YAML values at dotted keys replaced (``{'joints.radial_clearance':
@@ -354,7 +356,7 @@ class Scene:
     def data_current(self) -> bool:
         """True if :attr:`data` read again gives this scene (False after a change made with
         ``dataclasses.replace``, which :meth:`with_values` would lose; checked once)."""
-        return self.data is not None and data_describes(self)
+        return self.data is not None and self.read is not None and data_describes(self)
 
     def _with_data_values(self, values: dict) -> dict | None:
         """:attr:`data` with `values` set in a copy (None stays None): the YAML side of an
