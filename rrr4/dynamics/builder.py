@@ -235,9 +235,10 @@ def build_equations(model: Model, effects: Effects, mode: str, parameters, v_min
     ``parameters``: 'contact' (default) or 'geometry' (the contact numbers, masses, inertias
     and joint points; about 20 % more instructions, since zeros and ones in the geometry no
     longer simplify, for sweeps over the mechanism). The parametric equations are built on
-    every call (``Problem.equations`` keeps them, once per structure and options). forces: the scene's force elements (:mod:`rrr4.dynamics.elements`;
-    their numbers follow the contact numbers in ``parameters``). Raises SceneError if the
-    actuation mode over-constrains the mechanism.
+    every call (``Problem.equations`` keeps them, once per structure and options). forces:
+    the scene's force elements (:mod:`rrr4.dynamics.elements`; their numbers follow the
+    contact numbers in ``parameters``). Raises SceneError if the actuation mode
+    over-constrains the mechanism.
     """
     return with_parameters(parametric_equations(model, effects, mode, v_min, baumgarte, inputs, forces), parameters)
 
