@@ -119,6 +119,13 @@ def test_bad_values_end_in_one_line_naming_the_key(paper_scene, values, parts):
     _one_line(e, *parts)
 
 
+def test_the_problem_cache_is_keyed_by_the_scenes_content_only(paper_data, paper_scene):
+    python_built = parse_scene(paper_data)  # no file, the same content
+    assert python_built.source == "" and paper_scene.source
+    assert rrr4.build(python_built) is rrr4.build(paper_scene)
+    assert rrr4.build(python_built.with_values({CLEARANCE: 1.05e-4})) is not rrr4.build(paper_scene)
+
+
 # ---------------------------------------------------------------------- studies on a scene built in Python
 
 
