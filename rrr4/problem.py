@@ -324,7 +324,7 @@ class Problem:
         """The Problem of one of the structure keys ('controller', 'plant', 'geometry',
         'path', 'preload'): shared by every problem of that structure, so what is cached on it (its
         :meth:`memo`) is built once for all of them."""
-        return _problem(getattr(self, f"{key}_key"), "")
+        return _problem(getattr(self, f"{key}_key"))
 
     def memo(self, key, build):
         """build() once per problem and key (what is built and compiled for this problem)."""
@@ -459,9 +459,11 @@ def _without_clearance_numbers(graph):
 
 
 @functools.lru_cache(maxsize=64)
-def _problem(scene: Scene, source: str = "") -> Problem:
-    """The Problem of `scene`, built once per scene and source file (Scene.source does not
-    take part in a scene's equality, but a problem reports and re-reads its file)."""
+def _problem(scene: Scene) -> Problem:
+    """The Problem of `scene`, built once per scene content: keyed by the scene's equality,
+    which leaves out its source file and YAML data (Scene.source, Scene.data), so two equal
+    scenes share one Problem (and ``problem.scene`` is the first of them). The 64 most
+    recently used are kept."""
     return Problem(scene)
 
 

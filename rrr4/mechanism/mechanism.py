@@ -51,6 +51,7 @@ class Mechanism:
     """
 
     def __init__(self, model: Model):
+        self._memo: dict = {}  # what is derived from this mechanism, see memo
         self.model = model
         self.n = model.n_actuators
         self.nq = model.nq
@@ -102,6 +103,15 @@ class Mechanism:
         self.mode_function = ca.Function("assembly_mode", [q], [_mode_values(model, q, g.assembly)], ["q"], ["mode"])
         self.assembled_branch = None  # the branch the last assembly without a guess chose, see assemble
         self._rng_scale = _scene_scale(model)
+
+    def memo(self, key, build):
+        """build() once per mechanism and key: what is derived from this mechanism alone (its
+        closed-form inverse dynamics, branch functions) lives on it and goes with it, never in
+        a module-level cache keyed by the mechanism's identity. Mechanisms themselves are
+        cached per scene graph (:meth:`from_scene`, the :data:`MECHANISMS` most recent)."""
+        if key not in self._memo:
+            self._memo[key] = build()
+        return self._memo[key]
 
     # ------------------------------------------------------------------ construction
 
@@ -240,11 +250,13 @@ class Mechanism:
         revolute joint between two bodies with one other joint each, the loops' knees) the
         signs of bend and stretch and the angle from the first body's line to the second's,
         e.g. 'C: bend +, stretch - (+131.2 deg)'."""
-        conds = {m.joint: m for m in self.assembly or _default_conditions(self.model)}
+        conds = {m.joint: m for m in self.assembly or self.memo(("default_conditions",),
+                                                                  lambda: _default_conditions(self.model))}
         if not conds:
             return "the only one (no loop)"
         both = tuple(replace(m, measure=k) for m in conds.values() for k in ("bend", "stretch"))
-        v = np.array(_mode_function(self.model, both)(np.asarray(q, float))).ravel().reshape(-1, 2)
+        branch = self.memo(("branch", both), lambda: _mode_function(self.model, both))
+        v = np.array(branch(np.asarray(q, float))).ravel().reshape(-1, 2)
 
         def sign(x):
             return "+" if x > 1e-6 else "-" if x < -1e-6 else "0"
@@ -651,13 +663,11 @@ def _mode_values(model: Model, q, conditions) -> ca.SX:
     return ca.vertcat(*out) if out else ca.SX(0, 1)
 
 
-@functools.cache
 def _mode_function(model: Model, conditions) -> ca.Function:
     q = ca.SX.sym("q", model.nq)
     return ca.Function("branch", [q], [_mode_values(model, q, conditions)])
 
 
-@functools.cache
 def _default_conditions(model: Model) -> tuple:
     """bend at every revolute joint between two bodies that each have one other joint (the
     knees of the loops: a four-bar's coupler-rocker joint, an RRR chain's elbow)."""
@@ -689,11 +699,14 @@ def _scene_scale(model: Model) -> tuple[float, np.ndarray]:
     return max(L, 1e-3), centre
 
 
-@functools.cache
+MECHANISMS = 64  # mechanisms kept per scene graph (a geometry sweep makes one per case)
+
+
+@functools.lru_cache(maxsize=MECHANISMS)
 def _nrrr(data: NRRRSpec, graph) -> NRRRMechanism:
     return NRRRMechanism(data, graph)
 
 
-@functools.cache
+@functools.lru_cache(maxsize=MECHANISMS)
 def _generic(graph) -> Mechanism:
     return Mechanism(Model.of(graph))
