@@ -22,9 +22,10 @@ import numpy as np
 from ..checks import describe
 from ..errors import KinematicsError, SceneError
 from ..functions import QUIET
-from ..scene import GROUND, AssemblyMode, NRRRSpec, Scene, bare_nrrr_graph
+from ..scene import GROUND, NRRRSpec, Scene, bare_nrrr_graph
 from . import kinematics as kin
 from .model import Model
+from .modes import knee_conditions, mode_function, mode_values
 
 __all__ = ["Mechanism", "NRRRMechanism", "wrap_angle"]
 
@@ -100,7 +101,7 @@ class Mechanism:
         p = ca.vertcat(target, offset)
         self._residual_jacobian = ca.Function("assembly_jacobian", [q, p], [residual, Jf])
         self.assembly = g.assembly
-        self.mode_function = ca.Function("assembly_mode", [q], [_mode_values(model, q, g.assembly)], ["q"], ["mode"])
+        self.mode_function = ca.Function("assembly_mode", [q], [mode_values(model, q, g.assembly)], ["q"], ["mode"])
         self.assembled_branch = None  # the branch the last assembly without a guess chose, see assemble
         self._rng_scale = _scene_scale(model)
 
@@ -250,12 +251,11 @@ class Mechanism:
         revolute joint between two bodies with one other joint each, the loops' knees) the
         signs of bend and stretch and the angle from the first body's line to the second's,
         e.g. 'C: bend +, stretch - (+131.2 deg)'."""
-        conds = {m.joint: m for m in self.assembly or self.memo(("default_conditions",),
-                                                                  lambda: _default_conditions(self.model))}
+        conds = {m.joint: m for m in self.assembly or self._knees()[0]}
         if not conds:
             return "the only one (no loop)"
         both = tuple(replace(m, measure=k) for m in conds.values() for k in ("bend", "stretch"))
-        branch = self.memo(("branch", both), lambda: _mode_function(self.model, both))
+        branch = self.memo(("branch", both), lambda: mode_function(self.model, both))
         v = np.array(branch(np.asarray(q, float))).ravel().reshape(-1, 2)
 
         def sign(x):
@@ -264,15 +264,21 @@ class Mechanism:
         return ", ".join(f"{j}: bend {sign(b)}, stretch {sign(d)} ({np.degrees(np.arctan2(b, d)):+.1f} deg)"
                          for j, (b, d) in zip(conds, v, strict=True))
 
+    def _knees(self) -> tuple:
+        """(the bend conditions at the loops' knees, their Function q -> values), built once."""
+        def build():
+            conds = knee_conditions(self.model)
+            return conds, mode_function(self.model, conds)
+        return self.memo(("knees",), build)
+
     def branches(self, target, starts: int = 48) -> list[np.ndarray]:
         """One closure q per assembly branch that closes at `target` (from the pose guesses and
         the first `starts` seeded starts), told apart by the bend sign at every knee (the joints
         :meth:`branch_text` reports when no mode is named); [] when the scene names its mode (an
         n-RRR names its chains' working modes) or has no knee."""
-        conds = _default_conditions(self.model)
+        conds, f = self._knees()
         if self.assembly or self.modes is not None or not conds:
             return []
-        f = _mode_function(self.model, conds)
         p = np.r_[_vector("target", target, self.n_task), np.zeros(self._n_rows)]
         found: dict = {}
         for q0 in itertools.chain([self.model.pose_guess], itertools.islice(self._seeds(), starts)):
@@ -288,8 +294,7 @@ class Mechanism:
         found = self.branches(target)
         if len(found) < 2:
             return ""
-        conds = _default_conditions(self.model)
-        f = _mode_function(self.model, conds)
+        conds, f = self._knees()
 
         def entries(q):
             signs = np.array(f(q)).ravel()
@@ -646,45 +651,6 @@ def wrap_angle(a):
     """a wrapped to (-pi, pi]."""
     a = np.asarray(a, float)
     return np.pi - np.mod(np.pi - a, 2 * np.pi)
-
-
-def _mode_values(model: Model, q, conditions) -> ca.SX:
-    """The normalised cross (bend) or dot (stretch) product of u = joint - a's reference and
-    v = b's reference - joint at each condition's joint (see :class:`rrr4.scene.AssemblyMode`)."""
-    out = []
-    for m in conditions:
-        j = model.graph.joint(m.joint)
-        a, b = j.bodies
-        joint = model.point(q, a, j.points[0])
-        u = joint - model.point(q, a, m.points[0])
-        v = model.point(q, b, m.points[1]) - joint
-        num = u[0] * v[1] - u[1] * v[0] if m.measure == "bend" else u[0] * v[0] + u[1] * v[1]
-        out.append(num / ca.sqrt(ca.sumsqr(u) * ca.sumsqr(v) + 1e-300))
-    return ca.vertcat(*out) if out else ca.SX(0, 1)
-
-
-def _mode_function(model: Model, conditions) -> ca.Function:
-    q = ca.SX.sym("q", model.nq)
-    return ca.Function("branch", [q], [_mode_values(model, q, conditions)])
-
-
-def _default_conditions(model: Model) -> tuple:
-    """bend at every revolute joint between two bodies that each have one other joint (the
-    knees of the loops: a four-bar's coupler-rocker joint, an RRR chain's elbow)."""
-    joints = model.graph.joints
-    out = []
-    for j in joints:
-        if j.type != "revolute" or GROUND in j.bodies:
-            continue
-        refs = []
-        for k, body in enumerate(j.bodies):
-            other = [o for o in joints if o.name != j.name and body in o.bodies]
-            if len(other) == 1 and np.hypot(*np.subtract(other[0].points[other[0].bodies.index(body)],
-                                                          j.points[k])) > 1e-12:
-                refs.append(tuple(other[0].points[other[0].bodies.index(body)]))
-        if len(refs) == 2:
-            out.append(AssemblyMode(j.name, "bend", 1, (refs[0], refs[1])))
-    return tuple(out)
 
 
 def _scene_scale(model: Model) -> tuple[float, np.ndarray]:
