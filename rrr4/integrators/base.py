@@ -42,6 +42,7 @@ from ..errors import Rrr4Error
 from ..files import stop_requested
 from ..functions import evaluate
 
+BACKGROUND = "background"  # jit: compile the stepping in a process of its own, step in the VM until it is done
 CALLS = 20  # calls from Python that a run's stepping is split into (progress-bar updates)
 # output intervals per call at most: CasADi's mapaccum over k intervals takes memory that grows
 # with k while it is built (measured: 14 MB at k = 100, 160 MB at 1000) and keeps part of it as
@@ -305,8 +306,9 @@ class FixedStepIntegrator(Integrator):
         """States at the end of every `every`-th frame, (n_frames / every, system.kept), and
         statistics; u_frames (n_frames, nu), an array or :class:`FrameInputs`; n_frames a
         multiple of `every`; sink: see :meth:`Integrator.run`."""
-        return Run(self.roll(system, x0, u_frames, h, steps_per_frame, chunk, progress, every=every,
-                             sink=sink)[0], {})
+        states, _, stepping = self.roll(system, x0, u_frames, h, steps_per_frame, chunk, progress, every=every,
+                                        sink=sink)
+        return Run(states, {"stepping": stepping})
 
     def roll(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int | None = None,
              progress: bool = False, every: int = 1, sink=None) -> tuple[np.ndarray | None, np.ndarray]:
@@ -330,11 +332,18 @@ class FixedStepIntegrator(Integrator):
             if every > 1:
                 xu, uu = ca.MX.sym("x", unit.size1_in(0)), ca.MX.sym("u", unit.size1_in(1), every)
                 unit = ca.Function("interval", [xu, uu], [unit.fold(every)(xu, uu)], ["x", "u"], ["x_next"])
-            if self.jit:  # generated C of the whole loop, cached on disk (see .compiled)
+            if self.jit == BACKGROUND:  # the C compiled by a process of its own; the VM steps meanwhile
+                from .compiled import compiled_later
+                ready, pending = compiled_later(unit, system.c_sources)
+                if ready is None:
+                    system.frames[key, "pending"] = pending
+                unit = ready or unit
+            elif self.jit:  # generated C of the whole loop, cached on disk (see .compiled)
                 from .compiled import compiled
                 unit = compiled(unit, system.c_sources)
             system.frames[key] = unit
         unit = system.frames[key]
+        stepping = {"compiled": bool(self.jit) and (key, "pending") not in system.frames, "compiled_from_frame": None}
         n_units = n_frames // every
         chunk = max(1, chunk // every) if chunk else min(max(1, -(-n_units // CALLS)), MAX_CHUNK)  # intervals per call
         x = np.asarray(x0, float)
@@ -349,6 +358,9 @@ class FixedStepIntegrator(Integrator):
                 if stop_requested():  # an interrupt lost inside a solver (see rrr4.files.request_stop)
                     raise KeyboardInterrupt
                 k = min(chunk, n_units - k0)
+                if (key, "pending") in system.frames and system.frames[key, "pending"].exists():
+                    unit = self._switch_to_compiled(system, key)  # the same states, bit for bit, from here on
+                    stepping.update(compiled=True, compiled_from_frame=k0 * every)
                 if (key, k, keep) not in system.frames:  # the kept rows at each output and the last full state
                     xm, um = ca.MX.sym("x", x.size), ca.MX.sym("u", u_frames.shape[1], k * every)
                     xs = unit.mapaccum("outputs", k)(xm, um)
@@ -369,4 +381,16 @@ class FixedStepIntegrator(Integrator):
         finally:  # an error or interrupt must not leave a half-drawn bar under its message
             if bar is not None:
                 bar.close()
-        return out, x
+        return out, x, stepping
+
+    @staticmethod
+    def _switch_to_compiled(system: System, key) -> ca.Function:
+        """The frame of `key` from its library compiled in the background (now on disk), in
+        place of the virtual machine's; the chunk Functions built on the old one are dropped."""
+        from .compiled import load
+        lib = system.frames.pop((key, "pending"))
+        unit = load(system.frames[key].name(), lib)
+        system.frames[key] = unit
+        for k in [k for k in system.frames if isinstance(k, tuple) and len(k) == 3 and k[0] == key]:
+            del system.frames[k]
+        return unit

@@ -39,7 +39,7 @@ from ..dynamics.builder import with_profiles
 from ..errors import SceneError, SimulationError
 from ..files import c_compiler
 from ..functions import graph_size, mapped
-from ..integrators import METHODS, FrameInputs, Integrator
+from ..integrators import BACKGROUND, METHODS, FrameInputs, Integrator
 from ..problem import Problem
 from ..scene import MAX_SAMPLES, IntegratorSettings, Scene
 from .initial import initial_state
@@ -57,12 +57,16 @@ MAX_STEPS = 1e10  # integrator steps one simulate call may take
 _NO_COMPILER_WARNED = False
 
 
-def default_jit() -> bool:
-    """Whether simulate compiles its stepping by default: when a C compiler exists (cached on
-    disk, so a scene compiles once), unless the environment sets RRR4_JIT=0. Without a
-    compiler it warns once and steps in CasADi's virtual machine, 5 to 10 times slower."""
+def default_jit() -> bool | str:
+    """How simulate steps by default: where a C compiler exists, 'background' (a frame whose
+    library is in the on-disk cache steps in it; otherwise a process of its own compiles it
+    while CasADi's virtual machine steps, and the run moves to the library, bit for bit the
+    same states, at its next block once it is ready, or the next run does: a first run never
+    waits for the compiler); RRR4_JIT=1 compiles first and then steps (True), RRR4_JIT=0 never
+    compiles (False). Without a compiler it warns once and steps in the virtual machine."""
     global _NO_COMPILER_WARNED
-    if os.environ.get("RRR4_JIT", "1").strip() == "0":
+    forced = os.environ.get("RRR4_JIT", "").strip()
+    if forced == "0":
         return False
     if c_compiler() is None:
         if not _NO_COMPILER_WARNED:
@@ -70,7 +74,7 @@ def default_jit() -> bool:
                           "machine, several times slower", RuntimeWarning, stacklevel=3)
             _NO_COMPILER_WARNED = True
         return False
-    return True
+    return True if forced == "1" else BACKGROUND
 
 
 def _integrator(settings: IntegratorSettings, integrator, jit: bool) -> Integrator:
@@ -142,8 +146,11 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
     with t, tau, e.g. a PreloadSolution: the feed-forward efforts instead of the controller's
     own), model (a Scene: the controller's model of the simulated mechanism, default the scene
     itself; e.g. nominal parameters against a mechanism built with tolerances), v_min [m/s],
-    baumgarte [rad/s], jit (step in compiled C; default: yes when a C
-    compiler exists and RRR4_JIT is not 0, see :func:`default_jit`), progress (bar),
+    baumgarte [rad/s], jit (True: compile the stepping, then step in C; False: CasADi's
+    virtual machine; 'background': the library if cached, else the virtual machine while a
+    process of its own compiles it, moving to it once ready; default :func:`default_jit`:
+    'background' where a C compiler exists, RRR4_JIT=1 or 0 forcing either way; ``stats``
+    records how the run stepped under 'stepping'), progress (bar),
     references: 'exact' (default; an n-RRR controller runs its closed form inside every
     right-hand side, or at every control instant when sampled) or 'sampled' (its references,
     feed-forward included, evaluated once per path sample and interpolated, cubic Hermite:
@@ -183,7 +190,8 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
     if overrides.get("wear"):  # worn profiles: other input numbers, the same compiled code
         eqs = with_profiles(eqs, overrides["wear"])
     jit = overrides.get("jit")
-    method = _integrator(scene.integrator, integrator, default_jit() if jit is None else bool(jit))
+    method = _integrator(scene.integrator, integrator,
+                         default_jit() if jit is None else BACKGROUND if jit == BACKGROUND else bool(jit))
     model = problem.model
     model_scene = overrides.get("model") or scene
     if isinstance(model_scene, Problem):
@@ -232,6 +240,7 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
         raise SimulationError(_failure_message(failure, method.name, eqs, outputs))
     stats = {"method": method.name, "step": h, "steps": spf * n_frames, "frames": len(t_out) - 1, "wall_time": wall,
              "input_time": u.seconds, "output_time": outputs.seconds, "jit": method.jit, "v_min": eqs.v_min,
+             "stepping": run.stats.get("stepping"),
              "graph": {f.name(): graph_size(f) for f in (eqs.acceleration, system.ode)},
              "controller": (controller if loop.control is not None else "none"),
              "coordinates": "tree" if tree else "reference-point",
