@@ -51,7 +51,8 @@ from .family import PathFamily, path_family
 from .reachability import X_CAP, point_rows, project_out, recover_alpha, time_optimal_speeds
 
 __all__ = ["OptimalTimeLaw", "optimal_time_law", "binding_counts", "optimum_summary", "OBJECTIVES", "MAX_POINTS",
-           "contact_directions", "SOLVERS"]
+           "contact_directions", "SOLVERS",
+           "time_law_functions"]
 
 MAX_POINTS = 100_000
 SOLVERS = ("reachability", "convex")   # of the time law: TOPP-RA, the convex program (IPOPT)
@@ -218,6 +219,12 @@ def optimal_time_law(scene, objective: str = "time", *, points: int = 1000, cont
     setup = _Setup(problem, fam, objective, contact, null_space, duration, effort_weight, bounds, ends, f_min)
     results, failures = {}, {}
     for sg in signs:
+        if solver == "reachability":   # the check at rest only names the constraint where no law exists
+            try:
+                results[sg] = setup.solve_reachability(sg)
+            except InfeasibleError as e:
+                failures[sg] = setup.at_rest(sg) or str(e)
+            continue
         where = setup.at_rest(sg)
         if where:
             failures[sg] = where
@@ -237,6 +244,20 @@ def optimal_time_law(scene, objective: str = "time", *, points: int = 1000, cont
     best.statistics.update(duration_by_sign={f"{k:+d}": v for k, v in by_sign.items()},
                            at_rest_infeasible={f"{k:+d}": v for k, v in failures.items()})
     return best
+
+
+def time_law_functions(scene, points: int = 1000, *, sign: int = 1, contact: bool = True,
+                       null_space: bool = True, f_min: float | None = None):
+    """What both solvers of the time objective constrain, for cross-checks and benchmarks:
+    (family, F, lo, hi, labels), F (N+1, nf, 3 + m) the scaled coefficients of (a, b, alpha...,
+    1) of every constrained function at every grid point and lo <= F . (a, b, alpha, 1) <= hi
+    (nf,) (see :meth:`_Setup.function_array`; the arguments as :func:`optimal_time_law`'s)."""
+    problem = Problem.from_scene(scene)
+    fam = path_family(problem, np.linspace(0.0, 1.0, _grid(points) + 1))
+    f_min = problem.scene.actuation.preload.min_force if f_min is None else argument("f_min", f_min)
+    none = dict.fromkeys(("max_speed", "max_task_speed", "max_task_acceleration"))
+    setup = _Setup(problem, fam, "time", contact, null_space, None, 1.0, none, (0.0, 0.0), f_min)
+    return (fam, *setup.function_array(sign))
 
 
 def _solver(solver, objective, m, max_task_acceleration) -> str:
@@ -376,6 +397,15 @@ class _Setup:
                 hi_f.append(np.inf)
         return efforts, coefs, scale, labels, np.array(lo_f), np.array(hi_f)
 
+    def function_array(self, sign):
+        """F (N+1, nf, 3 + m): per point and function the coefficients of (a, b, alpha..., 1),
+        scaled so that the bounds lo_f, hi_f (nf,) are -1, 1 (actuators) or 1, inf (contact);
+        and the functions' labels."""
+        _, coefs, scale, labels, lo_f, hi_f = self._functions(sign)
+        F = np.stack([np.column_stack([sc * c_a, sc * c_b, sc * c_n, sc * c_g])
+                      for (c_a, c_b, c_g, c_n), sc in zip(coefs, scale, strict=True)], axis=1)
+        return F, lo_f, hi_f, labels
+
     def speed_bounds(self) -> np.ndarray:
         """(N+1,) the largest b = s_dot^2 the speed bounds allow (inf where none)."""
         fam = self.fam
@@ -396,9 +426,7 @@ class _Setup:
         """The time objective by reachability analysis (:mod:`rrr4.optimal.reachability`)."""
         fam, m, N1 = self.fam, self.m, len(self.fam.s)
         t0 = time.perf_counter()
-        efforts, coefs, scale, labels, lo_f, hi_f = self._functions(sign)
-        F = np.stack([np.column_stack([sc * c_a, sc * c_b, sc * c_n, sc * c_g])
-                      for (c_a, c_b, c_g, c_n), sc in zip(coefs, scale, strict=True)], axis=1)
+        F, lo_f, hi_f, labels = self.function_array(sign)
         G, h, margin = point_rows(F, lo_f, hi_f, np.array([lab.startswith("contact") for lab in labels]))
         G2, h2 = project_out(G, h)
         X = np.minimum(self.speed_bounds(), X_CAP)
@@ -572,8 +600,7 @@ class _Setup:
             slack.append((1.0 - acc / self.bounds["max_task_acceleration"])[:, None])
             names.append("task acceleration")
         S = np.concatenate(slack, axis=1)
-        out = []
-        for row in S:
-            idx = [i for i in np.argsort(row) if row[i] < BINDING_TOL]
-            out.append(", ".join(names[i] for i in idx))
-        return tuple(out)
+        order = np.argsort(S, axis=1, kind="stable")
+        count = (S < BINDING_TOL).sum(axis=1)
+        return tuple(", ".join(names[i] for i in row[:n])
+                     for row, n in zip(order.tolist(), count.tolist(), strict=True))
