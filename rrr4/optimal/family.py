@@ -26,6 +26,7 @@ import casadi as ca
 import numpy as np
 
 from ..dynamics.family import EffortFamily
+from ..functions import mapped_function
 from ..problem import Problem
 from ..trajectory import path_geometry_function
 
@@ -66,8 +67,7 @@ def path_family(problem: Problem, s) -> PathFamily:
     s = np.asarray(s, float).ravel()
     N = len(s)
     if problem.closed_form:
-        out = [np.asarray(v, float) for v in problem.memo(("path_family", N), lambda: _family_function(problem).map(N))(
-            s[None, :])]
+        out = [np.asarray(v, float) for v in mapped_function(_family_function(problem), N)(s[None, :])]
         pose, pose_s, pose_ss = (v.T for v in out[:3])
         acc, vel, rest = (EffortFamily.from_raw(out[i:i + 4]) for i in (3, 7, 11))
         return PathFamily(s, pose, pose_s, pose_ss, acc.tau_p, vel.tau_p, rest.tau_p, rest.tau_n,

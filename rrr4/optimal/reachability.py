@@ -203,11 +203,6 @@ def _envelope(P, Q, lo, hi):
     return P[idx, cols].T.tolist(), Q[idx, cols].T.tolist()
 
 
-def _lines_min(P, Q, w):
-    """min over the lines P w + Q (lists)."""
-    return min([p * w + q for p, q in zip(P, Q, strict=True)])
-
-
 def _stages(G2, h2, ds, X):
     """The stages' rows over (c, x), box first and the rest in Seidel's random order, as two
     groups (stages 0..N-2; the last stage, with the last point's rows too), with their upper
@@ -271,13 +266,14 @@ def time_optimal_speeds(G2, h2, ds, X, x_start, x_end):
             return None, f"stage {k}"
         a = min(a, b)
         ct, cb = min(max(top_c[k], a), b), min(max(bottom_c[k], a), b)
-        hi[k] = min(_lines_min(PH[k], QH[k], ct), top_x[k])
-        lo[k] = min(max(-_lines_min(PL[k], QL[k], cb), bottom_x[k]), hi[k])
+        hi[k] = min(min([p * ct + q for p, q in zip(PH[k], QH[k], strict=True)]), top_x[k])
+        lo[k] = min(max(-min([p * cb + q for p, q in zip(PL[k], QL[k], strict=True)]), bottom_x[k]), hi[k])
     if not lo[0] - TOL * (1.0 + lo[0]) <= x_start <= hi[0] + TOL * (1.0 + hi[0]):
         return None, "start"
     x = [x_start] * (N + 1)
     for k in range(N):                 # forward: the greedy pass
-        x[k + 1] = max(min(_lines_min(PC[k], QC[k], x[k]), hi[k + 1]), lo[k + 1])
+        xk = x[k]
+        x[k + 1] = max(min(min([p * xk + q for p, q in zip(PC[k], QC[k], strict=True)]), hi[k + 1]), lo[k + 1])
     return np.array(x), ""
 
 
@@ -298,11 +294,17 @@ def recover_alpha(G, h, margin, preferred):
     if not margin.any():
         return np.clip(preferred[:, 0], a_lo, a_hi)[:, None]
     # slack of margin row j: s_j(alpha) = h_j - g_j alpha; the largest min_j s_j over [a_lo, a_hi]
-    # lies at an end or where two slacks of opposite slopes cross
+    # lies at the end its slopes point to where they agree in sign (the contact rows of one
+    # null-space direction do), else at an end or where two slacks of opposite slopes cross
     gm, hm = g[margin], h[margin]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        cross = ((hm[:, None] - hm[None]) / (gm[:, None] - gm[None])).reshape(-1, K)
-    cand = np.concatenate([a_lo[None], a_hi[None], cross], axis=0)
-    cand = np.clip(np.where(np.isfinite(cand), cand, a_lo), a_lo, a_hi)
-    slack = (hm[None] - gm[None] * cand[:, None]).min(axis=1)
-    return cand[np.argmax(slack, axis=0), np.arange(K)][:, None]
+    alpha = np.where((gm >= 0).all(axis=0), a_lo, a_hi)
+    mixed = np.flatnonzero((gm > TOL).any(axis=0) & (gm < -TOL).any(axis=0))
+    if mixed.size:
+        gx, hx, lo, hi = gm[:, mixed], hm[:, mixed], a_lo[mixed], a_hi[mixed]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cross = ((hx[:, None] - hx[None]) / (gx[:, None] - gx[None])).reshape(-1, mixed.size)
+        cand = np.concatenate([lo[None], hi[None], cross], axis=0)
+        cand = np.clip(np.where(np.isfinite(cand), cand, lo), lo, hi)
+        slack = (hx[None] - gx[None] * cand[:, None]).min(axis=1)
+        alpha[mixed] = cand[np.argmax(slack, axis=0), np.arange(mixed.size)]
+    return alpha[:, None]
