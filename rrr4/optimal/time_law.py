@@ -15,16 +15,21 @@ s_ddot in time), and point k uses a_k (the last point a_{N-1}). With the affine 
 are linear in (a, b, alpha) (the acceleration bound is a convex quadratic). The duration
 sum 2 ds / (c_k + c_{k+1}) and the effort integral sum (tau^T W tau) 2 ds / (c_k + c_{k+1})
 (W the preload weights) are convex, so the program is convex (Verscheure et al., IEEE TAC
-54(10), 2009) and IPOPT, on CasADi's sparse (banded) derivatives, finds its global optimum.
-The relaxation c <= sqrt(b) keeps every function smooth where the path is at rest.
+54(10), 2009) and IPOPT, on CasADi's sparse (banded) derivatives, finds its global optimum
+(solver 'convex'). The relaxation c <= sqrt(b) keeps every function smooth where the path is
+at rest. The time objective is solved by default by reachability analysis (solver
+'reachability', :mod:`rrr4.optimal.reachability`, TOPP-RA): its scheme holds each point with
+the acceleration of the segment after it (the last point with the last segment's), one
+alpha per point; the two discretisations differ by O(1/N).
 
 Objectives: 'time'; 'effort' at a given duration; 'time+effort' (time plus effort_weight
 times the effort integral). ``contact=False`` drops the contact rows, ``null_space=False``
 fixes alpha = 0 (the minimum-norm efforts), so a user sees what each costs. Where the
 layer would pick one sign for all joints, both are solved and the faster kept; both are
-reported. Before solving, the path is checked at rest (a = b = 0): if no null-space effort
-within the limits meets the contact condition somewhere, or the limits cannot hold the
-path at rest, :class:`~rrr4.errors.InfeasibleError` names where and which constraint.
+reported. Before the convex program solves, the path is checked at rest (a = b = 0): if no
+null-space effort within the limits meets the contact condition somewhere, or the limits
+cannot hold the path at rest, :class:`~rrr4.errors.InfeasibleError` names where and which
+constraint (the reachability analysis runs the check where it finds no law).
 """
 
 from __future__ import annotations
