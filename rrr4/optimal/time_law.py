@@ -439,9 +439,10 @@ class _Setup:
         t1 = time.perf_counter()
         b, where = time_optimal_speeds(G2, h2, 1.0 / (N1 - 1), X, self.ends[0] ** 2, self.ends[1] ** 2)
         if b is None:
-            k = N1 - 1 if where == "start" else int(where.split()[1])
+            at = "s_dot at s = 0 is too fast to reach the end" if where == "start" else \
+                f"none passes s = {fam.s[int(where.split()[1])]:.4g}"
             raise InfeasibleError(f"optimal time law: no law from s_dot {self.ends[0]:g} to {self.ends[1]:g} 1/s "
-                                  f"keeps every constraint (sign {sign:+d}): none passes s = {fam.s[k]:.4g}")
+                                  f"keeps every constraint (sign {sign:+d}): {at}")
         if b.max() > 0.5 * X_CAP:
             raise SceneError(f"max_speed: None is not allowed for this path (nothing else bounds s_dot: it reaches "
                              f"{np.sqrt(b.max()):.3g} 1/s): give max_speed [1/s]")
