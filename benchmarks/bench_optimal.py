@@ -60,23 +60,25 @@ def rrr4_reachability(F, lo, hi, N):
 
 
 def toppra_solve(G2, h2, N):
-    """toppra's TOPPRA (its Cython Seidel solver) on rrr4's projected rows (collocation: each
-    point with the acceleration of the segment after it) -> duration; None if not installed."""
+    """toppra's TOPPRA (its Cython Seidel solver) on rrr4's projected rows, with the scheme of
+    rrr4's (interpolation: each point with the accelerations of both its segments) -> duration;
+    None if not installed."""
     try:
         import toppra
-        from toppra.constraint import DiscretizationType, LinearConstraint
+        from toppra.constraint import DiscretizationType, LinearConstraint, canlinear_colloc_to_interpolate
     except ImportError:
         return None
 
     class Rows(LinearConstraint):
         def __init__(self):
             super().__init__()
-            self.identical, self.discretization_type = True, DiscretizationType.Collocation
+            self.identical, self.discretization_type = True, DiscretizationType.Interpolation
             self.a, self.b, self.c = G2[0].T.copy(), G2[1].T.copy(), -h2.T.copy()
             self.F, self.g = np.eye(self.a.shape[1]), np.zeros(self.a.shape[1])
 
         def compute_constraint_params(self, path, gridpoints, *args, **kwargs):
-            return self.a, self.b, self.c, self.F, self.g, None, None
+            return canlinear_colloc_to_interpolate(self.a, self.b, self.c, self.F, self.g, None, None, gridpoints,
+                                                   identical=True)
 
     s = np.linspace(0.0, 1.0, N + 1)
     path = toppra.SplineInterpolator(s, np.column_stack([s, s]))
@@ -122,6 +124,7 @@ def compare_solvers(problem, N, repeat):
     rows.append(("rrr4 reachability on F (projection, sets, passes)", T, wall))
     G, h, _ = point_rows(F, lo, hi, np.zeros(len(lo), bool))
     G2, h2 = project_out(G, h)
+    toppra_solve(G2[:, :, ::100], h2[:, ::100], len(range(0, N + 1, 100)) - 1)   # its imports out of the way
     wall, T = median_run(lambda: toppra_solve(G2, h2, N), repeat)
     rows.append(("toppra (seidel) on rrr4's projected rows", T, wall) if T is not None else
                 ("toppra: not installed (pip install -e .[bench])", None, None))
@@ -131,6 +134,7 @@ def compare_solvers(problem, N, repeat):
     else:
         prob, b = built
         import cvxpy as cp
+        cvxpy_program(F[::100], lo, hi, len(F[::100]) - 1)[0].solve(solver=cp.CLARABEL)   # its first-call costs
         wall, _ = median_run(lambda: prob.solve(solver=cp.CLARABEL), repeat)
         rows.append(("cvxpy + clarabel (its solve and canonicalisation)", duration_of(b.value, 1.0 / N), wall))
         rows.append(("cvxpy + clarabel: clarabel's solve time", duration_of(b.value, 1.0 / N),

@@ -2,42 +2,49 @@
 34(3), 2018), with null-space efforts.
 
 On N + 1 grid points s_k = k ds the unknowns are x_k = s_dot^2 and, per segment, u_k = s_ddot
-(x_{k+1} = x_k + 2 ds u_k). Point k (k < N) is constrained with the acceleration of the
-segment after it, point N with that of the last segment (the convention of the time law's
-tables), each point with its own null-space effort alpha_k (m of them): F functions, each
-affine in (a, b, alpha),
+(x_{k+1} = x_k + 2 ds u_k). F functions, each affine in (a, b, alpha) at every point,
 
-    lo_f <= F_k,f . (a, b, alpha, 1) <= hi_f.
+    lo_f <= F_k,f . (a, b, alpha, 1) <= hi_f,
+
+hold at both ends of every segment with its acceleration (TOPP-RA's interpolation scheme:
+point k with u_{k-1} and with u_k, each with its own alpha; the 'collocation' scheme holds
+point k with u_k only, the last point with u_{N-1}).
 
 1. Projection: alpha is eliminated point by point (Fourier-Motzkin for m = 1: every row with a
    positive alpha coefficient paired with every row with a negative one), vectorised over the
    points; what is left is a polygon of (a, b) per point.
-2. Stages in the coordinates (c, x) = (x_{k+1}, x_k): stage k's polygon is point k's (and for
-   the last stage point N's as well, at b = c), with 0 <= x <= X_k, 0 <= c <= X_{k+1}.
+2. Stages in the coordinates (c, x) = (x_{k+1}, x_k): stage k's polygon holds point k's rows
+   (b = x) and point k + 1's (b = c), with 0 <= x <= X_k, 0 <= c <= X_{k+1}.
 3. Four 2-D linear programs per stage (largest and smallest x and c), all stages at once:
    Seidel's incremental algorithm (rows in a fixed random order, the 1-D program on the line
    of a violated row), vectorised with numpy over the stages.
 4. Backward: the controllable sets K_k = [lo_k, hi_k] = {x : some c in K_{k+1} with (c, x) in
    stage k}. In (c, x) the largest x of the polygon at a given c is concave in c, so the
    largest x over c in K_{k+1} is its value at the polygon's top vertex's c clipped into
-   K_{k+1} (the smallest alike): one min over the rows per stage, no program.
+   K_{k+1} (the smallest alike): the few lines of the polygon's upper chain (found for all
+   stages at once) evaluated once per stage, no program.
 5. Forward greedy pass from x_0: the largest c at x_k within stage k's rows and K_{k+1}.
-6. alpha per point from the chosen (a, b): the largest smallest margin of the `margin` rows
-   (the contact condition) inside the other rows, or, without margin rows, the given
-   preferred alpha clipped into its interval (m = 1: closed form over the candidates).
+6. alpha per point from the chosen (a, b) (the acceleration of the segment after the point):
+   the largest smallest margin of the `margin` rows (the contact condition) inside the other
+   rows, or, without margin rows, the given preferred alpha clipped into its interval (m = 1:
+   closed form).
 
-Scheme: TOPP-RA's (the acceleration of the segment after each point), not the convex
-program's (both sides of each point with one alpha): both converge to the same law as N grows.
+The convex program of :mod:`rrr4.optimal.time_law` holds each point with both its segments'
+accelerations and one alpha; the durations agree to about 1e-5 and converge together at first
+order in 1/N. The collocation scheme converges to the same law at first order too, but its
+s_ddot jumps between neighbouring segments where the binding constraint changes.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["time_optimal_speeds", "recover_alpha", "point_rows", "project_out", "lp2", "X_CAP"]
+__all__ = ["time_optimal_speeds", "recover_alpha", "point_rows", "project_out", "lp2", "X_CAP", "SCHEMES"]
 
 # s_dot^2 [1/s^2] where nothing else bounds it: a speed cap the optimum must stay well below
 X_CAP = 1e8
+# which points hold each segment's acceleration: both its ends, or the point it starts at
+SCHEMES = ("interpolation", "collocation")
 TOL = 1e-9      # relative: a row's violation, a coefficient counted as zero
 SEED = 44       # the one fixed order of Seidel's rows
 
@@ -203,18 +210,24 @@ def _envelope(P, Q, lo, hi):
     return P[idx, cols].T.tolist(), Q[idx, cols].T.tolist()
 
 
-def _stages(G2, h2, ds, X):
-    """The stages' rows over (c, x), box first and the rest in Seidel's random order, as two
-    groups (stages 0..N-2; the last stage, with the last point's rows too), with their upper
-    bounds X0 of x and X1 of c."""
+def _stages(G2, h2, ds, X, scheme):
+    """The stages' rows over (c, x), box first and the rest in Seidel's random order, in groups
+    of equal row counts, with their upper bounds X0 of x and X1 of c. 'interpolation': stage
+    k holds the rows of points k (b = x) and k + 1 (b = c), one group; 'collocation': the rows
+    of point k, the last stage those of the last point too (two groups)."""
     N = len(X) - 1
     Gs, hs = _stage(G2[:, :, :N], h2[:, :N], ds)
-    Ge, he = _stage(G2[:, :, N:], h2[:, N:], ds, at_end=True)
+    if scheme == "interpolation":
+        Ge, he = _stage(G2[:, :, 1:], h2[:, 1:], ds, at_end=True)
+        parts = [(np.concatenate([Gs, Ge], axis=1), np.concatenate([hs, he], axis=0), X[:N], X[1:])]
+    else:
+        Ge, he = _stage(G2[:, :, N:], h2[:, N:], ds, at_end=True)
+        parts = [(Gs[:, :, :-1], hs[:, :-1], X[:N - 1], X[1:N]),
+                 (np.concatenate([Gs[:, :, -1:], Ge], axis=1), np.concatenate([hs[:, -1:], he], axis=0),
+                  X[N - 1:N], X[N:])]
     rng = np.random.default_rng(SEED)
     out = []
-    for G, h, X0, X1 in ((Gs[:, :, :-1], hs[:, :-1], X[:N - 1], X[1:N]),
-                         (np.concatenate([Gs[:, :, -1:], Ge], axis=1), np.concatenate([hs[:, -1:], he], axis=0),
-                          X[N - 1:N], X[N:])):
+    for G, h, X0, X1 in parts:
         bG, bh = _box(X0, X1)
         perm = rng.permutation(h.shape[0])
         out.append((np.concatenate([bG, G[:, perm]], axis=1), np.concatenate([bh, h[perm]], axis=0), X0, X1))
@@ -231,14 +244,15 @@ def _extremes(G, h, X0, X1):
     return y.reshape(2, 4, K).transpose(1, 0, 2)
 
 
-def time_optimal_speeds(G2, h2, ds, X, x_start, x_end):
+def time_optimal_speeds(G2, h2, ds, X, x_start, x_end, scheme="interpolation"):
     """x (N+1,) = s_dot^2 of the time-optimal law (TOPP-RA) on N + 1 points of spacing ds:
     G2, h2 the projected rows of every point over (a, b) (:func:`project_out`), X (N+1,) the
-    upper bounds of x (speed bounds, at most X_CAP), x_start, x_end the end values. Returns
+    upper bounds of x (speed bounds, at most X_CAP), x_start, x_end the end values, scheme
+    (SCHEMES) which points' rows hold each segment's acceleration (:func:`_stages`). Returns
     (x, where): x None and where the stage at which no law exists ('stage k', or 'start' where
     no law reaches the end from x_start)."""
     N = len(X) - 1
-    groups = _stages(G2, h2, ds, X)
+    groups = _stages(G2, h2, ds, X, scheme)
     ext = np.concatenate([_extremes(*g) for g in groups], axis=2)   # top, bottom, right, left
     feasible = ~np.isnan(ext).any(axis=(0, 1))
     if not feasible.all():

@@ -18,9 +18,9 @@ sum 2 ds / (c_k + c_{k+1}) and the effort integral sum (tau^T W tau) 2 ds / (c_k
 54(10), 2009) and IPOPT, on CasADi's sparse (banded) derivatives, finds its global optimum
 (solver 'convex'). The relaxation c <= sqrt(b) keeps every function smooth where the path is
 at rest. The time objective is solved by default by reachability analysis (solver
-'reachability', :mod:`rrr4.optimal.reachability`, TOPP-RA): its scheme holds each point with
-the acceleration of the segment after it (the last point with the last segment's), one
-alpha per point; the two discretisations differ by O(1/N).
+'reachability', :mod:`rrr4.optimal.reachability`, TOPP-RA): the same constraints on both
+sides of every point with an alpha per side (the law reports the alpha of the segment after
+each point), so its duration is the convex program's to about 1e-5.
 
 Objectives: 'time'; 'effort' at a given duration; 'time+effort' (time plus effort_weight
 times the effort integral). ``contact=False`` drops the contact rows, ``null_space=False``
