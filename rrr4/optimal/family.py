@@ -26,7 +26,7 @@ import casadi as ca
 import numpy as np
 
 from ..dynamics.family import EffortFamily
-from ..functions import mapped_function
+from ..functions import evaluate, mapped_function, nonzeros
 from ..problem import Problem
 from ..trajectory import path_geometry_function
 
@@ -67,7 +67,7 @@ def path_family(problem: Problem, s) -> PathFamily:
     s = np.asarray(s, float).ravel()
     N = len(s)
     if problem.closed_form:
-        out = [np.asarray(v, float) for v in mapped_function(_family_function(problem), N)(s[None, :])]
+        out = _evaluate(mapped_function(_family_function(problem), N), s)
         pose, pose_s, pose_ss = (v.T for v in out[:3])
         acc, vel, rest = (EffortFamily.from_raw(out[i:i + 4]) for i in (3, 7, 11))
         return PathFamily(s, pose, pose_s, pose_ss, acc.tau_p, vel.tau_p, rest.tau_p, rest.tau_n,
@@ -81,6 +81,20 @@ def path_family(problem: Problem, s) -> PathFamily:
     vel = problem.effort_family(pose, pose_s, pose_ss, q=q, gravity=(0.0, 0.0))
     return PathFamily(s, pose, pose_s, pose_ss, acc.tau_p, vel.tau_p, rest.tau_p, rest.tau_n,
                       acc.r_p, vel.r_p, rest.r_p, rest.r_n)
+
+
+def _evaluate(f: ca.Function, s: np.ndarray) -> list[np.ndarray]:
+    """f(s) as dense numpy arrays through CasADi's buffers (half the CPU time of a call that
+    returns DMs, measured at N = 1000)."""
+    res = [np.zeros(f.nnz_out(i)) for i in range(f.n_out())]
+    evaluate(f, [np.ascontiguousarray(s, float)], res)
+    out = []
+    for i, r in enumerate(res):
+        sp = f.sparsity_out(i)
+        dense = np.zeros(sp.numel())
+        dense[nonzeros(sp)] = r
+        out.append(dense.reshape(sp.size2(), sp.size1()).T)
+    return out
 
 
 def _family_function(problem: Problem) -> ca.Function:

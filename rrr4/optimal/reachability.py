@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["time_optimal_speeds", "recover_alpha", "point_rows", "project_out", "lp2", "X_CAP", "SCHEMES"]
+__all__ = ["time_optimal_speeds", "recover_alpha", "point_rows", "project_out", "lp2", "prune", "X_CAP", "SCHEMES"]
 
 # s_dot^2 [1/s^2] where nothing else bounds it: a speed cap the optimum must stay well below
 X_CAP = 1e8
@@ -114,6 +114,34 @@ def project_out(G, h):
                          np.concatenate([ref, size], axis=0))
     keep = np.concatenate([pair, flat], axis=0)
     keep &= (np.abs(G2).sum(axis=0) > 0) | (h2 < 0)
+    order = _compact(keep)
+    valid = _take(keep, order)
+    return np.where(valid, _take(G2, order), 0.0), np.where(valid, _take(h2, order), 1.0)
+
+
+def prune(G2, h2, X, ds):
+    """The rows of every point's polygon of (a, b) that are its edges (the others are implied
+    by them), compacted: two 2-D programs per point (its smallest and largest a, inside
+    0 <= b <= X and |a| <= X_CAP / ds) and the walks along its upper and lower chains; every
+    row that bounds a alone is kept, and every row of a point whose polygon is empty or
+    degenerate (a single a)."""
+    W, K = h2.shape
+    A = np.full(K, X_CAP / ds)
+    box = np.zeros((2, 4, K))
+    box[0, 0], box[0, 1], box[1, 2], box[1, 3] = 1.0, -1.0, 1.0, -1.0
+    G = np.concatenate([box, G2], axis=1)
+    h = np.concatenate([np.stack([A, A, X, np.zeros(K)]), h2], axis=0)
+    obj = np.repeat(np.array([[1.0, 0.0], [-1.0, 0.0]]).T, K, axis=1)
+    lo, hi = np.tile(np.stack([-A, np.zeros(K)]), (1, 2)), np.tile(np.stack([A, X]), (1, 2))
+    a_max, a_min = lp2(np.tile(G, (1, 1, 2)), np.tile(h, (1, 2)), obj, lo, hi)[0].reshape(2, K)
+    keep = np.zeros((W + 4, K), bool)
+    cols = np.arange(K)
+    for lines in _bounds(G, h, 1):
+        keep[_envelope(*lines, a_min, a_max)[2], cols] = True
+    keep |= np.abs(G[1]) <= TOL
+    whole = ~(a_max - a_min > TOL * (1.0 + np.abs(a_min) + np.abs(a_max)))   # NaN: empty
+    keep[:, whole] = True
+    keep = keep[4:]
     order = _compact(keep)
     valid = _take(keep, order)
     return np.where(valid, _take(G2, order), 0.0), np.where(valid, _take(h2, order), 1.0)
@@ -207,7 +235,7 @@ def _envelope(P, Q, lo, hi):
         w = np.where(done, w, w_next)
         chosen.append(cur)
     idx = np.stack(chosen)
-    return P[idx, cols].T.tolist(), Q[idx, cols].T.tolist()
+    return P[idx, cols].T.tolist(), Q[idx, cols].T.tolist(), idx
 
 
 def _stages(G2, h2, ds, X, scheme):
@@ -252,6 +280,7 @@ def time_optimal_speeds(G2, h2, ds, X, x_start, x_end, scheme="interpolation"):
     (x, where): x None and where the stage at which no law exists ('stage k', or 'start' where
     no law reaches the end from x_start)."""
     N = len(X) - 1
+    G2, h2 = prune(G2, h2, X, ds)
     groups = _stages(G2, h2, ds, X, scheme)
     ext = np.concatenate([_extremes(*g) for g in groups], axis=2)   # top, bottom, right, left
     feasible = ~np.isnan(ext).any(axis=(0, 1))
@@ -268,7 +297,7 @@ def time_optimal_speeds(G2, h2, ds, X, x_start, x_end, scheme="interpolation"):
         (xu, xl), (cu, _) = _bounds(G, h, 1), _bounds(G, h, 0)
         for i, (lines, lo, hi) in enumerate(((xu, ext[3, 0, sl], ext[2, 0, sl]), (xl, ext[3, 0, sl], ext[2, 0, sl]),
                                              (cu, ext[1, 1, sl], ext[0, 1, sl]))):
-            P, Q = _envelope(*lines, lo, hi)
+            P, Q, _ = _envelope(*lines, lo, hi)
             env[2 * i] += P
             env[2 * i + 1] += Q
     PH, QH, PL, QL, PC, QC = env
@@ -279,9 +308,13 @@ def time_optimal_speeds(G2, h2, ds, X, x_start, x_end, scheme="interpolation"):
         if a > b + TOL * (1.0 + abs(b)):
             return None, f"stage {k}"
         a = min(a, b)
-        ct, cb = min(max(top_c[k], a), b), min(max(bottom_c[k], a), b)
-        hi[k] = min(min([p * ct + q for p, q in zip(PH[k], QH[k], strict=True)]), top_x[k])
-        lo[k] = min(max(-min([p * cb + q for p, q in zip(PL[k], QL[k], strict=True)]), bottom_x[k]), hi[k])
+        c = top_c[k]            # the top vertex within reach: the top itself, no chain to evaluate
+        hi[k] = top_x[k] if a <= c <= b else \
+            min(min([p * min(max(c, a), b) + q for p, q in zip(PH[k], QH[k], strict=True)]), top_x[k])
+        c = bottom_c[k]
+        lo[k] = bottom_x[k] if a <= c <= b else \
+            max(-min([p * min(max(c, a), b) + q for p, q in zip(PL[k], QL[k], strict=True)]), bottom_x[k])
+        lo[k] = min(lo[k], hi[k])
     if not lo[0] - TOL * (1.0 + lo[0]) <= x_start <= hi[0] + TOL * (1.0 + hi[0]):
         return None, "start"
     x = [x_start] * (N + 1)

@@ -91,7 +91,7 @@ class OptimalTimeLaw:
     reactions (N+1, nj, 2) [N]; axial (N+1, nj) [N]: sigma d_j . r_j, the contact
     condition's left side (>= f_min where it holds); binding (N+1,): the constraint with the
     smallest slack where it binds ('' where none does); duration [s]; statistics: solver, status,
-    iterations, build and solve times, the duration with each sign."""
+    iterations (IPOPT), build and solve times, the duration with each sign."""
     objective: str
     t: np.ndarray
     s: np.ndarray
@@ -458,8 +458,7 @@ class _Setup:
         alpha = recover_alpha(G[2:], rest, margin, preferred)
         solve_time = time.perf_counter() - t1
         stats = {"solver": "reachability", "return_status": "Solve_Succeeded", "success": True,
-                 "iterations": N1 - 1, "build_time_s": build, "solve_time_s": solve_time, "points": N1,
-                 "sign": sign}
+                 "build_time_s": build, "solve_time_s": solve_time, "points": N1, "sign": sign}
         law = self._law(sign, b, alpha, stats, one_sided=True)
         stats["objective_value"] = law.duration
         values = np.einsum("kfi,ki->kf", F, np.column_stack([a, b, alpha, np.ones(N1)]))
