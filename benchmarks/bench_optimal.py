@@ -7,7 +7,8 @@ contact sign (what ``optimal_time_law`` solves once per sign):
    (alpha projected out by rrr4) solved by toppra (Pham and Pham 2018, its Cython Seidel);
    the same convex program (both sides of every point, alpha free) by cvxpy with clarabel.
    toppra and cvxpy + clarabel run where installed (``pip install -e .[bench]``). Ratios
-   against rrr4's reachability solve;
+   of wall times against rrr4's reachability on the projected rows (what toppra is given);
+   the process's CPU time besides (the machine is shared);
 2. both of rrr4's solvers at N grid intervals (--points): time, duration, growth in N, and
    their difference (the two discretisations converge to the same law);
 3. a point-to-point motion's solve time at a few node counts.
@@ -41,13 +42,19 @@ def duration_of(b, ds) -> float:
     return float(np.sum(2 * ds / (sd[:-1] + sd[1:])))
 
 
-def median_run(f, repeat):
-    """(median wall time [s], the last result) of f() over `repeat` runs."""
-    times, out = [], None
+CPU = {}   # name -> median CPU time [s] of this process (the machine is shared: wall times wait)
+
+
+def median_run(f, repeat, name=None):
+    """(median wall time [s], the last result) of f() over `repeat` runs; the median CPU time
+    of the process goes to CPU[name]."""
+    times, cpu, out = [], [], None
     for _ in range(repeat):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         out = f()
         times.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
+    CPU[name] = float(np.median(cpu))
     return float(np.median(times)), out
 
 
@@ -115,18 +122,25 @@ def compare_solvers(problem, N, repeat):
     print(f"solvers side by side at N = {N} (contact condition, sign +1; medians of {repeat}; times [s]):")
     rows = []
     for solver in SOLVERS:
-        wall, law = median_run(lambda s=solver: optimal_time_law(problem, points=N, sign=1, solver=s), repeat)
+        name = f"rrr4 {solver}: whole call"
+        wall, law = median_run(lambda s=solver: optimal_time_law(problem, points=N, sign=1, solver=s), repeat, name)
         solve = float(np.median([optimal_time_law(problem, points=N, sign=1, solver=solver).statistics["solve_time_s"]
                                  for _ in range(repeat)]))
-        rows += [(f"rrr4 {solver}: whole call", law.duration, wall), (f"rrr4 {solver}: solve", law.duration, solve)]
+        rows += [(name, law.duration, wall), (f"rrr4 {solver}: solve", law.duration, solve)]
     fam, F, lo, hi, _ = time_law_functions(problem, N, sign=1)
-    wall, T = median_run(lambda: rrr4_reachability(F, lo, hi, N), repeat)
-    rows.append(("rrr4 reachability on F (projection, sets, passes)", T, wall))
+    name = "rrr4 reachability on F (projection, sets, passes)"
+    wall, T = median_run(lambda: rrr4_reachability(F, lo, hi, N), repeat, name)
+    rows.append((name, T, wall))
     G, h, _ = point_rows(F, lo, hi, np.zeros(len(lo), bool))
     G2, h2 = project_out(G, h)
+    name = "rrr4 reachability on the projected rows"
+    wall, T = median_run(lambda: duration_of(time_optimal_speeds(G2, h2, 1.0 / N, np.full(N + 1, 1e8), 0.0, 0.0)[0],
+                                             1.0 / N), repeat, name)
+    rows.append((name, T, wall))
     toppra_solve(G2[:, :, ::100], h2[:, ::100], len(range(0, N + 1, 100)) - 1)   # its imports out of the way
-    wall, T = median_run(lambda: toppra_solve(G2, h2, N), repeat)
-    rows.append(("toppra (seidel) on rrr4's projected rows", T, wall) if T is not None else
+    name = "toppra (seidel) on rrr4's projected rows"
+    wall, T = median_run(lambda: toppra_solve(G2, h2, N), repeat, name)
+    rows.append((name, T, wall) if T is not None else
                 ("toppra: not installed (pip install -e .[bench])", None, None))
     built = cvxpy_program(F, lo, hi, N)
     if built is None:
@@ -135,17 +149,19 @@ def compare_solvers(problem, N, repeat):
         prob, b = built
         import cvxpy as cp
         cvxpy_program(F[::100], lo, hi, len(F[::100]) - 1)[0].solve(solver=cp.CLARABEL)   # its first-call costs
-        wall, _ = median_run(lambda: prob.solve(solver=cp.CLARABEL), repeat)
-        rows.append(("cvxpy + clarabel (its solve and canonicalisation)", duration_of(b.value, 1.0 / N), wall))
+        name = "cvxpy + clarabel (canonicalisation and solve)"
+        wall, _ = median_run(lambda: prob.solve(solver=cp.CLARABEL), repeat, name)
+        rows.append((name, duration_of(b.value, 1.0 / N), wall))
         rows.append(("cvxpy + clarabel: clarabel's solve time", duration_of(b.value, 1.0 / N),
                      float(prob.solver_stats.solve_time)))
-    base = rows[1][2]
-    print(f"{'':52s} {'duration [s]':>13} {'time [s]':>10} {'/ rrr4 reachability solve':>26}")
+    base = dict((r[0], r[2]) for r in rows)["rrr4 reachability on the projected rows"]
+    print(f"{'':52s} {'duration [s]':>13} {'wall [s]':>10} {'CPU [s]':>8} {'wall / rrr4 on the projected rows':>34}")
     for name, T, wall in rows:
         if T is None:
             print(f"{name}")
             continue
-        print(f"{name:52s} {T:>13.9f} {wall:>10.4f} {wall / base:>26.2f}")
+        cpu = f"{CPU[name]:.4f}" if name in CPU else ""
+        print(f"{name:52s} {T:>13.9f} {wall:>10.4f} {cpu:>8} {wall / base:>34.2f}")
 
 
 def main(argv=None) -> int:
