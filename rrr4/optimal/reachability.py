@@ -82,8 +82,8 @@ def _compact(mask):
 
 
 def _take(a, idx):
-    return np.take_along_axis(a, idx, axis=-2 if a.ndim == 3 else 0) if a.ndim == 2 else \
-        np.stack([np.take_along_axis(v, idx, axis=0) for v in a])
+    """The rows idx (n, K) of every column of a (R, K) or of G (d, R, K)."""
+    return np.take_along_axis(a, idx, axis=0) if a.ndim == 2 else np.take_along_axis(a, idx[None], axis=1)
 
 
 def project_out(G, h):
@@ -127,10 +127,8 @@ def prune(G2, h2, X, ds):
     degenerate (a single a)."""
     W, K = h2.shape
     A = np.full(K, X_CAP / ds)
-    box = np.zeros((2, 4, K))
-    box[0, 0], box[0, 1], box[1, 2], box[1, 3] = 1.0, -1.0, 1.0, -1.0
-    G = np.concatenate([box, G2], axis=1)
-    h = np.concatenate([np.stack([A, A, X, np.zeros(K)]), h2], axis=0)
+    bG, bh = _box(-A, A, np.zeros(K), X)
+    G, h = np.concatenate([bG, G2], axis=1), np.concatenate([bh, h2], axis=0)
     obj = np.repeat(np.array([[1.0, 0.0], [-1.0, 0.0]]).T, K, axis=1)
     lo, hi = np.tile(np.stack([-A, np.zeros(K)]), (1, 2)), np.tile(np.stack([A, X]), (1, 2))
     a_max, a_min = lp2(np.tile(G, (1, 1, 2)), np.tile(h, (1, 2)), obj, lo, hi)[0].reshape(2, K)
@@ -155,12 +153,11 @@ def _stage(G2, h2, ds, at_end=False):
     return _normalised(Gs, h2, np.abs(ga) + np.abs(gb))
 
 
-def _box(X0, X1):
-    """Rows 0 <= c <= X1, 0 <= x <= X0 (K,) of each stage: (2, 4, K), (4, K)."""
-    K = len(X0)
-    G = np.zeros((2, 4, K))
+def _box(lo0, hi0, lo1, hi1):
+    """The rows lo0 <= y0 <= hi0, lo1 <= y1 <= hi1 (K,) of each of K sets: (2, 4, K), (4, K)."""
+    G = np.zeros((2, 4, len(lo0)))
     G[0, 0], G[0, 1], G[1, 2], G[1, 3] = 1.0, -1.0, 1.0, -1.0
-    return G, np.stack([X1, np.zeros(K), X0, np.zeros(K)])
+    return G, np.stack([hi0, -lo0, hi1, -lo1])
 
 
 def lp2(G, h, obj, lo, hi):
@@ -256,7 +253,7 @@ def _stages(G2, h2, ds, X, scheme):
     rng = np.random.default_rng(SEED)
     out = []
     for G, h, X0, X1 in parts:
-        bG, bh = _box(X0, X1)
+        bG, bh = _box(np.zeros(len(X0)), X1, np.zeros(len(X0)), X0)   # 0 <= c <= X1, 0 <= x <= X0
         perm = rng.permutation(h.shape[0])
         out.append((np.concatenate([bG, G[:, perm]], axis=1), np.concatenate([bh, h[perm]], axis=0), X0, X1))
     return out
