@@ -269,15 +269,17 @@ def _extremes(G, h, X0, X1):
     return y.reshape(2, 4, K).transpose(1, 0, 2)
 
 
-def time_optimal_speeds(G2, h2, ds, X, x_start, x_end, scheme="interpolation"):
+def time_optimal_speeds(G2, h2, ds, X, x_start, x_end, scheme="interpolation", prune_rows=True):
     """x (N+1,) = s_dot^2 of the time-optimal law (TOPP-RA) on N + 1 points of spacing ds:
     G2, h2 the projected rows of every point over (a, b) (:func:`project_out`), X (N+1,) the
     upper bounds of x (speed bounds, at most X_CAP), x_start, x_end the end values, scheme
-    (SCHEMES) which points' rows hold each segment's acceleration (:func:`_stages`). Returns
+    (SCHEMES) which points' rows hold each segment's acceleration (:func:`_stages`),
+    prune_rows: each point's rows pruned to its polygon's edges first (:func:`prune`). Returns
     (x, where): x None and where the stage at which no law exists ('stage k', or 'start' where
     no law reaches the end from x_start)."""
     N = len(X) - 1
-    G2, h2 = prune(G2, h2, X, ds)
+    if prune_rows:
+        G2, h2 = prune(G2, h2, X, ds)
     groups = _stages(G2, h2, ds, X, scheme)
     ext = np.concatenate([_extremes(*g) for g in groups], axis=2)   # top, bottom, right, left
     feasible = ~np.isnan(ext).any(axis=(0, 1))

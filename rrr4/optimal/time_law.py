@@ -428,47 +428,69 @@ class _Setup:
         return bmax
 
     def solve_reachability(self, sign: int) -> OptimalTimeLaw:
-        """The time objective by reachability analysis (:mod:`rrr4.optimal.reachability`)."""
-        fam, m, N1 = self.fam, self.m, len(self.fam.s)
+        """The time objective by reachability analysis (:mod:`rrr4.optimal.reachability`); the
+        law checked on both sides of every point, and solved again without pruning the rows
+        should a constraint fail by more than 1e-6 (none has)."""
+        N1 = len(self.fam.s)
         t0 = time.perf_counter()
         F, lo_f, hi_f, labels = self.function_array(sign)
         G, h, margin = point_rows(F, lo_f, hi_f, np.array([lab.startswith("contact") for lab in labels]))
         G2, h2 = project_out(G, h)
         X = np.minimum(self.speed_bounds(), X_CAP)
         build = time.perf_counter() - t0
-        t1 = time.perf_counter()
-        b, where = time_optimal_speeds(G2, h2, 1.0 / (N1 - 1), X, self.ends[0] ** 2, self.ends[1] ** 2)
+        for prune_rows in (True, False):
+            t1 = time.perf_counter()
+            b = self._speeds(sign, G2, h2, X, prune_rows)
+            a_seg = np.diff(b) * (N1 - 1) / 2.0
+            sides = [np.r_[a_seg, a_seg[-1]], np.r_[a_seg[0], a_seg]]    # after and before each point
+            alphas = [self._alpha(G, h, margin, a, b) for a in sides]
+            solve_time = time.perf_counter() - t1
+            worst = max((self._violation(F, lo_f, hi_f, a, b, al) for a, al in zip(sides, alphas, strict=True)),
+                        key=lambda w: w[0])
+            if worst[0] <= 1e-6:
+                break
+        ok = worst[0] <= 1e-6
+        stats = {"solver": "reachability", "return_status": "Solve_Succeeded" if ok else "Constraint_Violation",
+                 "success": ok, "build_time_s": build, "solve_time_s": solve_time, "points": N1, "sign": sign,
+                 "pruned": prune_rows, "max_violation": worst[0], "worst_s": float(self.fam.s[worst[1]]),
+                 "worst_constraint": labels[worst[2]]}
+        law = self._law(sign, b, alphas[0], stats, one_sided=True)
+        stats["objective_value"] = law.duration
+        return law
+
+    def _speeds(self, sign, G2, h2, X, prune_rows) -> np.ndarray:
+        """b (N+1,) of the time-optimal law on the projected rows, or InfeasibleError."""
+        fam, v0, v1 = self.fam, *self.ends
+        b, where = time_optimal_speeds(G2, h2, 1.0 / (len(fam.s) - 1), X, v0**2, v1**2, prune_rows=prune_rows)
         if b is None:
             at = "s_dot at s = 0 is too fast to reach the end" if where == "start" else \
                 f"none passes s = {fam.s[int(where.split()[1])]:.4g}"
-            raise InfeasibleError(f"optimal time law: no law from s_dot {self.ends[0]:g} to {self.ends[1]:g} 1/s "
-                                  f"keeps every constraint (sign {sign:+d}): {at}")
+            raise InfeasibleError(f"optimal time law: no law from s_dot {v0:g} to {v1:g} 1/s keeps every constraint "
+                                  f"(sign {sign:+d}): {at}")
         if b.max() > 0.5 * X_CAP:
             raise SceneError(f"max_speed: None is not allowed for this path (nothing else bounds s_dot: it reaches "
                              f"{np.sqrt(b.max()):.3g} 1/s): give max_speed [1/s]")
-        a_seg = np.diff(b) * (N1 - 1) / 2.0
-        a = np.r_[a_seg, a_seg[-1]]
-        rest = h - G[0] * a - G[1] * b
+        return b
+
+    def _alpha(self, G, h, margin, a, b) -> np.ndarray:
+        """alpha (N+1, m) at (a, b): the largest contact margin within the limits, or without
+        the contact condition the preload weights' least effort clipped into them."""
+        fam, m, N1 = self.fam, self.m, len(self.fam.s)
         preferred = np.zeros((N1, m))
-        if m and not margin.any():   # the preload weights' least effort
-            W = self.weights
+        if m and not margin.any():
             n, tau = fam.tau_n[:, :, 0], fam.efforts(a, b, np.zeros((N1, fam.tau_n.shape[2])))
+            W = self.weights
             preferred[:, 0] = -np.einsum("kn,n,kn->k", n, W, tau) / np.maximum(np.einsum("kn,n,kn->k", n, W, n),
                                                                                 1e-300)
-        alpha = recover_alpha(G[2:], rest, margin, preferred)
-        solve_time = time.perf_counter() - t1
-        stats = {"solver": "reachability", "return_status": "Solve_Succeeded", "success": True,
-                 "build_time_s": build, "solve_time_s": solve_time, "points": N1, "sign": sign}
-        law = self._law(sign, b, alpha, stats, one_sided=True)
-        stats["objective_value"] = law.duration
-        values = np.einsum("kfi,ki->kf", F, np.column_stack([a, b, alpha, np.ones(N1)]))
+        return recover_alpha(G[2:], h - G[0] * a - G[1] * b, margin, preferred)
+
+    @staticmethod
+    def _violation(F, lo_f, hi_f, a, b, alpha):
+        """(largest violation of lo_f <= F . (a, b, alpha, 1) <= hi_f, its point, its function)."""
+        values = np.einsum("kfi,ki->kf", F, np.column_stack([a, b, alpha, np.ones(len(a))]))
         viol = np.maximum(lo_f - values, values - hi_f)
         k, f = np.unravel_index(int(np.argmax(viol)), viol.shape)
-        stats.update(max_violation=float(max(viol[k, f], 0.0)), worst_s=float(fam.s[k]), worst_constraint=labels[f])
-        stats["success"] = stats["max_violation"] <= 1e-6
-        if not stats["success"]:
-            stats["return_status"] = "Constraint_Violation"
-        return law
+        return float(max(viol[k, f], 0.0)), int(k), int(f)
 
     def solve(self, sign: int) -> OptimalTimeLaw:
         fam, N1, m = self.fam, len(self.fam.s), self.m
