@@ -18,11 +18,15 @@ def _check(args) -> int:
     """Exit 0: the scene is valid and its preload holds along the path; 1: valid, but the
     preload cannot hold (printed where and by how much); 2: invalid (one line)."""
     from .mechanism import load_scene
+    from .problem import build
     from .results.summary import scene_check
-    text, preload = scene_check(load_scene(args.scene))
+    problem = build(load_scene(args.scene))
+    text, preload = scene_check(problem)
     print(text)
     if preload is not None and not preload.all_feasible:
-        _say("rrr4 check: the scene is valid, but its preload cannot hold along the path (see above)")
+        mode = ("; it was evaluated on the assembly branch taken at t = 0, and others close there (listed above): if "
+                "another is the one meant, name it in mechanism.assembly") if problem.branch_hint else ""
+        _say(f"rrr4 check: the scene is valid, but its preload cannot hold along the path (see above){mode}")
         return 1
     return 0
 

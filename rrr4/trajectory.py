@@ -68,7 +68,7 @@ def _pose_of_progress(spec: PathSpec, s):
     return out
 
 
-@functools.cache
+@functools.lru_cache(maxsize=64)  # per path (a sweep over the path makes one per case)
 def trajectory_function(spec: PathSpec) -> ca.Function:
     """CasADi Function 'trajectory': t [s] -> pose (3), pose_d (3), pose_dd (3).
 
@@ -85,7 +85,7 @@ def trajectory_function(spec: PathSpec) -> ca.Function:
     return ca.Function("trajectory", [t], [pose, pose_d, pose_dd], ["t"], ["pose", "pose_d", "pose_dd"])
 
 
-@functools.cache
+@functools.lru_cache(maxsize=64)
 def path_geometry_function(spec: PathSpec) -> ca.Function:
     """CasADi Function 'path_geometry': s [-] in [0, 1] -> pose (3), pose_s (3), pose_ss (3):
     the path's pose as a function of its progress and its first two derivatives in s, the

@@ -44,13 +44,13 @@ from ..integrators import METHODS, FixedStepIntegrator
 from ..integrators.compiled import compiled
 from ..integrators.implicit import ImplicitIntegrator
 from ..problem import Problem
-from ..scene import parse_scene
+from ..scene import Scene
 from ..simulation import default_jit
 from ..simulation.initial import initial_state
 from ..simulation.system import in_tree, loop_of, measured, system_of
 from ..trajectory import trajectory_function
 from .measurements import Measurements, measurement_columns
-from .parameters import Parameter, identified_data
+from .parameters import Parameter, identified_scene
 
 __all__ = ["DynamicData", "DYNAMIC_KINDS", "CHAOS_LIMIT", "FD_STEP", "sensitivity_frame"]
 
@@ -137,7 +137,7 @@ def _outputs(problem: Problem, eqs, loop, system, tree: bool) -> ca.Function:
 class DynamicData:
     """The measured run and the sensitivity runs that predict it (see the module docstring)."""
 
-    def __init__(self, problem: Problem, m: Measurements, params: list[Parameter], scene_data=None):
+    def __init__(self, problem: Problem, m: Measurements, params: list[Parameter], scene: Scene | None = None):
         where = m.source or "measurements"
         bad = [q.key for q in params if q.kind not in DYNAMIC_KINDS]
         if bad:
@@ -148,10 +148,12 @@ class DynamicData:
             raise MeasurementError(f"{where}: t runs from {m.t[0]:.6g} s to {m.t[-1]:.6g} s (the scene's path runs "
                                    f"from 0 to {problem.path.duration:g} s; times are path times)")
         seated = problem.scene.initial.journals == "seated"
-        if seated and scene_data is None:
-            raise SceneError(f"scene: {problem.name!r} has no YAML file (its journals start seated, where the "
-                             "clearances put them: method 'dynamic' needs the scene's file to place them)")
-        self.problem, self.m, self.params, self.scene_data = problem, m, params, scene_data
+        scene = problem.scene if scene is None else scene  # the nominal scene, varied for each candidate
+        if seated and scene.data is None:
+            raise SceneError(f"scene: {problem.name!r} has no YAML data (its journals start seated, where the "
+                             "clearances put them: method 'dynamic' varies the scene's data to place them; read it "
+                             "with rrr4.load_scene or rrr4.scene.parse_scene)")
+        self.problem, self.m, self.params, self.scene = problem, m, params, scene
         self.f, self.system, self.loop, self.eqs, self.tree, self.method, self.dt = sensitivity_frame(
             problem, len(params), float(np.median(np.diff(m.t))))
         kinds = measurement_columns(problem)
@@ -206,8 +208,7 @@ class DynamicData:
         (journals seated where the candidate's clearances put them)."""
         pb, eqs = self.problem, self.eqs
         if self.seated:  # the candidate's equations: its seats with its own contact numbers
-            data = identified_data(pb, self.params, p, self.scene_data)
-            pb = Problem.from_scene(parse_scene(data, name=str(data.get("name", "candidate")), source=""))
+            pb = Problem.from_scene(identified_scene(self.scene, self.params, p, name="candidate"))
             eqs = pb.equations()
         x0 = initial_state(pb, eqs, self._efforts, self.tree, self.loop.settings)
         nc, ny = len(eqs.clearance_joints), self.system.ny

@@ -213,6 +213,20 @@ class Integrator(ABC):
     def from_settings(cls, settings, jit: bool = False) -> Integrator:
         """The method configured by a scene's IntegratorSettings."""
 
+    def settings_key(self) -> tuple:
+        """The method and the values it was configured with (its public attributes, sorted by
+        name): what a System's compiled frames are keyed on, so two integrators configured alike
+        share them. Every public attribute is a plain value (bool, int, float, str, None, or a
+        tuple of them); anything else is a TypeError, never a key that only looks alike."""
+        def plain(name, v):
+            if isinstance(v, tuple):
+                return tuple(plain(name, x) for x in v)
+            if v is None or isinstance(v, (bool, int, float, str)):
+                return v
+            raise TypeError(f"{type(self).__name__}.{name}: {type(v).__name__} is not a plain setting value")
+        return type(self).__name__, tuple(sorted((k, plain(k, v)) for k, v in vars(self).items()
+                                                 if not k.startswith("_")))
+
     @abstractmethod
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int | None = None,
             progress: bool = False, every: int = 1, sink=None) -> Run:
@@ -308,8 +322,7 @@ class FixedStepIntegrator(Integrator):
         n_frames = u_frames.shape[0]
         if n_frames % every:
             raise ValueError(f"{n_frames} frames are not a multiple of every = {every}")
-        settings = tuple(sorted((k, repr(v)) for k, v in vars(self).items() if not k.startswith("_")))
-        key = (type(self).__name__, settings, float(h), int(steps_per_frame), int(every))
+        key = (*self.settings_key(), float(h), int(steps_per_frame), int(every))
         if key not in system.frames:
             # the unit of work is one output interval: `every` frames folded in one Function,
             # so the virtual machine calls it once per output, not once per frame

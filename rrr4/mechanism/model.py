@@ -61,6 +61,7 @@ class Model:
     """
 
     def __init__(self, graph: Graph):
+        self._constraints: dict = {}  # the constraints Functions built, see constraints
         self.graph = graph
         self.body_names = tuple(b.name for b in graph.bodies)
         self.nq = 3 * len(graph.bodies)
@@ -187,16 +188,20 @@ class Model:
         u1 = rotation(th1) @ ca.DM(j.axis) if j.bodies[0] != GROUND else ca.DM(j.axis)
         return ca.dot(u1, p2 - p1)
 
-    @functools.cache  # noqa: B019 (the model is immutable and lives as long as its cache entry)
     def constraints(self, joints: tuple[str, ...] | None = None, drivers: bool = False) -> ca.Function:
         """Function 'constraints': q, qd -> phi, phi_q, gamma for the named joints (default:
         the ideal ones) and, with drivers=True, one row per driver with its coordinate
         (the caller subtracts the prescribed value). Phi_q qdd = gamma + (driver
-        accelerations), gamma = -(Phi_q qd)_q qd. Rows in the order given, 2 per joint."""
+        accelerations), gamma = -(Phi_q qd)_q qd. Rows in the order given, 2 per joint.
+        Built once per model, joints and drivers (kept on the model)."""
         joints = self.constrained_joints if joints is None else tuple(joints)
-        q, qd = self._q, self._qd
-        return ca.Function("constraints", [q, qd], list(self.constraint_terms(q, qd, joints, drivers)), ["q", "qd"],
-                           ["phi", "phi_q", "gamma"])
+        key = (joints, bool(drivers))
+        if key not in self._constraints:
+            q, qd = self._q, self._qd
+            self._constraints[key] = ca.Function("constraints", [q, qd],
+                                                 list(self.constraint_terms(q, qd, joints, drivers)), ["q", "qd"],
+                                                 ["phi", "phi_q", "gamma"])
+        return self._constraints[key]
 
     def constraint_terms(self, q, qd, joints: tuple[str, ...], drivers: bool = False, geometry=None):
         """(phi, phi_q, gamma) of :meth:`constraints` as expressions of the symbols q, qd (and
@@ -235,6 +240,9 @@ class Model:
         return np.asarray(q)[:, self.coordinates(body)]
 
 
-@functools.cache
+MODELS = 128  # models kept per graph (a geometry sweep makes one per case, and one per structure key)
+
+
+@functools.lru_cache(maxsize=MODELS)
 def _model(graph: Graph) -> Model:
     return Model(graph)

@@ -20,7 +20,7 @@ from ..preload import PreloadSolution, PreloadWarning, solve_preload
 from ..problem import Problem
 from ..scene import Scene
 from ..scene.vocabulary import CONTACT_LAW_KEYS, FRICTION_LAW_KEYS
-from ..trajectory import sample_path, trajectory_function
+from ..trajectory import sample_path
 from .metrics import SETTLING_MARGIN, SETTLING_TAIL, WHOLE_RUN, WINDOWED, arm_metrics, driven_metrics, driven_window
 from .study import PRELOAD_ARMS, Study
 
@@ -298,12 +298,7 @@ def _assembly_lines(problem: Problem) -> list[str]:
     """The assembled pose of every body at t = 0 (the path's start, or the drivers' initial
     values) and the branch the assembly chose (the named mechanism.assembly, or which one)."""
     scene, mech = problem.scene, problem.mechanism
-    if problem.model.task is not None:
-        target = np.array(trajectory_function(scene.path)(0.0)[0]).ravel()[:mech.n_task]
-    else:
-        target = mech.driver_targets(0.0)[0]
-    z = np.zeros(len(target))
-    q = problem.body_motion(target, z, z)[0]
+    q = problem.start_coordinates
     if problem.closed_form:
         branch = "working modes " + " ".join(f"{c.name}:{'+' if c.working_mode > 0 else '-'}"
                                              for c in scene.mechanism.chains) + " (the chains' working_mode)"
@@ -316,6 +311,9 @@ def _assembly_lines(problem: Problem) -> list[str]:
         x, y, th = q[3 * k:3 * k + 3]
         lines.append(f"  {b}: ({x * 1e3:+.3f}, {y * 1e3:+.3f}) mm, {math.degrees(wrap_angle(th)):+.3f} deg")
     lines.append(f"  branch: {branch}")
+    hint = problem.branch_hint
+    if hint:
+        lines.append(f"  {hint}")
     return lines
 
 

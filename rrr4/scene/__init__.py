@@ -1,7 +1,8 @@
 """Scenes: the YAML schema as frozen dataclasses (:mod:`.schema`), its reader and validation
 (:mod:`.reader`, :mod:`.fields`), the vocabulary of allowed names (:mod:`.vocabulary`), the
-n-RRR expansion into a graph (:mod:`.nrrr`), dotted key paths (:mod:`.keys`), tabulated
-time laws (:mod:`.time_table`) and force elements (:mod:`.forces`).
+n-RRR expansion into a graph (:mod:`.nrrr`), dotted key paths (:mod:`.keys`), the YAML data a
+scene keeps and :meth:`Scene.with_values`, the one way to change a scene in memory
+(:mod:`.data`), tabulated time laws (:mod:`.time_table`) and force elements (:mod:`.forces`).
 
 Imports nothing of the package but :mod:`rrr4.errors` and :mod:`rrr4.checks`.
 """

@@ -17,6 +17,7 @@ import yaml
 from ..checks import describe, unknown_value
 from ..errors import SceneError
 from .assembly import read_assembly
+from .data import with_data
 from .fields import MAX_SAMPLES, Section
 from .forces import read_forces
 from .lubrication import read_lubrication
@@ -541,8 +542,7 @@ def _integrator(sec: Section) -> IntegratorSettings:
 
 
 def _initial(sec: Section) -> Initial:
-    v = Initial(sec.vector("platform_velocity", 3, [0.0, 0.0, 0.0]),
-                sec.choice("journals", JOURNAL_STARTS, "centred"))
+    v = Initial(sec.vector("platform_velocity", 3, [0.0, 0.0, 0.0]), sec.choice("journals", JOURNAL_STARTS, "centred"))
     sec.done()
     return v
 
@@ -587,7 +587,7 @@ def parse_scene(data, name: str = "scene", source: str = "") -> Scene:
     if scene.integrator.step > p.duration:
         raise SceneError(f"integrator.step: {scene.integrator.step:g} s is not allowed (must not exceed "
                          f"path.duration = {p.duration:g} s)")
-    return scene
+    return with_data(scene, data, parse_scene)
 
 
 class _UniqueKeyLoader(yaml.SafeLoader):

@@ -11,7 +11,6 @@ compiled code.
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import casadi as ca
@@ -216,7 +215,8 @@ def loop_of(problem: Problem, eqs: Equations, controller: str, references: str, 
             raise SceneError("controller: 'generated' is not allowed without actuation.control_rate (the generated "
                              "controller runs as a sampled controller with zero-order hold: set a rate in Hz)")
         step, source = generated_controller(problem)
-        return Loop("held", _without_settings(step), True, None, (source,), key=("generated", str(source)))
+        held_step = problem.memo(("generated_step", str(source)), lambda: _without_settings(step))
+        return Loop("held", held_step, True, None, (source,), key=("generated", str(source)))
     if why:
         return Loop("held" if held else "sampled", parametric_feedback(problem), False, None,
                     settings=tuple(feedback_settings(problem)), key=("feedback", tuple(
@@ -226,10 +226,10 @@ def loop_of(problem: Problem, eqs: Equations, controller: str, references: str, 
                 key=("controller", problem.controller_key))
 
 
-@functools.lru_cache(maxsize=16)
 def _without_settings(step: ca.Function) -> ca.Function:
-    """`step` with an empty last input ``settings`` (the generated C holds the scene's numbers),
-    one per step, so that the systems built on it are found again."""
+    """`step` with an empty last input ``settings`` (the generated C holds the scene's numbers);
+    kept on the problem (one per generated source), so that the systems built on it are found
+    again."""
     ins = [ca.MX.sym(step.name_in(i), step.sparsity_in(i)) for i in range(step.n_in())]
     return ca.Function(step.name(), [*ins, ca.MX.sym("settings", 0)], step(*ins), [*step.name_in(), "settings"],
                        step.name_out())
