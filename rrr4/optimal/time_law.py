@@ -255,8 +255,9 @@ def time_law_functions(scene, points: int = 1000, *, sign: int = 1, contact: boo
                        null_space: bool = True, f_min: float | None = None):
     """What both solvers of the time objective constrain, for cross-checks and benchmarks:
     (family, F, lo, hi, labels), F (N+1, nf, 3 + m) the scaled coefficients of (a, b, alpha...,
-    1) of every constrained function at every grid point and lo <= F . (a, b, alpha, 1) <= hi
-    (nf,) (see :meth:`_Setup.function_array`; the arguments as :func:`optimal_time_law`'s)."""
+    1) of every constrained function at every grid point (the actuators' efforts over their
+    limits, then the contact rows over f_min) and lo <= F . (a, b, alpha, 1) <= hi (nf,); the
+    arguments as :func:`optimal_time_law`'s."""
     problem = Problem.from_scene(scene)
     fam = path_family(problem, np.linspace(0.0, 1.0, _grid(points) + 1))
     f_min = problem.scene.actuation.preload.min_force if f_min is None else argument("f_min", f_min)
