@@ -100,9 +100,11 @@ def _optimize(args) -> int:
     print(f"wrote {len(files)} files to {out}/")
     law = summary["law"]
     grid = f"{law['points']} points" if "points" in law else f"{law['nodes']} nodes"
+    st = law["statistics"]
+    steps = f"{st['iterations']} iterations, " if "iterations" in st else ""
     print(f"optimal duration: {law['duration_s']:.6g} s ({law['objective']}, "
           f"{'with the contact condition' if law['contact_condition'] else 'actuator limits'}, "
-          f"{grid}, {law['statistics']['iterations']} iterations, {law['statistics']['solve_time_s']:.3g} s solve)")
+          f"{grid}, {st['solver']}, {steps}{st['solve_time_s']:.3g} s solve)")
     if summary.get("contact_cost_ratio"):
         print(f"with the actuator limits only: {summary['optimal_duration_limits_only_s']:.6g} s; keeping contact "
               f"costs x{summary['contact_cost_ratio']:.3f} in cycle time")
