@@ -47,6 +47,7 @@ def _run(args) -> int:
     from .mechanism import load_scene
     from .results import check_target, write_results
     from .results.metrics import check_skip
+    from .results.summary import verdict_line
     from .studies.study import run_study
     if args.t_end is not None:
         argument("--t-end", args.t_end)
@@ -70,9 +71,11 @@ def _run(args) -> int:
     study = run_study(scene, t_end=args.t_end, integrator=args.integrator, step=args.step,
                       output_rate=args.output_rate, skip=skip, progress=True,
                       log=lambda m: tqdm.write(f"rrr4 run: {m}"))
-    _, files = write_results(study, out, progress=True)
+    summary, files = write_results(study, out, progress=True)
     print(f"wrote {len(files)} files to {out}/: {', '.join(files)}")
     print((out / "report.md").read_text())
+    if (line := verdict_line(summary)) is not None:  # the one line that says which numbers not to trust
+        _say(f"rrr4 run: {line}")
     return 0
 
 

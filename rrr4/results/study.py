@@ -45,7 +45,8 @@ class Study:
     clearance arm rerun at half the step (None otherwise); skip [s]: the start-up window the
     metrics over the output samples discard (:mod:`rrr4.results.metrics`); overrides: what the
     caller set instead of the scene (t_end_s, integrator, step_s, output_rate_Hz, skip_s), as
-    given, for summary.json.
+    given, for summary.json; foresight: the one-line warnings said before the run
+    (:func:`rrr4.simulation.foresight.foresight_lines`).
     """
     scene: Scene
     t_path: np.ndarray
@@ -58,6 +59,7 @@ class Study:
     refinement: StudyArm | None = None
     skip: float = 0.0
     overrides: dict = field(default_factory=dict)
+    foresight: tuple[str, ...] = ()
 
     @property
     def problem(self) -> Problem:

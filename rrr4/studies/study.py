@@ -59,6 +59,7 @@ from ..results.study import Study, StudyArm
 from ..results.summary import preload_lines
 from ..scene import MAX_SAMPLES, Scene
 from ..simulation import simulate
+from ..simulation.foresight import foresight_lines
 from ..trajectory import sample_path
 
 __all__ = ["run_study", "arm_scene", "study_controller"]
@@ -107,8 +108,10 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
     outputs kept per second (default every step, so that losses are located to a step; at
     most 1/step); skip [s]: the start-up window the metrics discard (0 <= skip < t_end, see
     :mod:`rrr4.results.metrics`); progress: show the simulations' progress bars; log:
-    callable taking one line of text per stage. What is given is recorded in
-    ``Study.overrides``.
+    callable taking one line of text per stage, and one per warning of
+    :func:`rrr4.simulation.foresight.foresight_lines` (a contact law outside its range, a step
+    that cannot resolve the stiffest contact vibration) before any arm runs. What is given is
+    recorded in ``Study.overrides``; the warnings in ``Study.foresight``.
     """
     say = log or (lambda _msg: None)
     problem = Problem.from_scene(scene)
@@ -145,6 +148,9 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
         if not preload.all_feasible:  # loud: where, which actuator, by how much, and what the simulation does
             for line in preload_lines(preload, problem):
                 say(line)
+    foresight = tuple(foresight_lines(problem, h, integrator, preload))  # before any arm runs
+    for line in foresight:
+        say(line)
 
     def arm(name, sc, step=h, controller="python"):
         say(f"simulate {name.replace('_', ' ')}: {t_end:g} s, step {step:g} s"
@@ -170,4 +176,4 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
         arms["without_preload"] = arm("without_preload", arm_scene(problem, "without_preload"))
     return Study(scene=scene, t_path=t_path, tau_min_norm=tau_min_norm, preload=preload,
                  preload_warning=preload_warning, arms=arms, t_end=t_end, step=h, refinement=refinement, skip=skip,
-                 overrides={k: v for k, v in given.items() if v is not None})
+                 overrides={k: v for k, v in given.items() if v is not None}, foresight=foresight)
