@@ -265,7 +265,7 @@ def _compare(args) -> int:
     print(f"{n} values of summary.json compared (not {', '.join(RUN_SPECIFIC)}); "
           f"{len(diffs)} differ beyond rtol {args.rtol:g}")
     for key, a, b in diffs:
-        print(f"  {key}: {a} | {b}")
+        print(f"  {key}: {a} | {b}" + ("  (the verdict changed)" if key.endswith(".converged") else ""))
     return 1 if diffs else 0
 
 
