@@ -58,6 +58,8 @@ def _run(args) -> int:
         raise unknown_value("--integrator", "integrator", args.integrator, METHODS)
     if args.skip is not None:
         argument("--skip", args.skip, allow_zero=True)
+    if args.converge is not None:
+        argument("--converge", args.converge)
     scene = load_scene(args.scene)
     t_end = scene.path.duration if args.t_end is None else args.t_end
     step = scene.integrator.step if args.step is None else args.step
@@ -69,7 +71,7 @@ def _run(args) -> int:
     check_writable(out)
     check_target(out)
     study = run_study(scene, t_end=args.t_end, integrator=args.integrator, step=args.step,
-                      output_rate=args.output_rate, skip=skip, progress=True,
+                      output_rate=args.output_rate, skip=skip, converge=args.converge, progress=True,
                       log=lambda m: tqdm.write(f"rrr4 run: {m}"))
     summary, files = write_results(study, out, progress=True)
     print(f"wrote {len(files)} files to {out}/: {', '.join(files)}")
@@ -337,6 +339,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--step", type=float, help="integrator step [s] instead of the scene's integrator.step")
     r.add_argument("--output-rate", type=float, metavar="HZ",
                    help="outputs kept per second [Hz] (default: every step; at most 1/step)")
+    r.add_argument("--converge", type=float, nargs="?", const=120.0, metavar="BUDGET",
+                   help="rerun an arm that has not converged (its energy audit) at half its step until it has, "
+                        "within BUDGET seconds of wall time per arm (default 120); summary.json's "
+                        "step_refinement says what was tried and what it cost")
     r.add_argument("--skip", type=float, metavar="S",
                    help="start-up window [s] the metrics over the output samples discard (0 <= S < t_end; "
                         "summary.json's metrics_window says which metrics it applies to)")

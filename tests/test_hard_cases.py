@@ -87,7 +87,7 @@ def test_hard_case_stays_finite_under_the_default_implicit_path(name):
 # the energy audit at the scene's own integrator (Bathe at 1e-4 s). Measured residuals in comments.
 VARIANTS = {
     "light_links": ({"step"}, {"with_preload": (0.05, False),         # 0.20
-                               "without_preload": (0.05, False)}),    # 1.2: the loop itself runs away
+                               "without_preload": (0.05, False)}),    # 1.2; converges at 1.6e-6 s
     "high_friction": (set(), {"with_preload": (0.05, True),          # 6.8e-4
                               "without_preload": (0.05, False)}),    # 4.1e-2
     "low_restitution_ln": ({"law"}, {"with_preload": (0.05, False),   # 0.19
@@ -140,3 +140,25 @@ def test_the_verdict_agrees_with_step_refinement_on_light_links():
     error = sims[-1].platform_error.max()
     coarse, fine = (np.max(np.abs(a.pose[:, :2] - b.pose[:, :2])) for a, b in zip(sims[:-1], sims[1:], strict=True))
     assert coarse > 0.1 * error and fine < 0.01 * error, (coarse, fine, error)
+
+
+@pytest.mark.slow
+def test_rrr4_run_converge_halves_the_step_until_the_verdict_passes(tmp_path, capsys):
+    """`rrr4 run --converge`: light links over 0.05 s. The preloaded arms are flagged at 1e-4 s and
+    pass at 5e-5 s; the arm without preload needs far smaller steps (it passes at 1.6e-6 s) and
+    stops at the budget still flagged, which the summary, the report and one line say."""
+    import json
+
+    from rrr4.cli import main
+    out = tmp_path / "ll"
+    assert main(["run", str(HARD / "light_links.yaml"), "--t-end", "0.05", "--out", str(out), "--converge", "8"]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    for arm in ("with_preload", "with_preload_compensated"):
+        r = s[arm]["step_refinement"]
+        assert r["steps_s"] == [1e-4, 5e-5] and r["converged"] and s[arm]["converged"] and s[arm]["step_s"] == 5e-5
+        assert r["energy_audit_residuals"][0] > 0.01 > r["energy_audit_residuals"][1]
+    wo = s["without_preload"]
+    assert not wo["converged"] and not wo["step_refinement"]["converged"] and wo["step_refinement"]["wall_time_s"] <= 8
+    assert "not_claimed" in s["targets"] and "rms_error_at_most_half" not in s["targets"]
+    err = capsys.readouterr().err.splitlines()
+    assert sum("not converged: without_preload" in line for line in err) == 1

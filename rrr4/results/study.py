@@ -27,11 +27,15 @@ ARMS = PRELOAD_ARMS + DRIVEN_ARMS
 @dataclass(frozen=True)
 class StudyArm:
     """One clearance simulation of the study, its wall time [s] (building + stepping, without
-    compiling C) and the C compiler's time [s] for it (0 when its libraries were cached)."""
+    compiling C) and the C compiler's time [s] for it (0 when its libraries were cached);
+    convergence: with ``run_study(converge=...)``, the steps tried until its verdict passed
+    (steps_s, energy_audit_residuals, wall_time_s and compile_time_s of all of them, budget_s,
+    converged)."""
     name: str
     simulation: Simulation
     wall_time: float
     compile_time: float = 0.0
+    convergence: dict | None = None
 
 
 @dataclass(frozen=True)

@@ -210,6 +210,8 @@ def study_summary(study: Study) -> dict:
     out.update({k: None for k in PRELOAD_ARMS})
     for name, arm in study.arms.items():
         out[name] = arm_metrics(arm.simulation, arm.wall_time, study.skip, arm.compile_time)
+        if arm.convergence is not None:  # rrr4 run --converge: the steps tried until the verdict passed
+            out[name]["step_refinement"] = arm.convergence
     if "ideal" in study.arms:
         for k in PRELOAD_ARMS:
             out.pop(k)

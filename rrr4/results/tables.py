@@ -109,6 +109,8 @@ def report_markdown(summary: dict) -> str:
                                                                        default=None)))
     row("energy audit residual", lambda m: _fmt(m["energy_audit_residual"], 1.0, 3))
     row("verdict (energy audit)", _word)
+    if any("step_refinement" in m for _, m in arms):
+        row("steps tried until converged [s] (--converge)", _refined)
     row("simulated time [s]", lambda m: _fmt(m["simulated_time_s"]))
     row("integrator, step [s]", lambda m: f"{m['integrator']}, {m['step_s']:g}")
     row("wall time [s]", lambda m: _fmt(m["wall_time_s"], 1.0, 3))
@@ -157,6 +159,16 @@ def report_markdown(summary: dict) -> str:
               + (" (each clearance journal rests on its bearing wall under the ideal reaction at t = 0; "
                  "with no load, as without preload at rest, it stays centred)." if journals == "seated" else ".")]
     return "\n".join(lines) + "\n"
+
+
+def _refined(m: dict) -> str:
+    """The steps an arm of `rrr4 run --converge` tried, with their residuals and total cost."""
+    r = m.get("step_refinement")
+    if r is None:
+        return "-"
+    tried = ", ".join(f"{h:g} ({'failed' if e is None else f'{e:.2g}'})"
+                      for h, e in zip(r["steps_s"], r["energy_audit_residuals"], strict=True))
+    return f"{tried}; {r['wall_time_s'] + r['compile_time_s']:.3g} s"
 
 
 def _before(summary: dict) -> list[str]:
