@@ -173,3 +173,17 @@ def test_stiffest_vibration_is_the_law_linearised_at_the_planned_load(paper_scen
     assert "fewer than 2 steps per period" in line and f"{math.pi / v.omega:.2g} s" in line
     line, = foresight_lines(problem, step=3 / v.omega, method="rk4")
     assert "rk4 is unstable beyond 2.83" in line
+
+
+def test_an_explicit_step_too_coarse_for_the_oil_film_is_said_before_the_run_and_flagged_after_it():
+    """Flores's lubricated slider-crank: RK4 at its own 1e-6 s follows the film (nothing said; its
+    committed result converged, residual 5.6e-9); at 1e-5 s the film's squeeze rate times the step
+    (9.6) is beyond RK4's bound (2.785): said before the run, and the run over 0.1 s is flagged
+    (measured residual 2.5e-2)."""
+    import rrr4
+    scene = rrr4.load_scene(ROOT / "problems" / "flores_slider_crank_lubricated.yaml")
+    problem = Problem.from_scene(scene)
+    assert foresight_lines(problem) == []
+    line, = foresight_lines(problem, step=1e-5)
+    assert "oil film at B" in line and "rk4 cannot follow the film" in line and "use a step <= 2.9e-06 s" in line
+    assert not rrr4.simulate(scene, "rk4", t_end=0.1, step=1e-5).verdict.converged

@@ -16,6 +16,13 @@ Two one-line warnings, each naming what to use instead:
   unstable beyond omega h = :data:`EXPLICIT_STABILITY` (RK4: 2 sqrt 2, its stability
   bound on the imaginary axis).
 
+- an oil film whose squeeze damping an explicit step cannot follow. At the eccentricity where
+  the film hands over to the dry laws (``threshold``, where it is stiffest) the film resists
+  a squeeze of the journal with C = |F_n(A = 1)| / c [N s/m] (:func:`rrr4.contact.film_force`,
+  A = eps_dot); against the lightest body at the joint its rate C / m [1/s] times h beyond
+  RK4's stability bound on the negative real axis (2.785) leaves RK4 unable to follow the film
+  where it is stiffest (unstable there; the energy audit flags the run).
+
 A scene without a task body (the drivers set the motion) has no planned load: its step is
 judged after the run, by the energy audit (:mod:`.verdict`) and the half-step rerun of its
 study. Adaptive methods and error-controlled steps choose their own step and are not judged
@@ -29,7 +36,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..contact import film_force
 from ..contact.validity import law_outside_range
+from ..dynamics.builder import lubricated_joints
 from ..integrators import METHODS, FixedStepIntegrator
 from ..problem import Problem
 from ..scene import GROUND
@@ -39,6 +48,7 @@ __all__ = ["foresight_lines", "stiffest_vibration", "Vibration", "STEPS_PER_PERI
 
 STEPS_PER_PERIOD = 2.0                        # fewer fixed steps per period cannot represent a vibration
 EXPLICIT_STABILITY = {"rk4": 2 * math.sqrt(2)}  # omega h beyond which an explicit method is unstable
+EXPLICIT_DAMPING = {"rk4": 2.785}  # lambda h on the negative real axis beyond which it is unstable
 
 
 @dataclass(frozen=True)
@@ -104,17 +114,43 @@ def _step_line(problem: Problem, step: float, method: str, preload=None) -> str 
     return None
 
 
+def _film_line(problem: Problem, step: float, method: str) -> str | None:
+    """One line when an explicit `method` at `step` [s] cannot follow the stiffest oil film's
+    squeeze damping (see the module docstring)."""
+    bound = EXPLICIT_DAMPING.get(method)
+    films = lubricated_joints(problem.model, problem.scene.effects) if bound is not None else ()
+    if not films or problem.scene.integrator.tolerance is not None:
+        return None
+    mass = {b.name: b.mass for b in problem.scene.graph.bodies}
+
+    def rate(jf):
+        j, f = jf
+        spec = problem.joint(j)
+        c = spec.radial_clearance
+        damping = abs(float(film_force(f.law, f.threshold, 1.0, 0.0, spec.journal_radius, f.length, f.viscosity,
+                                       c)[0])) / c
+        body = min((b for b in spec.bodies if b != GROUND), key=mass.__getitem__)
+        return damping / mass[body], damping, j, body
+    lam, damping, joint, body = max(map(rate, films))
+    if lam * step <= bound:
+        return None
+    return (f"integrator.step: {step:g} s with {method}: the oil film at {joint} damps a squeeze with {damping:.3g} "
+            f"N s/m at eps = its threshold, against {body} of {mass[body]:g} kg a rate of {lam:.3g} 1/s, lambda h = "
+            f"{lam * step:.3g}: beyond {bound:g} {method} cannot follow the film where it is stiffest; use a step "
+            f"<= {bound / lam:.2g} s or an implicit method (--integrator bathe)")
+
+
 def foresight_lines(problem: Problem, step: float | None = None, method: str | None = None,
                     preload=None) -> list[str]:
     """The one-line warnings of `problem` run at `step` [s] with `method` (default the
     scene's): a contact law outside its range, a step that cannot resolve the stiffest
-    contact vibration (see the module docstring). preload: the run's PreloadSolution, whose
+    contact vibration, an explicit step that cannot follow an oil film (see the module
+    docstring). preload: the run's PreloadSolution, whose
     reactions are the planned loads (default: those of the minimum-norm efforts)."""
     sc = problem.scene
     c = sc.effects.contact
     lines = []
     if problem.clearance_joints and (law := law_outside_range(c.law, c.restitution, c.exponent)):
         lines.append(law)
-    step_line = _step_line(problem, sc.integrator.step if step is None else step, method or sc.integrator.method,
-                           preload)
-    return lines + ([step_line] if step_line else [])
+    h, method = sc.integrator.step if step is None else step, method or sc.integrator.method
+    return lines + [x for x in (_step_line(problem, h, method, preload), _film_line(problem, h, method)) if x]
