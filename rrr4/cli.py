@@ -109,7 +109,9 @@ def _optimize(args) -> int:
               f"costs x{summary['contact_cost_ratio']:.3f} in cycle time")
     for arm, m in (summary.get("replay") or {}).items():
         print(f"replay {arm}: contact losses {sum(m['contact_loss_events'].values())}, platform error RMS "
-              f"{m['platform_error_rms_m'] * 1e6:.3g} um, torque RMS {m['torque_rms_Nm']:.3g}")
+              f"{m['platform_error_rms_m'] * 1e6:.3g} um, torque RMS {m['torque_rms_Nm']:.3g}"
+              + ("" if m.get("converged", True) else ", NOT CONVERGED (energy audit residual "
+                 f"{m['energy_audit_residual']:.3g} > {m['energy_audit_tolerance']:g}): not to be trusted"))
     if summary.get("headroom"):
         h = summary["headroom"]
         print(f"f_min headroom: {h['tried']}; smallest f_min without losses: {h['smallest_f_min_without_losses_N']}")

@@ -145,20 +145,24 @@ def test_the_verdict_agrees_with_step_refinement_on_light_links():
 @pytest.mark.slow
 def test_rrr4_run_converge_halves_the_step_until_the_verdict_passes(tmp_path, capsys):
     """`rrr4 run --converge`: light links over 0.05 s. The preloaded arms are flagged at 1e-4 s and
-    pass at 5e-5 s; the arm without preload needs far smaller steps (it passes at 1.6e-6 s) and
-    stops at the budget still flagged, which the summary, the report and one line say."""
+    pass at 5e-5 s; the arm without preload needs far smaller steps (measured: it passes at
+    1.6e-6 s after 7 runs, one of which blew up); whatever the budget let it reach, the summary,
+    the report and the terminal agree on its verdict."""
     import json
 
     from rrr4.cli import main
     out = tmp_path / "ll"
-    assert main(["run", str(HARD / "light_links.yaml"), "--t-end", "0.05", "--out", str(out), "--converge", "8"]) == 0
+    assert main(["run", str(HARD / "light_links.yaml"), "--t-end", "0.05", "--out", str(out), "--converge", "60"]) == 0
     s = json.loads((out / "summary.json").read_text())
     for arm in ("with_preload", "with_preload_compensated"):
         r = s[arm]["step_refinement"]
         assert r["steps_s"] == [1e-4, 5e-5] and r["converged"] and s[arm]["converged"] and s[arm]["step_s"] == 5e-5
         assert r["energy_audit_residuals"][0] > 0.01 > r["energy_audit_residuals"][1]
     wo = s["without_preload"]
-    assert not wo["converged"] and not wo["step_refinement"]["converged"] and wo["step_refinement"]["wall_time_s"] <= 8
-    assert "not_claimed" in s["targets"] and "rms_error_at_most_half" not in s["targets"]
+    r = wo["step_refinement"]
+    assert r["steps_s"] == [1e-4 / 2**k for k in range(len(r["steps_s"]))] and wo["step_s"] == r["steps_s"][-1]
+    assert wo["converged"] == r["converged"] == (r["energy_audit_residuals"][-1] <= 0.01)
+    assert all(e is None or e > 0.01 for e in r["energy_audit_residuals"][:-1])
     err = capsys.readouterr().err.splitlines()
-    assert sum("not converged: without_preload" in line for line in err) == 1
+    assert sum("not converged: without_preload" in line for line in err) == (0 if wo["converged"] else 1)
+    assert ("not_claimed" in s["targets"]) != wo["converged"]
