@@ -187,3 +187,23 @@ def test_an_explicit_step_too_coarse_for_the_oil_film_is_said_before_the_run_and
     line, = foresight_lines(problem, step=1e-5)
     assert "oil film at B" in line and "rk4 cannot follow the film" in line and "use a step <= 2.9e-06 s" in line
     assert not rrr4.simulate(scene, "rk4", t_end=0.1, step=1e-5).verdict.converged
+
+
+def test_a_sweep_row_carries_its_arms_verdict():
+    """run_case (a sweep's case, in the worker): every row ends with `converged`, the arm's
+    verdict; the slider-crank at its own step over 2 ms converges, its ideal twin too."""
+    from rrr4.studies.sweeps import DRIVEN_METRICS, METRICS, case_scene, parse_spec, run_case
+    assert METRICS[-1] == DRIVEN_METRICS[-1] == "converged"
+    spec = parse_spec({"scene": str(ROOT / "problems" / "flores_slider_crank.yaml"), "t_end": 0.002,
+                       "grid": {"mechanism.joints[2].clearance.radial_clearance": [5.0e-4]}})
+    rows, _, _ = run_case(case_scene(spec.base, spec.scene_path, spec.cases[0])[1], "flores_slider_crank",
+                          spec.t_end, spec.arms)
+    assert [r["converged"] for r in rows] == [True, True]
+
+
+def test_a_bad_convergence_budget_is_one_line_and_writes_nothing(tmp_path, capsys):
+    out = tmp_path / "r"
+    assert main(["run", str(ROOT / "problems" / "paper_circle.yaml"), "--converge", "-1", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["rrr4: error: SceneError: --converge: -1.0 is not allowed (must be a finite number > 0)"]
+    assert not out.exists()
