@@ -48,7 +48,8 @@ class Study:
     infeasibility report of the preload ('' if feasible); refinement: a driven scene's
     clearance arm rerun at half the step (None otherwise); skip [s]: the start-up window the
     metrics over the output samples discard (:mod:`rrr4.results.metrics`); overrides: what the
-    caller set instead of the scene (t_end_s, integrator, step_s, output_rate_Hz, skip_s), as
+    caller set instead of the scene (t_end_s, integrator, step_s, output_rate_Hz, skip_s,
+    converge_budget_s), as
     given, for summary.json; foresight: the one-line warnings said before the run
     (:func:`rrr4.simulation.foresight.foresight_lines`).
     """
