@@ -73,6 +73,18 @@ def test_every_committed_result_would_pass_the_verdict():
         assert energy_verdict(_energy([0, 1.0], [0, 1.0 + r], [0, 0])).converged
 
 
+def test_every_committed_driven_result_passes_the_step_halving_check():
+    """Flores's slider-crank, dry and lubricated: the half-step rerun within 1 % of the 0.5 mm
+    clearance over the first millisecond (6.3e-8 m and 3.7e-10 m against 5e-6 m)."""
+    from rrr4.simulation import halving_check
+    driven = [json.loads(f.read_text()) for f in _summaries()]
+    driven = [s for s in driven if s.get("step_convergence")]
+    assert len(driven) >= 2
+    for s in driven:
+        d = s["step_convergence"]["trajectory_difference_m"]["first_1_ms"]
+        assert halving_check(d, 1e-3, 5e-4)["passes"] and d < 5e-6 / 50
+
+
 def _summary(converged_without: bool) -> dict:
     s = json.loads((ROOT / "results" / "paper_circle" / "summary.json").read_text())
     for arm in ("with_preload", "with_preload_compensated", "without_preload"):
@@ -207,3 +219,19 @@ def test_a_bad_convergence_budget_is_one_line_and_writes_nothing(tmp_path, capsy
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["rrr4: error: SceneError: --converge: -1.0 is not allowed (must be a finite number > 0)"]
     assert not out.exists()
+
+
+def test_where_the_energy_audit_is_not_decisive_the_half_step_rerun_decides():
+    """Flores's slider-crank at 2e-5 s (20x its step) over 4 ms: its energy balances (residual
+    1.9e-3) but its half-step rerun moves the bodies by 0.1 mm, a fifth of the clearance, in the
+    first millisecond: not converged, and the one line says why."""
+    import rrr4
+    from rrr4.results.summary import study_summary
+    from rrr4.studies.study import run_study
+    s = study_summary(run_study(rrr4.load_scene(ROOT / "problems" / "flores_slider_crank.yaml"), t_end=0.004,
+                                step=2e-5))
+    arm = s["with_clearance"]
+    assert arm["energy_audit_residual"] < AUDIT_TOLERANCE and not arm["step_halving"]["passes"]
+    assert arm["step_halving"]["difference_m"] > 10 * arm["step_halving"]["tolerance_m"]
+    assert not arm["converged"] and s["ideal"]["converged"]
+    assert "with_clearance (at half the step it moves by" in verdict_line(s)

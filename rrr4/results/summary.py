@@ -20,8 +20,9 @@ from ..preload import PreloadSolution, PreloadWarning, solve_preload
 from ..problem import Problem
 from ..scene import Scene
 from ..scene.vocabulary import CONTACT_LAW_KEYS, FRICTION_LAW_KEYS
-from ..simulation import remedy
+from ..simulation import halving_check, remedy
 from ..simulation.foresight import foresight_lines
+from ..simulation.verdict import HALVING_WINDOW
 from ..trajectory import sample_path, trajectory_function
 from .metrics import SETTLING_MARGIN, SETTLING_TAIL, WHOLE_RUN, WINDOWED, arm_metrics, driven_metrics, driven_window
 from .study import PRELOAD_ARMS, Study
@@ -156,10 +157,18 @@ def verdict_line(summary: dict) -> str | None:
     off = unconverged(summary)
     if not off:
         return None
-    arms = ", ".join(f"{k} (energy audit residual {m['energy_audit_residual']:.3g} > {m['energy_audit_tolerance']:g})"
-                     for k, m in off.items())
+    arms = ", ".join(f"{k} ({_why(m)})" for k, m in off.items())
     step = min(m["step_s"] for m in off.values())
     return f"not converged: {arms}; numbers of these arms are not to be trusted: try {remedy(step)}"
+
+
+def _why(m: dict) -> str:
+    """Why an arm has not converged: its energy audit, else its step-halving check."""
+    if m["energy_audit_residual"] > m["energy_audit_tolerance"] or "step_halving" not in m:
+        return f"energy audit residual {m['energy_audit_residual']:.3g} > {m['energy_audit_tolerance']:g}"
+    h = m["step_halving"]
+    return (f"at half the step it moves by {h['difference_m']:.3g} m > {h['tolerance_m']:.3g} m over the first "
+            f"{h['window_s']:g} s")
 
 
 def force_element_summary(e) -> dict:
@@ -261,7 +270,20 @@ def _driven(study: Study, out: dict) -> dict:
             "steps_s": [coarse["step_s"], fine["step_s"]],
             "trajectory_difference_m": _trajectory_difference(study.arms["with_clearance"].simulation,
                                                               ref.simulation)}
+        res["with_clearance"].update(_halving(study, res["step_convergence"]["trajectory_difference_m"]))
     return res
+
+
+def _halving(study: Study, differences: dict) -> dict:
+    """The clearance arm's step-halving check (:func:`rrr4.simulation.halving_check`) over the
+    first millisecond (the whole run when shorter), and its verdict: converged only if both the
+    energy audit and the check pass."""
+    key = f"first_{HALVING_WINDOW * 1e3:g}_ms"
+    window = HALVING_WINDOW if key in differences else study.t_end
+    clearance = min(study.scene.joint(j).radial_clearance for j in study.scene.clearance_joints)
+    check = halving_check(differences.get(key, differences["whole_run"]), window, clearance)
+    arm = study.arms["with_clearance"].simulation
+    return {"step_halving": check, "converged": arm.verdict.converged and check["passes"]}
 
 
 def _trajectory_difference(coarse, fine) -> dict:
