@@ -17,9 +17,10 @@ driven scene's study, which reruns its clearance arm anyway).
 The threshold sits between what the shipped scenes reach and what a run that is wrong
 reaches (docs/checks.md, "Is a run converged?"): every committed result has a residual at most
 2.9e-3 (the time-optimal replay without preload; the reference scene 1e-5 to 8e-5 over 1 s,
-4.8e-3 over its first 0.1 s), while the hard variants whose numbers move by more than their
-size when the step is refined reach 1.7e-2 (4 g driving links) to 1.2 (the same without
-preload), and a law used outside its range (Lankarani-Nikravesh at c_r = 0.05) 0.14 to 0.2.
+4.8e-3 over its first 0.1 s), while the hard variants that a smaller step shows to be wrong
+(4 g driving links: the platform 26 % off its converged error) reach 1.7e-2 (4 g driving links) to 1.2 (the same without
+preload), and the first impacts from centred journals of Lankarani-Nikravesh at c_r = 0.05
+0.14 to 0.2; each converges at a smaller step.
 """
 
 from __future__ import annotations
