@@ -235,3 +235,17 @@ def test_where_the_energy_audit_is_not_decisive_the_half_step_rerun_decides():
     assert arm["step_halving"]["difference_m"] > 10 * arm["step_halving"]["tolerance_m"]
     assert not arm["converged"] and s["ideal"]["converged"]
     assert "with_clearance (at half the step it moves by" in verdict_line(s)
+
+
+def test_rrr4_check_says_what_a_run_cannot_resolve_in_one_line_each_and_keeps_its_exit_status(capsys):
+    hard = ROOT / "problems" / "hard"
+    assert main(["check", str(hard / "low_restitution_ln.yaml")]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert sum(line.startswith("effects.contact.law: lankarani-nikravesh at restitution 0.05") for line in out) == 1
+    assert main(["check", str(hard / "light_links.yaml")]) == 0
+    out = capsys.readouterr().out.splitlines()
+    line, = [x for x in out if x.startswith("integrator.step: 0.0001 s with bathe")]
+    assert "against driving_1 of 0.004 kg" in line and "use a step <= 2.4e-05 s" in line
+    assert main(["check", str(ROOT / "problems" / "paper_circle.yaml")]) == 0
+    assert not [x for x in capsys.readouterr().out.splitlines()
+                if x.startswith(("integrator.step:", "effects.contact.law:"))]
