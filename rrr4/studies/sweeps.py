@@ -21,7 +21,9 @@ and its ideal twin), with the columns :data:`DRIVEN_METRICS`
 (:func:`rrr4.results.metrics.driven_scalar_metrics`: impacts per driver revolution, the
 acceleration deviation against the ideal twin, which a ``with_clearance`` arm simulates
 even when the spec does not ask for its row, the driver efforts, penetration and peak
-contact force). A metric that does not apply to an arm is an empty cell. Every case is
+contact force). A metric that does not apply to an arm is an empty cell. Every row ends with
+``converged``: the energy audit's verdict on that arm (:mod:`rrr4.simulation.verdict`); a
+number of a row that says False is not to be trusted. Every case is
 built and validated as a scene before anything runs; a bad spec or case value is one
 :class:`~rrr4.errors.SceneError` line naming the key.
 
@@ -67,8 +69,9 @@ from ..scene import Scene, get_key, key_steps, parse_scene, read_scene, read_yam
 __all__ = ["sweep", "load_spec", "SweepSpec", "METRICS", "DRIVEN_METRICS", "spec_arms", "DISTRIBUTIONS", "case_options",
            "GEOMETRY_KEYS", "PATH_KEYS"]
 
-METRICS = (*SCALAR_METRICS, "wall_time_s")  # the CSV columns of each arm, scene with a task body
-DRIVEN_METRICS = (*DRIVEN_SCALAR_METRICS, "wall_time_s")  # those of a driven scene
+# the CSV columns of each arm, scene with a task body; converged: the energy audit's verdict on the arm
+METRICS = (*SCALAR_METRICS, "wall_time_s", "converged")
+DRIVEN_METRICS = (*DRIVEN_SCALAR_METRICS, "wall_time_s", "converged")  # those of a driven scene
 DISTRIBUTIONS = ("normal", "uniform")
 SPEC_KEYS = ("scene", "t_end", "skip", "arms", "grid", "monte_carlo")
 MAX_CASES = 100_000
@@ -399,7 +402,8 @@ def run_case(text: str, name: str, t_end, arms, jit: bool = False, options: dict
         if row["status"] == "ok":
             sim = sims[row["arm"]]
             row.update(driven_scalar_metrics(sim, None if row["arm"] == "ideal" else sims.get("ideal"), t_from,
-                                             revolution) if driven else scalar_metrics(sim, skip))
+                                             revolution) if driven else scalar_metrics(sim, skip),
+                       converged=sim.verdict.converged)
     rows = [r for r in rows if r["arm"] in arms]
     used = _built(problems)
     reused = tuple(k for i, k in enumerate(STRUCTURES)
