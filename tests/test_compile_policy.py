@@ -93,4 +93,7 @@ def test_simulate_records_how_it_stepped(tmp_path, monkeypatch):
     monkeypatch.setattr(build, "spawn", lambda args: None)  # no compiler: the VM to the end
     sim = rrr4.simulate(rrr4.load_scene(Path(__file__).resolve().parents[1] / "problems" / "ideal_circle.yaml"),
                         t_end=0.01, jit=BACKGROUND)
-    assert sim.stats["jit"] == BACKGROUND and sim.stats["stepping"] == {"compiled": False, "compiled_from_frame": None}
+    assert sim.stats["jit"] == BACKGROUND
+    assert sim.stats["stepping"] == {"compiled": False, "compiled_from_frame": None, "compiled_from_s": None}
+    from rrr4.results.metrics import stepping_text
+    assert stepping_text(sim) == "virtual machine"

@@ -208,7 +208,7 @@ def test_a_sweep_row_carries_its_arms_verdict():
     assert METRICS[-1] == DRIVEN_METRICS[-1] == "converged"
     spec = parse_spec({"scene": str(ROOT / "problems" / "flores_slider_crank.yaml"), "t_end": 0.002,
                        "grid": {"mechanism.joints[2].clearance.radial_clearance": [5.0e-4]}})
-    rows, _, _ = run_case(case_scene(spec.base, spec.scene_path, spec.cases[0])[1], "flores_slider_crank",
+    rows, _, _ = run_case(case_scene(spec.scene, spec.cases[0])[1], "flores_slider_crank",
                           spec.t_end, spec.arms)
     assert [r["converged"] for r in rows] == [True, True]
 

@@ -16,7 +16,7 @@ from ..errors import Rrr4Error
 __all__ = ["RUN_SPECIFIC", "VERDICT", "compare_results", "flatten"]
 
 # summary.json keys (last part of the dotted path) whose values belong to the run, not to the result
-RUN_SPECIFIC = ("wall_time_s", "compile_time_s", "scene_file")
+RUN_SPECIFIC = ("wall_time_s", "compile_time_s", "stepping", "scene_file")
 VERDICT = "converged"  # an arm's verdict: a change is a difference at any tolerance
 
 

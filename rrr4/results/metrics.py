@@ -127,7 +127,7 @@ def arm_metrics(sim: Simulation, wall_time: float, skip: float = 0.0, compile_ti
     settling_time_s (with a task body: :func:`settling_time` of the platform error, whole run);
     energy_audit_residual; converged (the energy audit's verdict, :mod:`rrr4.simulation.verdict`)
     with energy_audit_tolerance, energy_imbalance_J and energy_exchanged_J behind it;
-    wall_time_s (building and stepping, without compiling C);
+    wall_time_s (building and stepping, without compiling C); stepping (:func:`stepping_text`);
     compile_time_s (the C compiler's time for this simulation, 0 when its libraries were in
     the cache); simulated_time_s; integrator, step_s, steps.
     A metric that does not apply is absent: the contact metrics list the clearance and the
@@ -166,11 +166,22 @@ def arm_metrics(sim: Simulation, wall_time: float, skip: float = 0.0, compile_ti
         **_verdict(sim),
         "wall_time_s": float(wall_time),
         "compile_time_s": float(compile_time),
+        "stepping": stepping_text(sim),
         "simulated_time_s": float(sim.t[-1] - sim.t[0]),
         "integrator": sim.stats["method"],
         "step_s": float(sim.stats["step"]),
         "steps": int(sim.stats["steps"]),
     }
+
+
+def stepping_text(sim: Simulation) -> str:
+    """How a run stepped: 'compiled C', 'virtual machine', or 'virtual machine, compiled C from
+    t = ... s' (the compile policy of :func:`rrr4.simulation.default_jit`; the same states)."""
+    s = sim.stats.get("stepping") or {}
+    if not s.get("compiled"):
+        return "virtual machine"
+    t = s.get("compiled_from_s")
+    return "compiled C" if t is None else f"virtual machine, compiled C from t = {t:.4g} s"
 
 
 def _verdict(sim: Simulation) -> dict:

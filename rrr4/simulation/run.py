@@ -77,6 +77,14 @@ def default_jit() -> bool | str:
     return True if forced == "1" else BACKGROUND
 
 
+def _stepping(stepping, t_grid) -> dict | None:
+    """The run's stepping record with the time [s] its move to compiled C happened at, if it did."""
+    if not stepping:
+        return None
+    k = stepping.get("compiled_from_frame")
+    return {**stepping, "compiled_from_s": float(t_grid(np.array([k]))[0]) if k else None}
+
+
 def _integrator(settings: IntegratorSettings, integrator, jit: bool) -> Integrator:
     """The integrator instance of a run: `integrator` itself, or the named method (default
     the scene's) configured by the scene's integrator `settings`."""
@@ -240,7 +248,6 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
         raise SimulationError(_failure_message(failure, method.name, eqs, outputs))
     stats = {"method": method.name, "step": h, "steps": spf * n_frames, "frames": len(t_out) - 1, "wall_time": wall,
              "input_time": u.seconds, "output_time": outputs.seconds, "jit": method.jit, "v_min": eqs.v_min,
-             "stepping": run.stats.get("stepping"),
              "graph": {f.name(): graph_size(f) for f in (eqs.acceleration, system.ode)},
              "controller": (controller if loop.control is not None else "none"),
              "coordinates": "tree" if tree else "reference-point",
@@ -250,6 +257,7 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
              "compensation": ctrl.scene.actuation.compensation if eqs.mode == "torque" else "none",
              "seat_model": ctrl.scene.actuation.seat_model if eqs.mode == "torque" and ctrl.compensates else "none"}
     stats.update(run.stats)
+    stats["stepping"] = _stepping(run.stats.get("stepping"), t_grid)
     return outputs.simulation(stats)
 
 
