@@ -604,7 +604,11 @@ class NRRRMechanism(Mechanism):
         coordinates in the scene's working modes (the bare graph names no assembly mode, so the
         seeded search could close on another elbow)."""
         if guess is None:
-            guess = self.body_motion(_vector("target", target, self.n_task))[0]
+            target = _vector("target", target, self.n_task)
+            guess = self.body_motion(target)[0]
+            if not np.all(np.isfinite(guess)):
+                raise KinematicsError(f"the mechanism does not assemble at target {np.round(target, 6).tolist()} "
+                                      "(a chain cannot reach it in its working mode)")
         return super().assemble(target, offsets, guess)
 
     def seated_coordinates(self, pose, eccentricity) -> np.ndarray:
