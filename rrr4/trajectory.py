@@ -14,9 +14,9 @@ import casadi as ca
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .scene import PathSpec
+from .scene import DriverSpec, PathSpec
 
-__all__ = ["trajectory_function", "path_geometry_function", "sample_path", "PathSamples"]
+__all__ = ["trajectory_function", "path_geometry_function", "driver_function", "sample_path", "PathSamples"]
 
 
 def _time_law(law: str, tau):
@@ -83,6 +83,21 @@ def trajectory_function(spec: PathSpec) -> ca.Function:
     pose_d = ca.jacobian(pose, t)
     pose_dd = ca.jacobian(pose_d, t)
     return ca.Function("trajectory", [t], [pose, pose_d, pose_dd], ["t"], ["pose", "pose_d", "pose_dd"])
+
+
+@functools.cache
+def driver_function(spec: DriverSpec) -> ca.Function:
+    """CasADi Function 'driver': t [s] -> value [rad or m], rate, acceleration of a driver whose
+    time_law is not 'constant': initial + travel s(t), s the path's law over the driver's
+    duration (or its time table), at rest at both ends of [0, duration] outside it."""
+    t = ca.SX.sym("t")
+    if spec.time_law == "table":
+        s = _tabulated_progress(spec.time_table, ca.fmin(ca.fmax(t, 0.0), spec.duration))
+    else:
+        s = _time_law(spec.time_law, ca.fmin(ca.fmax(t / spec.duration, 0.0), 1.0))
+    value = spec.initial + spec.travel * s
+    rate = ca.jacobian(value, t)
+    return ca.Function("driver", [t], [value, rate, ca.jacobian(rate, t)], ["t"], ["value", "rate", "acceleration"])
 
 
 @functools.cache
