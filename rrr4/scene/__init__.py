@@ -37,7 +37,7 @@ from .schema import (
     Scene,
     WearEffect,
 )
-from .time_table import TIME_TABLE_COLUMNS, check_time_table, read_time_table, time_table_text
+from .time_table import TIME_TABLE_COLUMNS, check_time_table, inline_time_tables, read_time_table, time_table_text
 from .vocabulary import GROUND, MATERIALS, choices
 
 __all__ = [
@@ -49,5 +49,5 @@ __all__ = [
     "expand_nrrr", "bare_nrrr_graph", "get_key", "set_key", "key_steps",
     "MAX_SAMPLES", "MAX_BYTES", "MAX_DEPTH", "MAX_NODES",
     "ForceElement", "LOAD_TABLE_COLUMNS", "read_load_table",
-    "TIME_TABLE_COLUMNS", "check_time_table", "read_time_table", "time_table_text",
+    "TIME_TABLE_COLUMNS", "check_time_table", "read_time_table", "time_table_text", "inline_time_tables",
 ]

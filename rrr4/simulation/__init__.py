@@ -3,7 +3,8 @@
 :mod:`.run`) and its result (:class:`Simulation`, :mod:`.result`)."""
 
 from .result import Simulation
-from .run import OVERRIDES, default_jit, frame_times, simulate
+from .run import OVERRIDES, default_jit, frame_times, run_end, simulate
 from .system import REFERENCES, problem_system
 
-__all__ = ["Simulation", "simulate", "problem_system", "OVERRIDES", "REFERENCES", "default_jit", "frame_times"]
+__all__ = ["Simulation", "simulate", "problem_system", "OVERRIDES", "REFERENCES", "default_jit", "frame_times",
+           "run_end"]

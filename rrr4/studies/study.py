@@ -58,7 +58,7 @@ from ..results.metrics import check_skip
 from ..results.study import Study, StudyArm
 from ..results.summary import preload_lines
 from ..scene import MAX_SAMPLES, Scene
-from ..simulation import simulate
+from ..simulation import run_end, simulate
 from ..trajectory import sample_path
 
 __all__ = ["run_study", "arm_scene", "study_controller"]
@@ -102,7 +102,8 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
               progress: bool = False, log=None) -> Study:
     """Run the study of `scene`.
 
-    t_end [s]: simulated time (default the path duration); step [s]: integrator step
+    t_end [s]: simulated time (default the path duration, rounded up to whole control
+    periods with a sampled controller: :func:`rrr4.simulation.run_end`, said in the log); step [s]: integrator step
     (default the scene's); integrator: method name (default the scene's); output_rate [Hz]:
     outputs kept per second (default every step, so that losses are located to a step; at
     most 1/step); skip [s]: the start-up window the metrics discard (0 <= skip < t_end, see
@@ -115,7 +116,12 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
     scene = problem.scene
     given = {"t_end_s": t_end, "integrator": integrator, "step_s": step, "output_rate_Hz": output_rate,
              "skip_s": skip or None}
-    t_end = scene.path.duration if t_end is None else argument("t_end", t_end)
+    if t_end is None:
+        t_end, note = run_end(scene)
+        if note:
+            say(note)
+    else:
+        t_end = argument("t_end", t_end)
     h = scene.integrator.step if step is None else argument("step", step)
     if integrator is not None and integrator not in METHODS:
         raise unknown_value("integrator", "integrator", integrator, METHODS)
