@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 import yaml
 
-from rrr4 import Mechanism, SceneError, simulate
-from rrr4.scene import parse_scene
+from rrr4 import Mechanism, Problem, SceneError, simulate
+from rrr4.scene import inline_tables, parse_scene
+from rrr4.studies.wear import cycle_duration
 from tests.conftest import ROOT
 
 IDEAL_SLIDER = ROOT / "problems" / "flores_slider_crank_ideal.yaml"
@@ -125,3 +126,8 @@ def test_a_driver_time_table_file_is_read_beside_the_scene(tmp_path):
     from rrr4 import load_scene
     d = load_scene(path).graph.drivers[0]
     assert d.time_table[1] == (0.02, 0.5, 50.0) and d.travel == pytest.approx(np.pi) and d.duration == 0.04
+    # a saved result's or a sweep case's copy carries the rows: it parses without the file
+    assert inline_tables(data, tmp_path) and isinstance(data["mechanism"]["drivers"][0]["time_table"], list)
+    assert parse_scene(data).graph.drivers[0] == d
+    with pytest.raises(SceneError, match=r"^rrr4 wear|time_law: 'table' is not allowed with rrr4 wear"):
+        cycle_duration(Problem.from_scene(parse_scene(data)))

@@ -31,7 +31,7 @@ from ..checks import argument, describe  # noqa: E402
 from ..errors import Rrr4Error  # noqa: E402
 from ..mechanism import Model  # noqa: E402
 from ..problem import Problem  # noqa: E402
-from ..scene import GROUND, Scene, inline_time_tables, load_yaml, parse_scene  # noqa: E402
+from ..scene import GROUND, Scene, inline_tables, load_yaml, parse_scene  # noqa: E402
 from .figures import STYLE, save_figure  # noqa: E402
 from .study import ARMS  # noqa: E402
 
@@ -52,7 +52,7 @@ def save_motion(study, path: Path, rate: float | None = None) -> Path | None:
     text = Path(scene.source).read_text()
     parsed = parse_scene(load_yaml(text, scene.source), name=Path(scene.source).stem, source=scene.source)
     raw = load_yaml(text, scene.source)
-    if inline_time_tables(raw, parsed):  # the tables beside the scene file travel with the result
+    if inline_tables(raw, Path(scene.source).parent):  # the tables beside the scene file travel with it
         text = yaml.safe_dump(raw, sort_keys=False)
     # the file's scene, but for the path (an optimal law or motion replayed: pose_ref holds it)
     if replace(parsed, path=scene.path) != scene:

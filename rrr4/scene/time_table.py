@@ -22,8 +22,7 @@ from pathlib import Path
 from ..errors import SceneError
 from .fields import read_csv_rows
 
-__all__ = ["TIME_TABLE_COLUMNS", "MAX_TABLE_ROWS", "read_time_table", "check_time_table", "time_table_text",
-           "inline_time_tables"]
+__all__ = ["TIME_TABLE_COLUMNS", "MAX_TABLE_ROWS", "read_time_table", "check_time_table", "time_table_text"]
 
 TIME_TABLE_COLUMNS = ("t", "s", "s_dot")
 MAX_TABLE_ROWS = 1_000_000
@@ -88,21 +87,3 @@ def time_table_text(t, s, s_dot, s_ddot=None) -> str:
     lines += [",".join(f"{float(v):.17g}" for v in row) for row in zip(*cols, strict=True)]
     return "\n".join(lines) + "\n"
 
-
-def inline_time_tables(data: dict, scene) -> bool:
-    """Write into the scene YAML `data` (the mapping `scene` was read from) the rows of every
-    time table it reads from a file (path.time_table, mechanism.drivers[].time_table), so the
-    text parses without the files beside it (a saved result's copy of its scene). True when
-    something changed."""
-    changed = False
-    path = data.get("path")
-    if isinstance(path, dict) and isinstance(path.get("time_table"), str):
-        path["time_table"] = [list(row) for row in scene.path.time_table]
-        changed = True
-    mech = data.get("mechanism")
-    drivers = mech.get("drivers") if isinstance(mech, dict) else None
-    for raw, d in zip(drivers if isinstance(drivers, list) else [], scene.graph.drivers, strict=False):
-        if isinstance(raw, dict) and isinstance(raw.get("time_table"), str):
-            raw["time_table"] = [list(row) for row in d.time_table]
-            changed = True
-    return changed

@@ -63,7 +63,7 @@ from ..results.metrics import (
     scalar_metrics,
 )
 from ..results.study import DRIVEN_ARMS, PRELOAD_ARMS
-from ..scene import get_key, key_steps, parse_scene, read_load_table, read_time_table, read_yaml, set_key
+from ..scene import get_key, inline_tables, key_steps, parse_scene, read_yaml, set_key
 
 __all__ = ["sweep", "load_spec", "SweepSpec", "METRICS", "DRIVEN_METRICS", "spec_arms", "DISTRIBUTIONS", "case_options",
            "GEOMETRY_KEYS", "PATH_KEYS"]
@@ -121,19 +121,6 @@ def load_spec(path) -> SweepSpec:
     return parse_spec(data, p.parent)
 
 
-def _inline_tables(base: dict, folder: Path) -> None:
-    """Replace the table files a scene names (path.time_table, forces[].table) by their rows,
-    so that the cases carry them and a worker, in any directory or on another machine, reads
-    no file."""
-    path = base.get("path")
-    if isinstance(path, dict) and isinstance(path.get("time_table"), str):
-        path["time_table"] = [list(r) for r in read_time_table(folder / path["time_table"], "path.time_table")]
-    forces = base.get("forces")
-    for i, e in enumerate(forces if isinstance(forces, list) else []):
-        if isinstance(e, dict) and isinstance(e.get("table"), str):
-            e["table"] = [list(r) for r in read_load_table(folder / e["table"], f"forces[{i}].table")]
-
-
 def parse_spec(data: dict, root: Path = Path(".")) -> SweepSpec:
     """Validate a spec mapping; relative scene paths are taken from `root`."""
     bad = sorted(set(data) - set(SPEC_KEYS))
@@ -143,7 +130,7 @@ def parse_spec(data: dict, root: Path = Path(".")) -> SweepSpec:
         raise SceneError(f"scene: {describe(data.get('scene'))} is not allowed (the base scene's YAML file)")
     scene_path = (root / data["scene"]).resolve()
     base = read_yaml(scene_path, "scene")
-    _inline_tables(base, scene_path.parent)
+    inline_tables(base, scene_path.parent)
     # the base itself is a valid scene that assembles along its path
     driven = check_scene(parse_scene(copy.deepcopy(base), name=scene_path.stem,
                                      source=str(scene_path))).graph.task is None
