@@ -81,6 +81,23 @@ def test_time_table_driver_moves_with_constant_acceleration_per_row():
     assert rate == pytest.approx(-np.pi / 2 * a * 0.3 * t1) and acc == pytest.approx(-np.pi / 2 * a)
 
 
+def test_speed_table_driver_runs_up_and_holds_its_speed():
+    """A speed table [t, speed]: a linear run-up from rest to OMEGA in t1, then OMEGA to t2;
+    the angle is the speed's integral, OMEGA t^2 / (2 t1) then OMEGA (t - t1 / 2), exactly."""
+    omega, t1, t2 = 300.0, 0.02, 0.05
+    scene = _scene({"time_law": "table", "speed_table": [[0.0, 0.0], [t1, omega], [t2, omega]]})
+    d = scene.graph.drivers[0]
+    assert d.travel == pytest.approx(omega * (t2 - t1 / 2)) and d.duration == t2
+    t = np.array([0.0, 0.25 * t1, t1, 0.03, t2])
+    want = np.where(t <= t1, omega * t**2 / (2 * t1), omega * (t - t1 / 2))
+    mech = Mechanism.from_scene(scene)
+    np.testing.assert_allclose(mech.driver_targets(t)[:, 0], want, rtol=1e-12, atol=1e-12)
+    value, rate, acc = (float(v) for v in mech.model.driver_values(0.01))
+    assert rate == pytest.approx(omega * 0.01 / t1) and acc == pytest.approx(omega / t1)
+    backwards = _scene({"time_law": "table", "speed_table": [[0.0, 0.0], [t1, -omega]]}).graph.drivers[0]
+    assert backwards.travel == pytest.approx(-omega * t1 / 2)
+
+
 def test_constant_speed_driver_builds_the_equations_it_always_built():
     """The default law is a constant speed: value initial + speed t, rate speed, no
     acceleration, the same expressions as before motion laws existed (committed results
@@ -108,6 +125,15 @@ def test_constant_speed_driver_builds_the_equations_it_always_built():
      "drivers[0].time_table", "not a constant acceleration"),
     ({"time_law": "table", "travel_deg": 90, "time_table": "absent.csv"}, "drivers[0].time_table", "no such file"),
     ({"time_law": "ramp", "speed": 1.0}, "drivers[0].time_law", "constant, quintic"),
+    ({"time_law": "table", "speed_table": [[0, 1.0], [0.1, -1.0]]}, "drivers[0].speed_table", "both signs"),
+    ({"time_law": "table", "speed_table": [[0, 0.0], [0.1, 0.0]]}, "drivers[0].speed_table", "all speeds 0"),
+    ({"time_law": "table", "speed_table": [[0, 1.0], [0.1, 2.0]], "travel_deg": 9.0}, "drivers[0].travel_deg",
+     "integral"),
+    ({"time_law": "table", "speed_table": [[0, 1.0], [0.1, 2.0]], "time_table": [[0, 0, 0], [1, 1, 2]],
+      "travel_deg": 9.0}, "drivers[0].time_table", "not allowed with speed_table"),
+    ({"time_law": "table", "travel_deg": 9.0}, "drivers[0].time_table", "missing"),
+    ({"time_law": "quintic", "speed_table": [[0, 1.0], [0.1, 2.0]], "travel_deg": 9.0, "duration": 1.0},
+     "drivers[0].speed_table", "only with time_law: table"),
 ])
 def test_bad_driver_specs_are_refused_in_one_line(driver, key, words):
     with pytest.raises(SceneError) as e:
@@ -131,3 +157,9 @@ def test_a_driver_time_table_file_is_read_beside_the_scene(tmp_path):
     assert parse_scene(data).graph.drivers[0] == d
     with pytest.raises(SceneError, match=r"^rrr4 wear|time_law: 'table' is not allowed with rrr4 wear"):
         cycle_duration(Problem.from_scene(parse_scene(data)))
+    (tmp_path / "speed.csv").write_text("t,speed\n0,0\n0.02,50\n0.04,0\n")
+    data["mechanism"]["drivers"][0] = {"joint": "O", "time_law": "table", "speed_table": "speed.csv"}
+    path.write_text(yaml.safe_dump(data))
+    d = load_scene(path).graph.drivers[0]
+    assert d.travel == pytest.approx(1.0) and d.time_table[1] == pytest.approx((0.02, 0.5, 50.0))
+    assert inline_tables(data, tmp_path) and parse_scene(data).graph.drivers[0] == d

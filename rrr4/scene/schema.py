@@ -171,8 +171,9 @@ class DriverSpec:
     """A joint coordinate prescribed in time [rad or m]. time_law 'constant': initial + speed t
     (speed [rad/s or m/s]). Any other law of :data:`rrr4.scene.vocabulary.DRIVER_LAWS` is a
     path's time law s(t) in [0, 1] over `duration` [s] (or the rows (t, s, s_dot) of
-    `time_table`): initial + travel s(t), resting at initial + travel after it; speed is then
-    the mean speed travel / duration (what counts per revolution use)."""
+    `time_table`, also what a scene's speed table becomes): initial + travel s(t), resting at
+    initial + travel after it; speed is then the mean speed travel / duration (what counts per
+    revolution use)."""
     name: str
     joint: str
     initial: float
