@@ -103,10 +103,10 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
     """Run the study of `scene`.
 
     t_end [s]: simulated time (default the path duration, rounded up to whole control
-    periods with a sampled controller: :func:`rrr4.simulation.run_end`, said in the log); step [s]: integrator step
-    (default the scene's); integrator: method name (default the scene's); output_rate [Hz]:
-    outputs kept per second (default every step, so that losses are located to a step; at
-    most 1/step); skip [s]: the start-up window the metrics discard (0 <= skip < t_end, see
+    periods with a sampled controller: :func:`rrr4.simulation.run_end`, said in the log);
+    step [s]: integrator step (default the scene's); integrator: method name (default the
+    scene's); output_rate [Hz]: outputs kept per second (default every step, so that losses
+    are located to a step; at most 1/step); skip [s]: the start-up window the metrics discard (0 <= skip < t_end, see
     :mod:`rrr4.results.metrics`); progress: show the simulations' progress bars; log:
     callable taking one line of text per stage. What is given is recorded in
     ``Study.overrides``.
