@@ -338,7 +338,9 @@ class Mechanism:
     def driver_targets(self, t) -> np.ndarray:
         """(N, n_drivers) prescribed driver coordinates at times t (N,) [s]."""
         t = np.atleast_1d(np.asarray(t, float))
-        return np.column_stack([d.initial + d.speed * t for d in self.model.graph.drivers] or [np.zeros((len(t), 0))])
+        if not self.model.graph.drivers:
+            return np.zeros((len(t), 0))
+        return np.array(self.model.driver_values(ca.DM(t).T)[0]).T.reshape(len(t), -1)
 
     def path_jacobians(self, q) -> np.ndarray:
         """J (N, n, n_task) at states q (N, nq) of a task-driven graph: d theta = J d task."""

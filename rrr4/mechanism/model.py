@@ -15,7 +15,8 @@ Joint equations (2 rows each, Nikravesh 1988, sec. 3.4):
 
 Joint coordinates: theta_2 - theta_1 [rad] (revolute), u_1 . (p_2 - p_1) [m]
 (prismatic). An actuator's generalised force is S^T f with S = d(coordinate)/dq (virtual
-work), a driver adds the row coordinate(q) - (initial + speed t).
+work), a driver adds the row coordinate(q) - value(t), its motion law's value
+(:meth:`Model.driver_values`).
 
 Reaction convention (project-wide): the reaction of a revolute joint is the force [N,
 global frame] that body 1 (inboard) exerts on body 2 (outboard), r = -lambda for the rows
@@ -30,6 +31,7 @@ import casadi as ca
 import numpy as np
 
 from ..scene import GROUND, Graph, JointSpec
+from ..trajectory import driver_function
 
 __all__ = ["Model", "rotation", "perp", "geometry_parameters"]
 
@@ -214,11 +216,18 @@ class Model:
         return phi, phi_q, -ca.jtimes(phi_q @ qd, q, qd)
 
     def driver_values(self, t):
-        """(value, rate, acceleration) of every driver at time t (numeric or symbolic)."""
+        """(value, rate, acceleration) of every driver at time t (numeric or symbolic): initial +
+        speed t, speed, 0 for a constant speed, the driver's time law
+        (:func:`rrr4.trajectory.driver_function`) otherwise."""
         d = self.graph.drivers
-        return (ca.vertcat(*[x.initial + x.speed * t for x in d]) if d else ca.DM(0, 1),
-                ca.vertcat(*[x.speed for x in d]) if d else ca.DM(0, 1),
-                ca.DM.zeros(len(d)))
+        if not d:
+            return ca.DM(0, 1), ca.DM(0, 1), ca.DM.zeros(0)
+        if all(x.time_law == "constant" for x in d):  # the equations of a constant speed, as ever
+            return ca.vertcat(*[x.initial + x.speed * t for x in d]), ca.vertcat(*[x.speed for x in d]), \
+                ca.DM.zeros(len(d))
+        rows = [(x.initial + x.speed * t, x.speed + 0 * t, 0 * t) if x.time_law == "constant" else
+                driver_function(x)(t) for x in d]
+        return tuple(ca.vertcat(*col) for col in zip(*rows, strict=True))
 
     # ------------------------------------------------------------------ numeric helpers
 

@@ -399,6 +399,11 @@ def _scene_text(problem: Problem) -> str:
         rev = scene.graph.joint(d.joint).type == "revolute"
         what = (f"{math.degrees(d.initial):g} deg at {d.speed * 30 / math.pi:g} rpm" if rev
                 else f"{d.initial:g} m at {d.speed:g} m/s")
+        if d.time_law != "constant":  # a motion law: its travel over its duration, then at rest
+            what = (f"{math.degrees(d.initial):g} deg, {d.time_law} law: {math.degrees(d.travel):g} deg in "
+                    f"{d.duration:g} s (mean {d.speed * 30 / math.pi:g} rpm), then at rest" if rev else
+                    f"{d.initial:g} m, {d.time_law} law: {d.travel:g} m in {d.duration:g} s (mean {d.speed:g} m/s), "
+                    "then at rest")
         lines.append(f"driver {d.name}: joint {d.joint} from {what}")
     lines += _assembly_lines(problem)
     lines.append("")

@@ -2,11 +2,12 @@
 scene in memory by dotted key (:meth:`rrr4.scene.Scene.with_values`).
 
 A scene read from a file or parsed from a mapping keeps that mapping (:attr:`Scene.data`):
-a private copy, with the table files it names (``path.time_table``, ``forces[i].table``)
-replaced by the rows read from them, so the data stands alone (no file is read again, in
-any directory or on another machine). Studies that vary a scene (robustness, identification,
-sweeps) set dotted keys in a copy of it and validate the result as its file would be; a
-scene built in Python (:func:`rrr4.scene.parse_scene` of a mapping) works the same.
+a private copy, with the table files it names (``path.time_table``, a driver's
+``time_table`` or ``speed_table``, ``forces[i].table``) replaced by the rows read from them,
+so the data stands alone (no file is read again, in any directory or on another machine).
+Studies that vary a scene (robustness, identification, sweeps) set dotted keys in a copy of
+it and validate the result as its file would be; a scene built in Python
+(:func:`rrr4.scene.parse_scene` of a mapping) works the same.
 """
 
 from __future__ import annotations
@@ -14,27 +15,24 @@ from __future__ import annotations
 import copy
 from collections.abc import Mapping
 from dataclasses import replace
+from pathlib import Path
 
 from ..checks import describe
 from ..errors import SceneError
 from .keys import key_steps, set_key
+from .tables import inline_tables
 
 __all__ = ["with_data", "values_changed", "changed_data", "data_describes", "set_values"]
 
 
 def with_data(scene, data, read):
     """`scene` holding a private copy of the mapping `data` it was parsed from, the table
-    files named there replaced by the rows the scene read (in scene order), and the function
-    `read` (data, name -> Scene) that parsed it, which :meth:`Scene.with_values` calls again
-    (so this module and the schema need not import the reader)."""
+    files named there (relative to the scene file) replaced by their rows
+    (:func:`rrr4.scene.tables.inline_tables`), and the function `read` (data, name -> Scene)
+    that parsed it, which :meth:`Scene.with_values` calls again (so this module and the
+    schema need not import the reader)."""
     out = copy.deepcopy(data)
-    path = out.get("path")
-    if isinstance(path, dict) and isinstance(path.get("time_table"), str):
-        path["time_table"] = [list(r) for r in scene.path.time_table]
-    forces = out.get("forces")
-    for e, element in zip(forces if isinstance(forces, list) else [], scene.forces, strict=False):
-        if isinstance(e, dict) and isinstance(e.get("table"), str):
-            e["table"] = [list(r) for r in element.table]
+    inline_tables(out, Path(scene.source).parent if scene.source else Path())
     return replace(scene, data=out, read=read)
 
 

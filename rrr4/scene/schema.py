@@ -171,11 +171,20 @@ class ActuatorSpec:
 
 @dataclass(frozen=True)
 class DriverSpec:
-    """A joint coordinate prescribed in time: initial + speed t [rad or m, rad/s or m/s]."""
+    """A joint coordinate prescribed in time [rad or m]. time_law 'constant': initial + speed t
+    (speed [rad/s or m/s]). Any other law of :data:`rrr4.scene.vocabulary.DRIVER_LAWS` is a
+    path's time law s(t) in [0, 1] over `duration` [s] (or the rows (t, s, s_dot) of
+    `time_table`, also what a scene's speed table becomes): initial + travel s(t), resting at
+    initial + travel after it; speed is then the mean speed travel / duration (what counts per
+    revolution use)."""
     name: str
     joint: str
     initial: float
     speed: float
+    time_law: str = "constant"
+    travel: float = 0.0
+    duration: float = 0.0
+    time_table: tuple[tuple[float, float, float], ...] = ()
 
 
 @dataclass(frozen=True)

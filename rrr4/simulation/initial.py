@@ -71,9 +71,7 @@ def initial_state(problem: Problem, eqs: Equations, efforts, tree: bool, setting
         target, target_d, target_dd = (pose0[:k], (pose_d0 + np.asarray(scene.initial.platform_velocity))[:k],
                                        pose_dd0[:k])
     else:
-        target = mech.driver_targets(0.0)[0]
-        target_d = np.array([d.speed for d in scene.graph.drivers])
-        target_dd = np.zeros(len(target))
+        target, target_d, target_dd = (np.array(v, float).ravel() for v in model.driver_values(0.0))
     q0, qd0, qdd0 = problem.body_motion(target, target_d, target_dd)
     seated = np.zeros(nc)
     if scene.initial.journals == "seated" and nc and (eqs.mode != "free" or scene.graph.drivers):

@@ -24,6 +24,7 @@ the actuators carry no effort. A graph without a task body moves by its drivers
 from __future__ import annotations
 
 import functools
+import math
 import os
 import time
 import warnings
@@ -47,7 +48,7 @@ from .outputs import Outputs
 from .result import Simulation
 from .system import REFERENCES, Loop, in_tree, loop_of, measured, system_of
 
-__all__ = ["simulate", "OVERRIDES", "default_jit", "frame_times"]
+__all__ = ["simulate", "OVERRIDES", "default_jit", "frame_times", "run_end"]
 
 OVERRIDES = ("step", "output_rate", "preload", "v_min", "baumgarte", "jit", "progress", "references", "controller",
              "model", "inputs", "wear")
@@ -117,6 +118,26 @@ def _interpolated(t_s: np.ndarray, th, th_d, th_dd, ff):
                       "ff": ff[np.searchsorted(t_s, t)], "ffd": np.zeros((len(t), ff.shape[1]))}
 
 
+def _whole(periods: float) -> bool:
+    return abs(round(periods) - periods) <= 1e-6 * max(1.0, periods)
+
+
+def run_end(scene: Scene) -> tuple[float, str]:
+    """(t_end [s], note) of a run of `scene` by default: the path duration, rounded up to whole
+    control periods when a sampled controller runs it (torque mode with
+    ``actuation.control_rate``) and the duration is not whole (e.g. an optimal time law
+    taken as the path's time table): the run ends with the law, the path resting at its end
+    pose for the fraction of the last period. note: one line saying so ('' when not rounded)."""
+    duration, c = scene.path.duration, scene.actuation.control_rate
+    if scene.actuation.mode != "torque" or not c or _whole(duration * c):
+        return duration, ""
+    n = math.ceil(duration * c)
+    t_end = n / c
+    return t_end, (f"the path ends at {duration:.9g} s, {duration * c:.6g} control periods at {c:g} Hz: the run "
+                   f"takes {n} whole periods to {t_end:.9g} s (the last {1e3 * (t_end - duration):.3g} ms at rest at "
+                   "the path's end)")
+
+
 def _frames(ctrl: Problem, t_end: float, rate: float, held: bool) -> tuple[int, int]:
     """(number of frames, frames per output): frames are the output intervals, or the
     control periods of a sampled controller (then every m-th frame is an output)."""
@@ -124,9 +145,11 @@ def _frames(ctrl: Problem, t_end: float, rate: float, held: bool) -> tuple[int, 
         return max(int(round(t_end * rate)), 1), 1
     c = ctrl.scene.actuation.control_rate
     n = int(round(t_end * c))
-    if n < 1 or abs(n - t_end * c) > 1e-6 * max(1.0, t_end * c):
-        raise SceneError(f"actuation.control_rate: {c:g} Hz is not allowed with t_end {t_end:g} s (the run must be "
-                         "a whole number of control periods)")
+    if n < 1 or not _whole(t_end * c):
+        whole = max(math.ceil(t_end * c), 1)
+        raise SceneError(f"t_end: {t_end:.9g} s is not allowed with actuation.control_rate {c:g} Hz (the run must be "
+                         f"a whole number of control periods, e.g. {whole / c:.9g} s = {whole} periods; without "
+                         "t_end a run ends with the path, rounded up to whole periods)")
     m = max(int(round(c / rate)), 1)
     while n % m:
         m -= 1
@@ -145,7 +168,8 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
 
     integrator: None (the scene's integrator.method), a name from
     :data:`rrr4.integrators.METHODS`, or an integrator instance. t_end [s] defaults to the
-    path duration. overrides: step [s] (rounded so a whole number of steps fits one output
+    path duration, rounded up to whole control periods with a sampled controller
+    (:func:`run_end`). overrides: step [s] (rounded so a whole number of steps fits one output
     interval or control period), output_rate [Hz] (default: path.sample_rate; with a sampled
     controller, at most its rate), controller: 'python' (default; the controller step in
     CasADi) or 'generated' (the C that :func:`rrr4.codegen` writes, compiled with the C
@@ -176,7 +200,7 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
     bad = sorted(set(overrides) - set(OVERRIDES))
     if bad:
         raise unknown_value(bad[0], "override", bad[0], OVERRIDES)
-    t_end = scene.path.duration if t_end is None else argument("t_end", t_end)
+    t_end = run_end(scene)[0] if t_end is None else argument("t_end", t_end)
     rate = scene.path.sample_rate if overrides.get("output_rate") is None else argument("output_rate",
                                                                                           overrides["output_rate"])
     h_req = scene.integrator.step if overrides.get("step") is None else argument("step", overrides["step"])

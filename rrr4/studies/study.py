@@ -58,7 +58,7 @@ from ..results.metrics import check_skip
 from ..results.study import Study, StudyArm
 from ..results.summary import preload_lines
 from ..scene import MAX_SAMPLES, Scene
-from ..simulation import simulate
+from ..simulation import run_end, simulate
 from ..simulation.foresight import foresight_lines
 from ..trajectory import sample_path
 
@@ -105,24 +105,31 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
               converge: float | None = None, progress: bool = False, log=None) -> Study:
     """Run the study of `scene`.
 
-    t_end [s]: simulated time (default the path duration); step [s]: integrator step
-    (default the scene's); integrator: method name (default the scene's); output_rate [Hz]:
-    outputs kept per second (default every step, so that losses are located to a step; at
-    most 1/step); skip [s]: the start-up window the metrics discard (0 <= skip < t_end, see
-    :mod:`rrr4.results.metrics`); converge [s]: a wall-time budget per arm within which an
-    arm whose verdict fails (:mod:`rrr4.simulation.verdict`) is rerun at half its step until it
-    passes (:func:`_converged`; None: every arm runs once at `step`); progress: show the
-    simulations' progress bars; log: callable taking one line of text per stage, and one per warning of
-    :func:`rrr4.simulation.foresight.foresight_lines` (a contact law outside its range, a step
-    that cannot resolve the stiffest contact vibration) before any arm runs. What is given is
-    recorded in ``Study.overrides``; the warnings in ``Study.foresight``.
+    t_end [s]: simulated time (default the path duration, rounded up to whole control
+    periods with a sampled controller: :func:`rrr4.simulation.run_end`, said in the log);
+    step [s]: integrator step (default the scene's); integrator: method name (default the
+    scene's); output_rate [Hz]: outputs kept per second (default every step, so that losses
+    are located to a step; at most 1/step); skip [s]: the start-up window the metrics discard
+    (0 <= skip < t_end, see :mod:`rrr4.results.metrics`); converge [s]: a wall-time budget per
+    arm within which an arm whose verdict fails (:mod:`rrr4.simulation.verdict`) is rerun at
+    half its step until it passes (:func:`_converged`; None: every arm runs once at `step`);
+    progress: show the simulations' progress bars; log: callable taking one line of text per
+    stage, and one per warning of :func:`rrr4.simulation.foresight.foresight_lines` (a contact
+    law outside its range, a step that cannot resolve the stiffest contact vibration) before
+    any arm runs. What is given is recorded in ``Study.overrides``; the warnings in
+    ``Study.foresight``.
     """
     say = log or (lambda _msg: None)
     problem = Problem.from_scene(scene)
     scene = problem.scene
     given = {"t_end_s": t_end, "integrator": integrator, "step_s": step, "output_rate_Hz": output_rate,
              "skip_s": skip or None, "converge_budget_s": converge}
-    t_end = scene.path.duration if t_end is None else argument("t_end", t_end)
+    if t_end is None:
+        t_end, note = run_end(scene)
+        if note:
+            say(note)
+    else:
+        t_end = argument("t_end", t_end)
     h = scene.integrator.step if step is None else argument("step", step)
     if integrator is not None and integrator not in METHODS:
         raise unknown_value("integrator", "integrator", integrator, METHODS)
