@@ -20,7 +20,7 @@ from rrr4.identify import (
     read_measurements,
     resolve_parameters,
 )
-from rrr4.identify.seated import seated_measurements
+from rrr4.identify.seated import FRICTION_EXPLAINED_MIN, seated_measurements
 from rrr4.studies.robustness import perturbed
 from rrr4.studies.study import arm_scene
 
@@ -143,6 +143,7 @@ def test_a_simulated_run_with_friction_0_2_gives_it_back(problem):
     res = identify(problem, measurements_from_simulation(sim), [CLEARANCE, FRICTION])
     assert res.value(FRICTION) == pytest.approx(0.2, abs=0.015)
     assert res.value(CLEARANCE) == pytest.approx(1e-4, rel=0.01)
+    assert res.fit["friction_explained_ratio"] >= FRICTION_EXPLAINED_MIN
     # without the feedback's lag the friction comes out far too low: the lag is what makes it right
     lagless = identify(problem, measurements_from_simulation(sim), [CLEARANCE, FRICTION], effort_lag=0.0)
     assert lagless.value(FRICTION) < 0.17
