@@ -213,10 +213,9 @@ def _windows(text: str | None) -> int:
 
 
 def _identify(args) -> int:
-    import warnings
     from pathlib import Path
 
-    from .identify import MeasurementWarning, identify, read_measurements
+    from .identify import identify, read_measurements
     from .mechanism import load_scene
     from .results.identification import MARKER, write_identification
     scene = load_scene(args.scene)
@@ -238,16 +237,11 @@ def _identify(args) -> int:
         if len(window) != 2 or not window[0] < window[1]:
             from .errors import SceneError
             raise SceneError(f"--window: {args.window!r} is not allowed (T0:T1 in s with T0 < T1, e.g. 0.2:0.8)")
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", MeasurementWarning)
-        measured = read_measurements(args.measurements, scene, arm=args.arm)
-        if window is not None:
-            measured = measured.window(*window)
-        ident = identify(scene, measured, parameters=parameters, method=args.method, noise=noise or None,
-                         windows=_windows(args.windows))
-    for w in caught:
-        if issubclass(w.category, MeasurementWarning):
-            _say(f"rrr4 identify: warning: {w.message}")
+    measured = read_measurements(args.measurements, scene, arm=args.arm)
+    if window is not None:
+        measured = measured.window(*window)
+    ident = identify(scene, measured, parameters=parameters, method=args.method, noise=noise or None,
+                     windows=_windows(args.windows))
     files = write_identification(ident, out)
     print(ident.table())
     print(f"wrote {', '.join(files)} to {out}/")

@@ -4,12 +4,15 @@ without its fix."""
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import rrr4
 from rrr4 import Mechanism
 from rrr4.cli import main
-from rrr4.errors import InfeasibleError
-from rrr4.identify import identify, measurements_from_simulation
+from rrr4.errors import InfeasibleError, MeasurementError
+from rrr4.identify import Measurements, identify, measurements_from_simulation, read_measurements, resolve_parameters
+from rrr4.identify.seated import seated_measurements
 from rrr4.optimal import optimal_motion
 from rrr4.optimal.point_to_point import MIN_SAMPLES_PER_INTERVAL
 from rrr4.studies.study import arm_scene
@@ -59,3 +62,76 @@ def test_friction_from_a_50_ms_start_up_record_is_refused_not_reported(paper_sce
     assert not out.exists()
     res = identify(paper_scene, csv, ["joints.radial_clearance"], arm="with_preload")
     assert res.value("joints.radial_clearance") == pytest.approx(1e-4, rel=0.01)  # the scene's 0.1 mm
+
+
+# ------------------------------------------------------------------ identify: the measurement reader
+
+
+def _timeseries(paper_scene, tmp_path):
+    """A short measured record of the reference scene: the seated model's own prediction."""
+    problem = rrr4.build(paper_scene)
+    params = resolve_parameters(problem, ["joints.radial_clearance"])
+    m = seated_measurements(problem, params, [1e-4], np.linspace(0.0, 0.2, 21))
+    return m, m.write_csv(tmp_path / "m.csv")
+
+
+def _refused(path, scene, *words):
+    with pytest.raises(MeasurementError) as e:
+        read_measurements(path, scene)
+    msg = str(e.value)
+    assert "\n" not in msg and all(w in msg for w in words), msg
+    return msg
+
+
+def test_measurement_files_that_raised_tracebacks_end_in_one_line(paper_scene, tmp_path):
+    _, good = _timeseries(paper_scene, tmp_path)
+    text = good.read_text()
+    cases = {
+        "binary.csv": (b"t_s,x_m\n0,\0\0\x01\n", ["is binary"]),
+        "latin1.csv": ("t_s,x_m,y_m,caf\u00e9\n0,0,0,1\n0.1,0,0,1\n".encode("latin-1"), ["is not UTF-8 text"]),
+        "huge_cell.csv": (("t_s,x_m\n0,\"" + "1" * 200_000 + "\"\n").encode(), ["not a readable CSV", "field"]),
+    }
+    for name, (raw, words) in cases.items():
+        (tmp_path / name).write_bytes(raw)
+        _refused(tmp_path / name, paper_scene, name, *words)
+    _refused(tmp_path, paper_scene, "is a directory")
+    _refused("/dev/zero", paper_scene, "is not a regular file")
+    # a byte-order mark (a spreadsheet's UTF-8 export) is not part of the first column's name
+    (tmp_path / "bom.csv").write_bytes(b"\xef\xbb\xbf" + text.encode())
+    assert "x_m" in read_measurements(tmp_path / "bom.csv", paper_scene).columns
+
+
+def test_measurement_units_are_checked_against_the_scene_before_fitting(paper_scene, tmp_path):
+    """Actuator angles in degrees (the SVD of the covariance did not converge) and positions in
+    millimetres are refused in one line naming the column; the record itself is read."""
+    m, good = _timeseries(paper_scene, tmp_path)
+    assert len(read_measurements(good, paper_scene)) == 21
+    for column, factor, words in (("theta_A2_rad", 180 / np.pi, ["theta_A2_rad", "degrees"]),
+                                  ("x_m", 1e3, ["x_m", "millimetres"])):
+        cols = {**m.columns, column: m.columns[column] * factor}
+        bad = Measurements(m.t, cols, {}, "").write_csv(tmp_path / f"{column}.csv")
+        _refused(bad, paper_scene, *words)
+    # an angle off by a quarter turn (another zero) is refused too; one within 0.1 rad is read
+    for shift, ok in ((np.pi / 2, False), (0.1, True)):
+        cols = {**m.columns, "theta_A1_rad": m.columns["theta_A1_rad"] + shift}
+        f = Measurements(m.t, cols, {}, "").write_csv(tmp_path / "shift.csv")
+        if ok:
+            read_measurements(f, paper_scene)
+        else:
+            _refused(f, paper_scene, "theta_A1_rad", "another zero")
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.one_of(st.binary(max_size=400),
+                 st.lists(st.lists(st.one_of(st.sampled_from(["t_s", "x_m", "theta_A1_rad", "tau_A1_Nm", "nan", "",
+                                                              "1e400", "0", "0.1", "-3", "\ufeff", "\"", "a,b"]),
+                                             st.text(max_size=8)), max_size=5), max_size=6)
+                 .map(lambda rows: "\n".join(",".join(r) for r in rows).encode())))
+def test_any_measurement_file_is_read_or_refused_in_one_line(paper_scene, tmp_path, raw):
+    """Property: any bytes as a measurement file give Measurements or one MeasurementError line."""
+    f = tmp_path / "any.csv"
+    f.write_bytes(raw)
+    try:
+        read_measurements(f, paper_scene)
+    except MeasurementError as e:
+        assert "\n" not in str(e)

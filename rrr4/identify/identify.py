@@ -256,7 +256,11 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
     r, J = res["r"], res["J"] * derivative(u)
     if start.size:  # the start states are nuisance unknowns: the parameters' columns with theirs projected out
         J = J[:, :npar] - J[:, npar:] @ np.linalg.lstsq(J[:, npar:], J[:, :npar], rcond=None)[0]
-    cov = covariance(J, r, scale, dof=sum(float(np.sum(v)) for v in res["expected"].values()))
+    try:
+        cov = covariance(J, r, scale, dof=sum(float(np.sum(v)) for v in res["expected"].values()))
+    except np.linalg.LinAlgError as e:  # e.g. residuals of measurements in the wrong units overflow
+        raise MeasurementError(f"{m.source or 'measurements'}: the fit's covariance cannot be computed ({e}); are "
+                               "the columns in SI units (m, rad, N m)?") from None
     if method == "dynamic" and len(given) == len(sigma) and not cov["reduced_chi2"] <= FIT_LIMIT:
         raise SimulationError(f"method 'dynamic': the fit does not reproduce the measurements (reduced chi^2 "
                               f"{cov['reduced_chi2']:.3g} with the noise levels given, allowed {FIT_LIMIT:g}): the "

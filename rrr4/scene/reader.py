@@ -16,6 +16,7 @@ import yaml
 
 from ..checks import describe, unknown_value
 from ..errors import SceneError
+from ..files import read_text, shown
 from .assembly import read_assembly
 from .fields import MAX_SAMPLES, Section
 from .forces import read_forces
@@ -663,27 +664,9 @@ def read_yaml(path, what: str = "scene"):
     """The data of a YAML file (`what` names it in errors: 'scene', 'sweep spec'), with the
     file checks: it exists, is a regular UTF-8 text file, valid YAML, no key given twice, not
     empty. Raises :class:`SceneError`."""
-    p, path = Path(path), "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(path))  # shown in one line
-    if not p.exists():
-        raise SceneError(f"{what} file '{path}' does not exist")
-    if p.is_dir():
-        raise SceneError(f"{what} file '{path}' is a directory (a YAML {what} file is required)")
-    if not p.is_file():
-        raise SceneError(f"{what} file '{path}' is not a regular file (a YAML {what} file is required)")
-    try:
-        size = p.stat().st_size
-        if size > MAX_BYTES:
-            raise SceneError(f"{what} file '{path}' is too large ({size:,} bytes; at most {MAX_BYTES:,})")
-        raw = p.read_bytes()
-    except OSError as e:
-        raise SceneError(f"{what} file '{path}' cannot be read ({e.strerror})") from None
-    if b"\0" in raw:
-        raise SceneError(f"{what} file '{path}' is binary (a YAML text file is required)")
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as e:
-        raise SceneError(f"{what} file '{path}' is not UTF-8 text (invalid byte at offset {e.start})") from None
-    data = load_yaml(text, str(path))
+    text = read_text(path, f"{what} file", f"a YAML {what} file", MAX_BYTES)
+    path = shown(path)
+    data = load_yaml(text, path)
     if data is None:
         raise SceneError(f"{what} file '{path}' is empty (a {what} mapping is required"
                          + (": mechanism, path, ...)" if what == "scene" else ")"))
