@@ -2,6 +2,8 @@
 answers that were given with confidence. One test (or property) per class; each fails
 without its fix."""
 
+import json
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -10,7 +12,8 @@ from hypothesis import strategies as st
 import rrr4
 from rrr4 import Mechanism
 from rrr4.cli import main
-from rrr4.errors import InfeasibleError, MeasurementError
+from rrr4.errors import InfeasibleError, MeasurementError, Rrr4Error
+from rrr4.files import MAX_JSON_DEPTH, read_json
 from rrr4.identify import Measurements, identify, measurements_from_simulation, read_measurements, resolve_parameters
 from rrr4.identify.seated import seated_measurements
 from rrr4.optimal import optimal_motion
@@ -134,4 +137,59 @@ def test_any_measurement_file_is_read_or_refused_in_one_line(paper_scene, tmp_pa
     try:
         read_measurements(f, paper_scene)
     except MeasurementError as e:
+        assert "\n" not in str(e)
+
+
+# ------------------------------------------------------------------ compare: one bounded JSON reader
+
+
+def _result(tmp_path, name, raw: bytes):
+    d = tmp_path / name
+    d.mkdir()
+    (d / "summary.json").write_bytes(raw)
+    return d
+
+
+def test_compare_refuses_deep_list_and_huge_summaries_in_one_line(tmp_path, capsys):
+    good = _result(tmp_path, "good", json.dumps({"a": 1.0, "b": {"c": [1, 2]}}).encode())
+    deep = _result(tmp_path, "deep", b"[" * 100_000 + b"]" * 100_000)
+    listed = _result(tmp_path, "listed", json.dumps([{"a": 1.0}] * 50).encode())
+    nested = _result(tmp_path, "nested", json.dumps(_nest(MAX_JSON_DEPTH + 1)).encode())
+    huge = tmp_path / "huge"
+    huge.mkdir()
+    with open(huge / "summary.json", "wb") as f:  # sparse: 1 GB that is never read
+        f.truncate(2**30)
+    for bad, words in ((deep, ["nested too deeply"]), (listed, ["not a JSON object", "list"]),
+                       (nested, ["nested too deeply"]), (huge, ["too large", "1,073,741,824 bytes"])):
+        assert main(["compare", str(good), str(bad)]) == 2
+        out = capsys.readouterr()
+        err = out.err.strip().splitlines()
+        assert len(err) == 1 and all(w in err[0] for w in words) and "Traceback" not in out.err, out
+        assert out.out == ""
+    assert main(["compare", str(good), str(good)]) == 0
+    (good / "summary.json").write_text(json.dumps(_nest(MAX_JSON_DEPTH)))
+    assert read_json(good / "summary.json") == _nest(MAX_JSON_DEPTH)
+
+
+def _nest(depth):
+    """`depth` objects nested in each other."""
+    v = 1.0
+    for _ in range(depth):
+        v = {"k": v}
+    return v
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.one_of(st.binary(max_size=200),
+                 st.recursive(st.none() | st.booleans() | st.floats() | st.text(max_size=5),
+                              lambda kids: st.lists(kids, max_size=3) | st.dictionaries(st.text(max_size=3), kids,
+                                                                                       max_size=3),
+                              max_leaves=80).map(lambda v: json.dumps(v).encode())))
+def test_any_json_file_is_read_or_refused_in_one_line(tmp_path, raw):
+    """Property: any bytes as a JSON file give an object (a dict) or one Rrr4Error line."""
+    f = tmp_path / "any.json"
+    f.write_bytes(raw)
+    try:
+        assert isinstance(read_json(f), dict)
+    except Rrr4Error as e:
         assert "\n" not in str(e)
