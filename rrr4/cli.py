@@ -340,12 +340,15 @@ def build_parser() -> argparse.ArgumentParser:
     op.add_argument("scene", help="scene YAML file with a task body, e.g. problems/paper_circle.yaml")
     op.add_argument("--objective", choices=OBJECTIVES, default="time",
                     help="time (default), effort (at --duration) or time+effort")
-    op.add_argument("--duration", type=float, default=None, help="duration [s] for --objective effort")
-    op.add_argument("--points", type=int, default=1000, help="grid intervals along the path (default 1000)")
+    op.add_argument("--duration", type=float, default=None, help="duration [s] for --objective effort or "
+                                                                   "time+effort (refused with time)")
+    op.add_argument("--points", type=int, default=None, help="grid intervals along the path (default 1000; "
+                                                             "refused with --to)")
     op.add_argument("--to", nargs=3, type=float, metavar=("X", "Y", "PHI"),
                     help="a point-to-point motion instead: rest to rest from the path's start to the task pose "
                          "X [m], Y [m], PHI [rad], the path free")
-    op.add_argument("--nodes", type=int, default=40, help="intervals of a --to motion (default 40)")
+    op.add_argument("--nodes", type=int, default=None, help="intervals of a --to motion (default 40; refused "
+                                                            "without --to)")
     op.add_argument("--no-replay", action="store_true", help="solve only; do not replay the law")
     op.add_argument("--out", help="directory (default results/<scene name>_optimal/); replaced atomically")
     op.set_defaults(func=_optimize)

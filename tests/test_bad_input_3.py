@@ -2,24 +2,27 @@
 answers that were given with confidence. One test (or property) per class; each fails
 without its fix."""
 
+import copy
 import json
 
 import numpy as np
 import pytest
+import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import rrr4
 from rrr4 import Mechanism
 from rrr4.cli import main
-from rrr4.errors import InfeasibleError, MeasurementError, Rrr4Error
+from rrr4.errors import InfeasibleError, MeasurementError, Rrr4Error, SceneError
 from rrr4.files import MAX_JSON_DEPTH, read_json
 from rrr4.identify import Measurements, identify, measurements_from_simulation, read_measurements, resolve_parameters
 from rrr4.identify.seated import seated_measurements
 from rrr4.optimal import optimal_motion
 from rrr4.optimal.point_to_point import MIN_SAMPLES_PER_INTERVAL
+from rrr4.scene import parse_scene
 from rrr4.studies.study import arm_scene
-from tests.conftest import PAPER
+from tests.conftest import PAPER, ROOT
 
 # ------------------------------------------------------------------ optimize: margins between nodes
 
@@ -193,3 +196,61 @@ def test_any_json_file_is_read_or_refused_in_one_line(tmp_path, raw):
         assert isinstance(read_json(f), dict)
     except Rrr4Error as e:
         assert "\n" not in str(e)
+
+
+# ------------------------------------------------------------------ settings that would do nothing
+
+
+def _scene_error(data, *words):
+    with pytest.raises(SceneError) as e:
+        parse_scene(data)
+    msg = str(e.value)
+    assert "\n" not in msg and all(w in msg for w in words), msg
+
+
+WEAR = {"surfaces": "bearing", "coefficient": 1e-4, "hardness": 2e9, "length": 0.01}
+FILM = {"law": "short-bearing", "viscosity": 0.04, "length": 0.01}
+
+
+@pytest.mark.parametrize("what,value", [("wear", WEAR), ("lubrication", FILM)])
+def test_per_joint_wear_or_film_on_a_joint_without_clearance_is_refused_by_name(paper_data, what, value):
+    """An n-RRR with clearance at B1..B4 only: C1's own wear or film was dropped in silence."""
+    paper_data["joints"]["clearance"] = ["B1", "B2", "B3", "B4"]
+    paper_data["joints"]["per_joint"] = {"C1": {what: value}}
+    _scene_error(paper_data, f"joints.per_joint.C1.{what}", "no clearance", "B1, B2, B3, B4")
+    paper_data["joints"]["per_joint"] = {"B1": {what: value}}  # on a clearance joint it acts
+    assert parse_scene(paper_data).graph.joints
+
+
+def test_wear_film_and_seat_model_that_would_do_nothing_are_refused(paper_data):
+    for what, value in (("wear", WEAR), ("lubrication", FILM)):
+        data = copy.deepcopy(paper_data)
+        data["joints"]["clearance"] = "none"
+        data["effects"][what] = value
+        _scene_error(data, f"effects.{what}", "without clearance joints")
+    driven = yaml.safe_load((ROOT / "problems" / "flores_slider_crank.yaml").read_text())
+    driven.setdefault("actuation", {})["seat_model"] = "rolling"
+    _scene_error(driven, "actuation.seat_model", "'rolling'", "driven scene")
+
+
+def test_wear_coefficient_range_says_what_is_allowed(paper_data):
+    """The rule read [-inf, 1] while values <= 0 were refused."""
+    for bad in (-1.0, 0.0, 2.0):
+        paper_data["effects"]["wear"] = {**WEAR, "coefficient": bad}
+        with pytest.raises(SceneError) as e:
+            parse_scene(paper_data)
+        assert "effects.wear.coefficient" in str(e.value) and "-inf" not in str(e.value)
+    assert "| (0, 1] |" in (ROOT / "docs" / "scene-reference.md").read_text()
+
+
+@pytest.mark.parametrize("args,words", [
+    (["--duration", "1"], ["duration (--duration)", "not used with objective 'time'"]),
+    (["--nodes", "5"], ["nodes (--nodes)", "point-to-point"]),
+    (["--to", "0.01", "0", "0", "--points", "50"], ["points (--points)", "--nodes"]),
+])
+def test_optimize_options_that_would_be_ignored_are_refused(tmp_path, capsys, args, words):
+    out = tmp_path / "o"
+    assert main(["optimize", str(PAPER), "--no-replay", "--out", str(out), *args]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and all(w in err[0] for w in words), err
+    assert not out.exists()

@@ -89,6 +89,8 @@ class Section:
                lo_open=False, hi_open=False, big=False):
         v = self.raw(k, default)
         key = self.key(k)
+        if (positive or nonneg) and lo is None and hi is not None:  # the range says the sign rule too
+            lo, lo_open = 0.0, positive
         _note(key, "number", rule=_rule(positive, nonneg, lo, hi, lo_open, hi_open))
         if v is None:
             raise self.missing(k, "a number")
@@ -104,9 +106,9 @@ class Section:
         if abs(v) > cap:
             raise SceneError(f"{key}: {v:g} is not allowed (|value| <= {cap:g} in SI units)")
         if positive and v <= 0:
-            raise SceneError(f"{key}: {v:g} is not allowed (must be > 0)")
+            raise SceneError(f"{key}: {v:g} is not allowed (must be > 0{'' if hi is None else f' and <= {hi:g}'})")
         if nonneg and v < 0:
-            raise SceneError(f"{key}: {v:g} is not allowed (must be >= 0)")
+            raise SceneError(f"{key}: {v:g} is not allowed (must be >= 0{'' if hi is None else f' and <= {hi:g}'})")
         if lo is not None and (v < lo or (lo_open and v == lo)):
             raise SceneError(f"{key}: {v:g} is out of range (allowed: {_interval(lo, hi, lo_open, hi_open)})")
         if hi is not None and (v > hi or (hi_open and v == hi)):

@@ -44,6 +44,7 @@ from .schema import (
     Scene,
 )
 from .time_table import check_time_table, read_time_table
+from .unused import check_joint_override, check_unused
 from .vocabulary import (
     ACTUATION_MODES,
     CONTACT_LAW_KEYS,
@@ -170,6 +171,7 @@ def _joints(sec: Section, n_chains: int) -> tuple[JointSpec, ...]:
         mb = _material(s.raw("bearing_material"), s.key("bearing_material"))
         film = read_lubrication(s.raw("lubrication"), s.key("lubrication")) if s.has("lubrication") else None
         wear = read_wear(s.raw("wear"), s.key("wear")) if s.has("wear") else None
+        check_joint_override(key, name, film, wear, cl)
         s.done()
         out.append(JointSpec(name, name in cl, rj, c, mj, mb, lubrication=film, wear=wear))
     sec.done()
@@ -581,6 +583,7 @@ def parse_scene(data, name: str = "scene", source: str = "") -> Scene:
         source=source,
     )
     top.done()
+    check_unused(scene, top.data.get("actuation"))
     p = scene.path
     if p.duration * p.sample_rate > MAX_SAMPLES:
         raise SceneError(f"path.sample_rate: {p.sample_rate:g} Hz over {p.duration:g} s is not allowed (at most "
