@@ -14,13 +14,14 @@ from hypothesis import strategies as st
 import rrr4
 from rrr4 import Mechanism
 from rrr4.cli import main
-from rrr4.errors import InfeasibleError, MeasurementError, Rrr4Error, SceneError
+from rrr4.errors import InfeasibleError, MeasurementError, Rrr4Error, SceneError, SolverError
 from rrr4.files import MAX_JSON_DEPTH, read_json
 from rrr4.identify import Measurements, identify, measurements_from_simulation, read_measurements, resolve_parameters
 from rrr4.identify.seated import seated_measurements
 from rrr4.optimal import optimal_motion
 from rrr4.optimal.point_to_point import MIN_SAMPLES_PER_INTERVAL
 from rrr4.scene import parse_scene
+from rrr4.studies.optimize import at_duration, optimize
 from rrr4.studies.study import arm_scene
 from tests.conftest import PAPER, ROOT
 
@@ -254,3 +255,41 @@ def test_optimize_options_that_would_be_ignored_are_refused(tmp_path, capsys, ar
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and all(w in err[0] for w in words), err
     assert not out.exists()
+
+
+def test_a_duration_shorter_than_the_fastest_motion_is_named_not_left_to_the_solver(paper_scene):
+    """--duration 0.001 s: the solver's failure was reported as an infeasible problem; now the
+    duration is refused against the time-optimal motion's (an independent solve), before solving."""
+    fastest = optimal_motion(paper_scene, [0.02, 0.01, 0.1], nodes=10).duration
+    with pytest.raises(SceneError) as e:
+        optimize(paper_scene, "effort", duration=1e-3, target=[0.02, 0.01, 0.1], nodes=10, replay=False)
+    msg = str(e.value)
+    assert msg.startswith("duration (--duration): 0.001 s is not allowed") and f"{fastest:.6g} s" in msg
+
+
+def test_a_solver_that_stops_at_a_feasible_duration_is_not_called_infeasible():
+    def solve():
+        raise InfeasibleError("optimal motion: the solver stopped with Maximum_Iterations_Exceeded")
+    with pytest.raises(SolverError, match="most likely failed rather than the problem being infeasible"):
+        at_duration(solve, lambda: 0.5, 2.0)
+    assert at_duration(lambda: "law", lambda: 0.5, None) == "law"
+
+
+# ------------------------------------------------------------------ messages that misled
+
+
+def test_table_files_that_are_directories_devices_or_have_a_bom(paper_data, tmp_path):
+    """A directory or /dev/zero was 'no such file beside the scene'; a BOM hid the t column; a
+    driven scene given a time table was refused for its duration."""
+    law = tmp_path / "law.csv"
+    law.write_bytes(b"\xef\xbb\xbft,s,s_dot\n0,0,0\n0.5,0.25,1\n1,1,2\n")
+    data = copy.deepcopy(paper_data)
+    data["path"].update(time_law="table", time_table=str(law))
+    data["path"].pop("duration", None)
+    assert parse_scene(data).path.time_table[-1][0] == 1.0
+    for target, words in ((tmp_path, "is a directory"), ("/dev/zero", "is not a regular file")):
+        data["path"]["time_table"] = str(target)
+        _scene_error(data, "path.time_table", words)
+    driven = yaml.safe_load((ROOT / "problems" / "flores_slider_crank.yaml").read_text())
+    driven["path"].update(time_law="table", time_table=str(law))
+    _scene_error(driven, "path.time_law", "'table' is not allowed in a driven scene")

@@ -472,6 +472,9 @@ def _path(sec: Section, task: bool = True, base: Path = Path()) -> PathSpec:
                             "(no task body: the drivers set the motion; use 'none' with duration and sample_rate)"))
     law = sec.choice("time_law", TIME_LAWS, "quintic")
     table = ()
+    if law == "table" and not task:
+        raise SceneError(f"{sec.key('time_law')}: 'table' is not allowed in a driven scene (no task body follows "
+                         "the path: the drivers set the motion, and a time table has no path progress to time)")
     if law == "table":
         raw = sec.raw("time_table")
         if raw is None:

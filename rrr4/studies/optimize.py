@@ -21,7 +21,7 @@ import time
 from dataclasses import replace
 
 from ..checks import unknown_value
-from ..errors import InfeasibleError, SceneError
+from ..errors import InfeasibleError, SceneError, SolverError
 from ..optimal import optimal_motion, optimal_time_law
 from ..optimal.limits import limit_curves
 from ..problem import Problem
@@ -31,7 +31,8 @@ from ..scene.vocabulary import OBJECTIVES
 from ..simulation import simulate
 from .study import arm_scene, run_study, study_controller
 
-__all__ = ["optimize", "motion_scene", "check_arguments", "HEADROOM_FACTORS", "DEFAULT_POINTS", "DEFAULT_NODES"]
+__all__ = ["optimize", "motion_scene", "check_arguments", "at_duration", "HEADROOM_FACTORS", "DEFAULT_POINTS",
+           "DEFAULT_NODES"]
 
 HEADROOM_FACTORS = (1.25, 1.5, 2.0, 3.0, 5.0, 10.0)
 DEFAULT_POINTS, DEFAULT_NODES = 1000, 40  # grid intervals of a time law, intervals of a point-to-point motion
@@ -59,8 +60,9 @@ def optimize(scene, objective: str = "time", *, points: int | None = None, durat
         return _point_to_point(problem, objective, target, nodes, duration, contact, replay, progress, log, say, t0)
     what = "with the contact condition" if contact else "with the actuator limits"
     say(f"optimal time law ({objective}) {what}, {points} grid intervals")
-    law = optimal_time_law(problem, objective, points=points, contact=contact, duration=duration,
-                           effort_weight=effort_weight)
+    law = at_duration(lambda: optimal_time_law(problem, objective, points=points, contact=contact,
+                                               duration=duration, effort_weight=effort_weight),
+                      lambda: optimal_time_law(problem, points=points, contact=contact).duration, duration)
     free = None
     if contact:
         say("the same with the actuator limits only")
@@ -103,12 +105,34 @@ def check_arguments(objective, points, duration, effort_weight, target, nodes) -
             1.0 if effort_weight is None else effort_weight)
 
 
+def at_duration(solve, fastest, duration):
+    """solve() at a given `duration` [s] (None: the time objective, solve() as it is), whose
+    failure is named for what it is: a duration shorter than the fastest law's (fastest() [s],
+    the same problem with the time objective) has no law (SceneError naming the duration, before
+    solving); at a longer one (a slower motion, which the limits allow where the path holds at
+    rest), a solver that stops is a SolverError, not an infeasible problem."""
+    if duration is None:
+        return solve()
+    t_min = fastest()
+    if duration < t_min * (1 - 1e-6):
+        raise SceneError(f"duration (--duration): {duration:g} s is not allowed (shorter than the fastest motion, "
+                         f"{t_min:.6g} s with the time objective: no motion of that duration keeps the limits)")
+    try:
+        return solve()
+    except InfeasibleError as e:
+        raise SolverError(f"{e}; {duration:g} s is no faster than the fastest motion ({t_min:.6g} s), so the solver "
+                          "most likely failed rather than the problem being infeasible: try a duration nearer the "
+                          "fastest, or fewer grid intervals") from None
+
+
 def _point_to_point(problem, objective, target, nodes, duration, contact, replay, progress, log, say, t0):
     """Part 2 of the loop: the optimal motion to `target`, with and without the contact
     condition, replayed along a clamped spline through its nodes (:func:`motion_scene`)."""
     what = "with the contact condition" if contact else "with the actuator limits"
     say(f"optimal motion ({objective}) to {list(target)} {what}, {nodes} intervals")
-    motion = optimal_motion(problem, target, objective, duration=duration, nodes=nodes, contact=contact)
+    motion = at_duration(lambda: optimal_motion(problem, target, objective, duration=duration, nodes=nodes,
+                                                contact=contact),
+                         lambda: optimal_motion(problem, target, nodes=nodes, contact=contact).duration, duration)
     free = None
     if contact:
         say("the same with the actuator limits only")
