@@ -467,9 +467,9 @@ def main(argv=None) -> int:
         return 2
     except KeyboardInterrupt:
         return _interrupted(interrupted)
-    except (NotImplementedError, SystemError):
-        if interrupted:  # a signal that landed inside a CasADi call comes back as one of these
-            return _interrupted(interrupted)
+    except Exception:
+        if interrupted:  # a signal that landed inside a CasADi call comes back as its error (a RuntimeError of
+            return _interrupted(interrupted)  # a mapped call such as map1001_qp_preload, a SystemError, ...)
         raise
     except BrokenPipeError:  # e.g. `rrr4 check SCENE | head`: the reader left, nothing to report
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

@@ -4,7 +4,11 @@ without its fix."""
 
 import copy
 import json
+import os
+import signal
+import time
 
+import casadi as ca
 import numpy as np
 import pytest
 import yaml
@@ -293,3 +297,41 @@ def test_table_files_that_are_directories_devices_or_have_a_bom(paper_data, tmp_
     driven = yaml.safe_load((ROOT / "problems" / "flores_slider_crank.yaml").read_text())
     driven["path"].update(time_law="table", time_table=str(law))
     _scene_error(driven, "path.time_law", "'table' is not allowed in a driven scene")
+
+
+# ------------------------------------------------------------------ an interrupt inside a mapped CasADi call
+
+
+class _Interrupting(ca.Callback):
+    """A CasADi function that receives Ctrl-C (SIGINT) while it runs, as the preload's mapped QP did."""
+
+    def __init__(self):
+        ca.Callback.__init__(self)
+        self.construct("interrupting", {})
+
+    def eval(self, arg):
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.05)  # the handler runs here, inside the CasADi call
+        return [arg[0]]
+
+
+def test_an_interrupt_inside_a_mapped_casadi_call_ends_in_the_interrupt_line(monkeypatch, tmp_path, capsys):
+    """CasADi turns the KeyboardInterrupt raised in its call into a RuntimeError of the mapped
+    Function ('map1001_qp_preload'): that was a traceback and exit 1. Now exit 130, the line."""
+    callback = _Interrupting()
+    mapped = callback.map(5)
+
+    def command(args):
+        mapped(np.zeros((1, 5)))
+        return 0
+
+    monkeypatch.setattr("rrr4.cli._check", command)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(RuntimeError, match="KeyboardInterrupt"):  # what CasADi makes of it, outside the CLI
+            mapped(np.zeros((1, 5)))
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert main(["check", str(PAPER)]) == 130
+    err = capsys.readouterr().err
+    assert err.strip().splitlines() == ["rrr4: interrupted; earlier results are left as they were"], err
