@@ -335,3 +335,29 @@ def test_an_interrupt_inside_a_mapped_casadi_call_ends_in_the_interrupt_line(mon
     assert main(["check", str(PAPER)]) == 130
     err = capsys.readouterr().err
     assert err.strip().splitlines() == ["rrr4: interrupted; earlier results are left as they were"], err
+
+
+# ------------------------------------------------------------------ optimize: any value on any argument
+
+BAD = [None, "abc", -1, 0, float("nan"), float("inf"), True, 1e12, [1, 2], {"a": 1}]
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(objective=st.sampled_from(["time", "effort", "time+effort", "energy", None, 3]),
+       points=st.sampled_from([None, 20, 1, 10**9, *BAD]),
+       duration=st.sampled_from([None, 2.0, 1e-3, *BAD]),
+       effort_weight=st.sampled_from([None, 0.5, *BAD]),
+       target=st.sampled_from([None, [0.02, 0.0, 0.0], [0.0, 0.0, 1e-13], [5.0, 5.0, 5.0], [float("nan"), 0, 0],
+                               "xyz", *BAD]),
+       nodes=st.sampled_from([None, 4, 1, 10**7, *BAD]))
+def test_any_optimize_arguments_end_in_a_result_or_one_line(paper_scene, objective, points, duration, effort_weight,
+                                                           target, nodes):
+    """Property: optimize (without the replay) returns an optimization or raises one Rrr4Error
+    line, whatever value any argument has."""
+    try:
+        opt = optimize(paper_scene, objective, points=points, duration=duration, effort_weight=effort_weight,
+                       target=target, nodes=nodes, replay=False)
+    except Rrr4Error as e:
+        assert "\n" not in str(e), str(e)
+    else:
+        assert opt.law.duration > 0 and np.all(np.isfinite(opt.law.efforts))
