@@ -109,9 +109,9 @@ class Section:
         if abs(v) > cap:
             raise SceneError(f"{key}: {v:g} is not allowed (|value| <= {cap:g} in SI units)")
         if positive and v <= 0:
-            raise SceneError(f"{key}: {v:g} is not allowed (must be > 0{'' if hi is None else f' and <= {hi:g}'})")
+            raise SceneError(f"{key}: {v:g} is not allowed (must be > 0)")
         if nonneg and v < 0:
-            raise SceneError(f"{key}: {v:g} is not allowed (must be >= 0{'' if hi is None else f' and <= {hi:g}'})")
+            raise SceneError(f"{key}: {v:g} is not allowed (must be >= 0)")
         if lo is not None and (v < lo or (lo_open and v == lo)):
             raise SceneError(f"{key}: {v:g} is out of range (allowed: {_interval(lo, hi, lo_open, hi_open)})")
         if hi is not None and (v > hi or (hi_open and v == hi)):
