@@ -34,12 +34,11 @@ alpha for both, as in :mod:`rrr4.optimal.time_law`):
   the condition number's singular values are not (parallel singularities).
 
 The margins hold at the nodes and at INNER_POINTS instants between each two; the returned motion
-(constant accelerations between the nodes) is then checked along its whole length, at the
-path's sample rate and at least MIN_SAMPLES_PER_INTERVAL instants per interval: where it fails
-(a thin singular set between two points, e.g. a pure turn through a parallel singularity) it
-is solved again with MAX_INNER_POINTS between each two nodes, and refused (InfeasibleError
-naming the instant and the value) if it still fails. The summary reports the extremes along
-the motion (``max_condition_number``, ``min_transmission``) beside those at the nodes.
+(constant accelerations between the nodes) is then checked along its whole length (see
+MIN_SAMPLES_PER_INTERVAL): where it fails (a thin singular set between two points, e.g. a pure
+turn through a parallel singularity) it is solved again with MAX_INNER_POINTS between each two
+nodes, and refused (InfeasibleError naming the instant and the value) if it still fails. The
+summary reports the extremes along the motion beside those at the nodes.
 
 Graph scenes keep the efforts' limits; their start and target are checked against the
 singularity margins, and the condition number along the motion (sampled the same way) is
@@ -61,7 +60,7 @@ import numpy as np
 
 from ..checks import argument, describe, unknown_value
 from ..dynamics.family import EffortFamily
-from ..errors import InfeasibleError, KinematicsError, SceneError
+from ..errors import InfeasibleError, KinematicsError, SceneError, SolverError
 from ..mechanism.workspace import condition_number
 from ..preload.qp import qp_preload_function
 from ..problem import Problem
@@ -72,10 +71,8 @@ __all__ = ["OptimalMotion", "optimal_motion", "MOTION_OBJECTIVES"]
 
 MOTION_OBJECTIVES = ("time", "effort")
 MAX_NODES = 2000
-# the singularity margins are constrained at the nodes and at INNER_POINTS instants between each two;
-# the motion is then checked between the nodes (at the path's sample rate, at least
-# MIN_SAMPLES_PER_INTERVAL instants per interval) and, where they fail, solved again with
-# MAX_INNER_POINTS between each two, or refused
+# the margins are held at INNER_POINTS instants between each two nodes (MAX_INNER_POINTS where the
+# check at the path's sample rate, at least MIN_SAMPLES_PER_INTERVAL instants per interval, fails)
 INNER_POINTS, MAX_INNER_POINTS, MIN_SAMPLES_PER_INTERVAL = 1, 16, 32
 MARGIN_TOL = 1e-6  # relative tolerance of that check
 IPOPT_OPTIONS = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-9,
@@ -241,8 +238,9 @@ def _best(problem, formulation, start, target, objective, duration, nodes, conta
     ok = [r for r in results.values() if r.statistics["success"]]
     if not ok:
         st = next(iter(results.values())).statistics
-        raise InfeasibleError(f"optimal motion: the solver stopped with {st['return_status']} (largest violation "
-                              f"{st['max_violation']:.3g}, {st['worst_constraint']})")
+        error = InfeasibleError if st["return_status"] == "Infeasible_Problem_Detected" else SolverError
+        raise error(f"optimal motion: the solver stopped with {st['return_status']} (largest violation "
+                    f"{st['max_violation']:.3g}, {st['worst_constraint']})")
     best = min(ok, key=lambda r: r.statistics["objective_value"])
     best.statistics["objective_by_sign"] = {f"{k:+d}": (r.statistics["objective_value"] if r.statistics["success"]
                                                         else None) for k, r in results.items()}
@@ -623,7 +621,8 @@ def _solve(problem, form, start, target, objective, duration, N, contact, null_s
     opti.set_initial(X, np.vstack([warm["pose"].T, warm["pose_d"].T]))
     opti.set_initial(U, warm["pose_dd"].T)
     form.initial(opti, v, warm)
-    opti.solver("ipopt", {**IPOPT_OPTIONS, "ipopt.hessian_approximation": HESSIAN[objective]})
+    opti.solver("ipopt", {"ipopt.max_wall_time": 60.0 + 0.1 * N, **IPOPT_OPTIONS,
+                          "ipopt.hessian_approximation": HESSIAN[objective]})
     build = time.perf_counter() - t0
     t1 = time.perf_counter()
     try:

@@ -119,7 +119,9 @@ def at_duration(solve, fastest, duration):
                          f"{t_min:.6g} s with the time objective: no motion of that duration keeps the limits)")
     try:
         return solve()
-    except InfeasibleError as e:
+    except (InfeasibleError, SolverError) as e:
+        if "the solver stopped with" not in str(e):  # a refusal with its reason (a margin, a limit at rest) stands
+            raise
         raise SolverError(f"{e}; {duration:g} s is no faster than the fastest motion ({t_min:.6g} s), so the solver "
                           "most likely failed rather than the problem being infeasible: try a duration nearer the "
                           "fastest, or fewer grid intervals") from None
