@@ -73,7 +73,7 @@ MOTION_OBJECTIVES = ("time", "effort")
 MAX_NODES = 2000
 # the margins are held at INNER_POINTS instants between each two nodes (MAX_INNER_POINTS where the
 # check at the path's sample rate, at least MIN_SAMPLES_PER_INTERVAL instants per interval, fails)
-INNER_POINTS, MAX_INNER_POINTS, MIN_SAMPLES_PER_INTERVAL = 1, 16, 32
+INNER_POINTS, MAX_INNER_POINTS, MIN_SAMPLES_PER_INTERVAL, MAX_ALONG_SAMPLES = 1, 16, 32, 100_000
 MARGIN_TOL = 1e-6  # relative tolerance of that check
 IPOPT_OPTIONS = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-9,
                  "ipopt.constr_viol_tol": 1e-9, "ipopt.max_iter": 1000, "ipopt.mu_strategy": "adaptive"}
@@ -251,11 +251,11 @@ def _best(problem, formulation, start, target, objective, duration, nodes, conta
 
 def along_motion(motion: OptimalMotion, rate: float, least: int = MIN_SAMPLES_PER_INTERVAL):
     """t (K,), pose (K, 3): the motion between its nodes as transcribed (constant acceleration on
-    each interval), sampled at `rate` [Hz] and at least `least` instants per interval, the
-    nodes included."""
+    each interval), sampled at `rate` [Hz] (at most MAX_ALONG_SAMPLES in all) and at least
+    `least` instants per interval, the nodes included."""
     N = len(motion.t) - 1
     h = motion.duration / N
-    k = max(int(np.ceil(h * rate)), least)
+    k = max(least, min(int(np.ceil(h * rate)), MAX_ALONG_SAMPLES // N))
     u = np.arange(k) / k * h
     pose = (motion.pose[:-1, None, :] + u[None, :, None] * motion.pose_d[:-1, None, :]
             + 0.5 * u[None, :, None]**2 * motion.pose_dd[:-1, None, :]).reshape(-1, 3)
