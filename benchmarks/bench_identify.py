@@ -44,7 +44,6 @@ import rrr4
 from rrr4.codegen.build import machine
 from rrr4.identify import identify, measurements_from_simulation, resolve_parameters
 from rrr4.identify.dynamic import DynamicData
-from rrr4.identify.parameters import scene_yaml
 from rrr4.identify.seated import seated_measurements
 from rrr4.studies.robustness import perturbed
 from rrr4.studies.study import arm_scene
@@ -103,7 +102,7 @@ def main() -> None:
     print(f"3 windows against single shooting on 30 ms: time ratio "
           f"{medians['dynamic, 30 ms, 3 windows'] / medians['dynamic, 30 ms']:.2f}")
     m, keys, _ = cases["dynamic, 0.1 s window"]
-    data = DynamicData(problem, m, resolve_parameters(problem, keys), scene_yaml(problem))
+    data = DynamicData(problem, m, resolve_parameters(problem, keys))
     p = np.array([q.nominal for q in data.params])
     sigma = data.initial_noise()
     walls = {"forward sensitivities": [], "forward differences": [], "central differences": []}

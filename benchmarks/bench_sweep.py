@@ -69,7 +69,10 @@ def warm_case(cases: int, t_end: float) -> dict:
         Problem = None
     spec = parse_spec(_spec(cases, t_end))
     jit, options = default_jit(), case_options(spec)
-    texts = [case_scene(spec.base, spec.scene_path, c)[1] for c in spec.cases]
+    if hasattr(spec, "scene"):  # a base Scene whose values the cases set
+        texts = [case_scene(spec.scene, c)[1] for c in spec.cases]
+    else:  # a tree whose cases set keys in the base file's data
+        texts = [case_scene(spec.base, spec.scene_path, c)[1] for c in spec.cases]
     times = []
     for text in texts:
         t0 = time.perf_counter()

@@ -18,11 +18,15 @@ def _check(args) -> int:
     """Exit 0: the scene is valid and its preload holds along the path; 1: valid, but the
     preload cannot hold (printed where and by how much); 2: invalid (one line)."""
     from .mechanism import load_scene
+    from .problem import build
     from .results.summary import scene_check
-    text, preload = scene_check(load_scene(args.scene))
+    problem = build(load_scene(args.scene))
+    text, preload = scene_check(problem)
     print(text)
     if preload is not None and not preload.all_feasible:
-        _say("rrr4 check: the scene is valid, but its preload cannot hold along the path (see above)")
+        mode = ("; it was evaluated on the assembly branch taken at t = 0, and others close there (listed above): if "
+                "another is the one meant, name it in mechanism.assembly") if problem.branch_hint else ""
+        _say(f"rrr4 check: the scene is valid, but its preload cannot hold along the path (see above){mode}")
         return 1
     return 0
 
@@ -47,6 +51,7 @@ def _run(args) -> int:
     from .mechanism import load_scene
     from .results import check_target, write_results
     from .results.metrics import check_skip
+    from .results.summary import verdict_line
     from .studies.study import run_study
     if args.t_end is not None:
         argument("--t-end", args.t_end)
@@ -57,6 +62,8 @@ def _run(args) -> int:
         raise unknown_value("--integrator", "integrator", args.integrator, METHODS)
     if args.skip is not None:
         argument("--skip", args.skip, allow_zero=True)
+    if args.converge is not None:
+        argument("--converge", args.converge)
     scene = load_scene(args.scene)
     t_end = scene.path.duration if args.t_end is None else args.t_end
     step = scene.integrator.step if args.step is None else args.step
@@ -68,11 +75,13 @@ def _run(args) -> int:
     check_writable(out)
     check_target(out)
     study = run_study(scene, t_end=args.t_end, integrator=args.integrator, step=args.step,
-                      output_rate=args.output_rate, skip=skip, progress=True,
+                      output_rate=args.output_rate, skip=skip, converge=args.converge, progress=True,
                       log=lambda m: tqdm.write(f"rrr4 run: {m}"))
-    _, files = write_results(study, out, progress=True)
+    summary, files = write_results(study, out, progress=True)
     print(f"wrote {len(files)} files to {out}/: {', '.join(files)}")
     print((out / "report.md").read_text())
+    if (line := verdict_line(summary)) is not None:  # the one line that says which numbers not to trust
+        _say(f"rrr4 run: {line}")
     return 0
 
 
@@ -96,15 +105,19 @@ def _optimize(args) -> int:
     print(f"wrote {len(files)} files to {out}/")
     law = summary["law"]
     grid = f"{law['points']} points" if "points" in law else f"{law['nodes']} nodes"
+    st = law["statistics"]
+    steps = f"{st['iterations']} iterations, " if "iterations" in st else ""
     print(f"optimal duration: {law['duration_s']:.6g} s ({law['objective']}, "
           f"{'with the contact condition' if law['contact_condition'] else 'actuator limits'}, "
-          f"{grid}, {law['statistics']['iterations']} iterations, {law['statistics']['solve_time_s']:.3g} s solve)")
+          f"{grid}, {st['solver']}, {steps}{st['solve_time_s']:.3g} s solve)")
     if summary.get("contact_cost_ratio"):
         print(f"with the actuator limits only: {summary['optimal_duration_limits_only_s']:.6g} s; keeping contact "
               f"costs x{summary['contact_cost_ratio']:.3f} in cycle time")
     for arm, m in (summary.get("replay") or {}).items():
         print(f"replay {arm}: contact losses {sum(m['contact_loss_events'].values())}, platform error RMS "
-              f"{m['platform_error_rms_m'] * 1e6:.3g} um, torque RMS {m['torque_rms_Nm']:.3g}")
+              f"{m['platform_error_rms_m'] * 1e6:.3g} um, torque RMS {m['torque_rms_Nm']:.3g}"
+              + ("" if m.get("converged", True) else ", NOT CONVERGED (energy audit residual "
+                 f"{m['energy_audit_residual']:.3g} > {m['energy_audit_tolerance']:g}): not to be trusted"))
     if summary.get("headroom"):
         h = summary["headroom"]
         print(f"f_min headroom: {h['tried']}; smallest f_min without losses: {h['smallest_f_min_without_losses_N']}")
@@ -256,7 +269,7 @@ def _compare(args) -> int:
     print(f"{n} values of summary.json compared (not {', '.join(RUN_SPECIFIC)}); "
           f"{len(diffs)} differ beyond rtol {args.rtol:g}")
     for key, a, b in diffs:
-        print(f"  {key}: {a} | {b}")
+        print(f"  {key}: {a} | {b}" + ("  (the verdict changed)" if key.endswith(".converged") else ""))
     return 1 if diffs else 0
 
 
@@ -328,6 +341,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--step", type=float, help="integrator step [s] instead of the scene's integrator.step")
     r.add_argument("--output-rate", type=float, metavar="HZ",
                    help="outputs kept per second [Hz] (default: every step; at most 1/step)")
+    r.add_argument("--converge", type=float, nargs="?", const=120.0, metavar="BUDGET",
+                   help="rerun an arm that has not converged (its energy audit) at half its step until it has, "
+                        "within BUDGET seconds of wall time per arm (default 120); summary.json's "
+                        "step_refinement says what was tried and what it cost")
     r.add_argument("--skip", type=float, metavar="S",
                    help="start-up window [s] the metrics over the output samples discard (0 <= S < t_end; "
                         "summary.json's metrics_window says which metrics it applies to)")

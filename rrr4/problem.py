@@ -186,11 +186,7 @@ class Problem:
     def start_coordinates(self) -> np.ndarray:
         """q (nq,) of the ideal mechanism at t = 0: the task at the path's start, or the drivers
         at their initial values (the pose a spring's default free length is measured in)."""
-        mech = self.mechanism
-        if self.model.task is not None:
-            target = np.array(trajectory_function(self.scene.path)(0.0)[0]).ravel()[:mech.n_task]
-        else:
-            target = mech.driver_targets(0.0)[0]
+        target = self.start_target
         zero = np.zeros(len(target))
         return np.asarray(self.body_motion(target, zero, zero)[0], float).ravel()
 
@@ -225,10 +221,15 @@ class Problem:
 
     @functools.cached_property
     def element_forces(self):
-        """'force_elements' Function (q, qd, t -> Q) of the time-independent force elements
-        (spring-dampers and the known constant loads), or None without any: what the effort family
-        of a graph balances besides gravity (tabulated loads are not in the controller's model)."""
-        return self._forces_function([i for i, e in enumerate(self.scene.forces) if e.known and not e.table])
+        """'force_elements' Function (q, qd, t -> Q) of the known time-independent force elements
+        (spring-dampers and constant loads) that the effort family balances besides gravity and
+        the closed form's :attr:`controller_loads`, or None without any (tabulated loads are not
+        in the controller's model). A graph's family balances them all; an n-RRR's closed form
+        takes its constant platform loads itself and these on top (:meth:`effort_family`), and
+        its controller then steps on tabulated references."""
+        taken = self.controller_loads
+        return self._forces_function([i for i, e in enumerate(self.scene.forces)
+                                      if e.known and not e.table and e not in taken])
 
     @functools.cached_property
     def plant_forces(self):
@@ -323,7 +324,7 @@ class Problem:
         """The Problem of one of the structure keys ('controller', 'plant', 'geometry',
         'path', 'preload'): shared by every problem of that structure, so what is cached on it (its
         :meth:`memo`) is built once for all of them."""
-        return _problem(getattr(self, f"{key}_key"), "")
+        return _problem(getattr(self, f"{key}_key"))
 
     def memo(self, key, build):
         """build() once per problem and key (what is built and compiled for this problem)."""
@@ -368,20 +369,42 @@ class Problem:
         task poses (N, 3) and their rates: the closed form of an n-RRR, else the graph's SVD
         (q: the graph's coordinates at the poses, if known). gravity (2,) [m/s^2]: default
         the scene's, with the force elements the controller knows (an n-RRR: constant loads on
-        the platform; a graph: spring-dampers and constant loads, :attr:`element_forces`);
+        the platform in closed form, and :attr:`element_forces`: spring-dampers and constant
+        loads anywhere);
         a given gravity means the inertial part with that gravity and no force elements."""
         pose, pose_d, pose_dd = (np.atleast_2d(np.asarray(v, float)) for v in (pose, pose_d, pose_dd))
+        mech, N = self.mechanism, pose.shape[0]
+        elements = self.element_forces if gravity is None else None
         if self.closed_form:
-            N = pose.shape[0]
-            return EffortFamily.from_raw(self.inverse_dynamics(gravity).map(N)(pose.T, pose_d.T, pose_dd.T))
-        mech = self.mechanism
+            fam = EffortFamily.from_raw(self.inverse_dynamics(gravity).map(N)(pose.T, pose_d.T, pose_dd.T))
+            if elements is None:
+                return fam
+            # the known elements the closed form does not take: their particular efforts and
+            # reactions (the family is linear in the loads; the null space is the same)
+            q, qd, _ = (np.array(v).T for v in mech.body_motion_function.map(N)(pose.T, pose_d.T, pose_dd.T))
+            external = np.array(elements.map(N)(q.T, qd.T, 0.0)).T
+            return fam.plus(graph_family(mech, q, np.zeros_like(q), (0.0, 0.0), external))
         k = mech.n_task
         q = mech.path_coordinates(pose[:, :k]) if q is None else np.asarray(q, float)
         qd, qdd, _, _ = mech.motion(q, pose_d[:, :k], pose_dd[:, :k])
-        external = None
-        if gravity is None and self.element_forces is not None:
-            external = np.array(self.element_forces.map(q.shape[0])(q.T, np.asarray(qd).T, 0.0)).T
+        external = None if elements is None else np.array(elements.map(N)(q.T, np.asarray(qd).T, 0.0)).T
         return graph_family(mech, q, qdd, self.gravity if gravity is None else gravity, external)
+
+    @functools.cached_property
+    def branch_hint(self) -> str:
+        """'' or one sentence when the scene names no assembly mode and several close at t = 0
+        (:meth:`rrr4.Mechanism.branch_hint`): what a failure on the branch taken should add."""
+        if self.closed_form:
+            return ""
+        mech = self.mechanism
+        return mech.branch_hint(self.start_target)
+
+    @functools.cached_property
+    def start_target(self) -> np.ndarray:
+        """The task's coordinates at t = 0 (the path's start), or the drivers' initial values."""
+        if self.model.task is not None:
+            return np.array(trajectory_function(self.scene.path)(0.0)[0]).ravel()[:self.mechanism.n_task]
+        return self.mechanism.driver_targets(0.0)[0]
 
     def path_coordinates(self, pose, pose_d, pose_dd) -> np.ndarray:
         """q (N, nq) of every body with the task at poses (N, 3) (rates (N, 3) for the closed
@@ -393,10 +416,14 @@ class Problem:
 
     def body_motion(self, target, target_d, target_dd):
         """q, qd, qdd (nq,) of every body with the task (or the drivers) at `target` and its
-        rates: the closed form of an n-RRR, else Newton and the velocity analysis."""
+        rates: the closed form of an n-RRR, else Newton and the velocity analysis. A point task
+        takes the first two entries of a pose [x, y, theta] and its rates (its body's angle is
+        free), as :meth:`rrr4.Mechanism.body_motion` does."""
         mech = self.mechanism
         if self.closed_form:
             return mech.body_motion(target, target_d, target_dd)
+        k = mech.n_task
+        target, target_d, target_dd = (np.asarray(v, float).ravel()[:k] for v in (target, target_d, target_dd))
         q0 = mech.assemble(target)
         qd0, qdd0, _, _ = (v.ravel() for v in mech.motion(q0, target_d, target_dd))
         return q0, qd0, qdd0
@@ -432,9 +459,11 @@ def _without_clearance_numbers(graph):
 
 
 @functools.lru_cache(maxsize=64)
-def _problem(scene: Scene, source: str = "") -> Problem:
-    """The Problem of `scene`, built once per scene and source file (Scene.source does not
-    take part in a scene's equality, but a problem reports and re-reads its file)."""
+def _problem(scene: Scene) -> Problem:
+    """The Problem of `scene`, built once per scene content: keyed by the scene's equality,
+    which leaves out its source file and YAML data (Scene.source, Scene.data), so two equal
+    scenes share one Problem (and ``problem.scene`` is the first of them). The 64 most
+    recently used are kept."""
     return Problem(scene)
 
 

@@ -14,9 +14,9 @@ import casadi as ca
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .scene import PathSpec
+from .scene import DriverSpec, PathSpec
 
-__all__ = ["trajectory_function", "path_geometry_function", "sample_path", "PathSamples"]
+__all__ = ["trajectory_function", "path_geometry_function", "driver_function", "sample_path", "PathSamples"]
 
 
 def _time_law(law: str, tau):
@@ -45,6 +45,14 @@ def _tabulated_progress(table, t):
     return lin_s(t) - 0.5 * a * (lin_t2(t) - t**2)
 
 
+def _progress(law: str, table, duration: float, t):
+    """s(t) in [0, 1] of a time law over [0, duration] (or its time table), held at its ends
+    outside it: the one rule of a path and of a driver's motion law."""
+    if law == "table":
+        return _tabulated_progress(table, ca.fmin(ca.fmax(t, 0.0), duration))
+    return _time_law(law, ca.fmin(ca.fmax(t / duration, 0.0), 1.0))
+
+
 def _pose_of_progress(spec: PathSpec, s):
     if spec.type == "none":  # no task body: the drivers set the motion
         return ca.vertcat(0 * s, 0 * s, 0 * s)
@@ -68,24 +76,31 @@ def _pose_of_progress(spec: PathSpec, s):
     return out
 
 
-@functools.cache
+@functools.lru_cache(maxsize=64)  # per path (a sweep over the path makes one per case)
 def trajectory_function(spec: PathSpec) -> ca.Function:
     """CasADi Function 'trajectory': t [s] -> pose (3), pose_d (3), pose_dd (3).
 
     Before t = 0 and after the duration the pose rests at the end points.
     """
     t = ca.SX.sym("t")
-    if spec.time_law == "table":
-        s = _tabulated_progress(spec.time_table, ca.fmin(ca.fmax(t, 0.0), spec.duration))
-    else:
-        s = _time_law(spec.time_law, ca.fmin(ca.fmax(t / spec.duration, 0.0), 1.0))
-    pose = _pose_of_progress(spec, s)
+    pose = _pose_of_progress(spec, _progress(spec.time_law, spec.time_table, spec.duration, t))
     pose_d = ca.jacobian(pose, t)
     pose_dd = ca.jacobian(pose_d, t)
     return ca.Function("trajectory", [t], [pose, pose_d, pose_dd], ["t"], ["pose", "pose_d", "pose_dd"])
 
 
-@functools.cache
+@functools.lru_cache(maxsize=64)
+def driver_function(spec: DriverSpec) -> ca.Function:
+    """CasADi Function 'driver': t [s] -> value [rad or m], rate, acceleration of a driver whose
+    time_law is not 'constant': initial + travel s(t), s the path's law over the driver's
+    duration (or its time table), at rest at both ends of [0, duration] outside it."""
+    t = ca.SX.sym("t")
+    value = spec.initial + spec.travel * _progress(spec.time_law, spec.time_table, spec.duration, t)
+    rate = ca.jacobian(value, t)
+    return ca.Function("driver", [t], [value, rate, ca.jacobian(rate, t)], ["t"], ["value", "rate", "acceleration"])
+
+
+@functools.lru_cache(maxsize=64)
 def path_geometry_function(spec: PathSpec) -> ca.Function:
     """CasADi Function 'path_geometry': s [-] in [0, 1] -> pose (3), pose_s (3), pose_ss (3):
     the path's pose as a function of its progress and its first two derivatives in s, the

@@ -157,7 +157,7 @@ def test_simulate_compiles_by_default_and_falls_back_with_one_warning(monkeypatc
 
     import rrr4.simulation.run as simulation
     monkeypatch.delenv("RRR4_JIT", raising=False)
-    assert simulation.default_jit() is (simulation.c_compiler() is not None)
+    assert simulation.default_jit() == ("background" if simulation.c_compiler() is not None else False)
     monkeypatch.setattr(simulation, "c_compiler", lambda: None)
     monkeypatch.setattr(simulation, "_NO_COMPILER_WARNED", False)
     with warnings.catch_warnings(record=True) as caught:

@@ -6,6 +6,8 @@ exact sensitivities is refused in one line."""
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import pytest
 import yaml
@@ -16,7 +18,6 @@ from rrr4.errors import SceneError
 from rrr4.identify import Measurements, identify, measurements_from_simulation, resolve_parameters
 from rrr4.identify.dynamic import CHAOS_LIMIT, DynamicData
 from rrr4.identify.multiple_shooting import WindowedData
-from rrr4.identify.parameters import scene_yaml
 from rrr4.studies.robustness import perturbed
 
 from .conftest import PAPER
@@ -96,7 +97,7 @@ def test_a_rattling_run_has_exact_sensitivities_but_is_refused_as_chaotic():
 
 def test_what_has_no_exact_sensitivities_is_refused_in_one_line(paper, tmp_path):
     m = Measurements(np.linspace(0, 0.01, 11), {"x_m": np.zeros(11), "y_m": np.zeros(11)})
-    data = scene_yaml(paper)
+    data = copy.deepcopy(paper.scene.data)
     data["integrator"]["tolerance"] = 1e-6
     path = tmp_path / "adaptive.yaml"
     path.write_text(yaml.safe_dump(data))

@@ -145,7 +145,7 @@ def test_monte_carlo_is_reproducible_from_its_seed(tmp_path):
     ({"skip": "1 ms"}, "skip: '1 ms' is not allowed"),
     ({"t_end": None, "skip": 2.0}, r"skip: 2 s is not allowed .* t_end = 1 s"),
     ({"scenery": 1}, "scenery: unknown key of a sweep spec"),
-    ({"scene": "\x00"}, r"scene: '\\x00' is not allowed \(the base scene's YAML file\)"),
+    ({"scene": "\x00"}, r"scene: '\\x00' is not allowed \(the base scene's YAML file, or a Scene\)"),
     # round two: keys that are not strings, no case at all, a grid counted before it is expanded,
     # a case that does not assemble (as rrr4 check says), all refused before any work
     ({"grid": {None: [1]}}, "grid: key None is not allowed"),
@@ -350,7 +350,7 @@ def test_warm_cases_reuse_their_structures_and_give_the_rows_of_a_fresh_process(
     assert r["failed"] == 0 and r["reused"] == {"plant": 3, "controller": 3, "preload": 2}
     parsed = parse_spec(spec)
     for case in parsed.cases:
-        _, text = case_scene(parsed.base, parsed.scene_path, case)
+        _, text = case_scene(parsed.scene, case)
         code = ("import json, sys; from rrr4.studies.sweeps import run_case; "
                 "rows, _, reused = run_case(sys.stdin.read(), 'paper_circle', 0.01, "
                 f"{list(parsed.arms)!r}, {r['compiled']!r}, {r['options']!r}); print(json.dumps([rows, reused]))")
@@ -412,7 +412,7 @@ def test_an_arm_of_the_other_scene_kind_is_refused_in_one_line_naming_the_allowe
 def test_a_driven_clearance_arm_alone_is_still_measured_against_its_ideal_twin():
     from rrr4.studies.sweeps import run_case
     spec = parse_spec({"scene": DRIVEN, "t_end": 0.002, "arms": ["with_clearance"], "grid": {CLEARANCE_B: [5.0e-4]}})
-    _, text = case_scene(spec.base, spec.scene_path, spec.cases[0])
+    _, text = case_scene(spec.scene, spec.cases[0])
     rows, _, _ = run_case(text, "flores_slider_crank", spec.t_end, spec.arms)
     assert [r["arm"] for r in rows] == ["with_clearance"] and rows[0]["status"] == "ok"
     assert rows[0]["acceleration_deviation_rms_m_s2"] > 0
@@ -426,7 +426,7 @@ def test_a_driven_sweep_row_is_what_rrr4_run_reports_for_the_same_case():
     from rrr4.studies.study import run_study
     from rrr4.studies.sweeps import run_case
     spec = parse_spec({"scene": DRIVEN, "t_end": 0.004, "grid": {CLEARANCE_B: [5.0e-4]}})
-    scene_text = case_scene(spec.base, spec.scene_path, spec.cases[0])[1]
+    scene_text = case_scene(spec.scene, spec.cases[0])[1]
     rows, _, _ = run_case(scene_text, "flores_slider_crank", spec.t_end, spec.arms)
     study = run_study(load_scene(DRIVEN), t_end=spec.t_end)
     t_from, revolution = driven_window(study.scene, spec.t_end)
@@ -452,7 +452,7 @@ def test_a_scene_with_tables_sweeps_with_their_rows_carried_in_each_case(tmp_pat
     (tmp_path / "tabled.yaml").write_text(yaml.safe_dump(data))
     spec = parse_spec({"scene": str(tmp_path / "tabled.yaml"), "t_end": 0.01, "arms": ["with_preload"],
                        "grid": {"joints.radial_clearance": [1e-4]}})
-    scene, text = case_scene(spec.base, spec.scene_path, spec.cases[0])
+    scene, text = case_scene(spec.scene, spec.cases[0])
     assert scene.path.time_table == read_time_table(law)
     assert scene.forces[0].table == ((0.0, 0.0, 0.0, 0.0), (0.005, -1.5, 0.5, 0.01))
     rows, _, _ = run_case(text, "tabled", spec.t_end, spec.arms)  # from the test's directory, not the scene's

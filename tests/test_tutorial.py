@@ -98,3 +98,18 @@ def test_the_tight_limit_the_text_describes(tutorial):
     assert r.returncode == 1
     assert "actuator A4 needs 4.4 N m at t = 0.058 s against its limit 4 N m" in r.stdout
     assert "rrr4 map" in r.stdout
+
+
+def test_the_driven_crank_starts_from_rest_as_the_text_says(tutorial):
+    d, ran = tutorial
+    check = next(r for line, r in ran if line.startswith("rrr4 check my_crank"))
+    assert ("motor: joint O from 0 deg, quintic law: 1600 deg in 0.2 s (mean 1333.33 rpm), then at rest"
+            in check.stdout)
+    py = next(r for line, r in ran if line.startswith("python my_crank"))
+    runs = dict(re.findall(r"^(instant|smooth) start: (.*)$", py.stdout, re.M))
+    numbers = {k: [float(x) for x in re.findall(r"[\d.]+(?= (?:N|rpm)\b)|(?<=losses )\d+", v)]
+               for k, v in runs.items()}
+    (li, fi, ti, vi), (ls, fs, ts, vs) = numbers["instant"], numbers["smooth"]
+    assert vi == vs == 2500.0                      # both end at the quintic law's peak speed
+    assert ls < li and fs < fi / 2 and ts < ti / 2  # the table: 37 < 67 losses, 6.2 < 19.3 kN, 233 < 531 N m
+    assert 15e3 < fi < 25e3 and 4e3 < fs < 9e3

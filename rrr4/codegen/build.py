@@ -35,6 +35,8 @@ import hashlib
 import os
 import platform
 import shutil
+import subprocess
+import sys
 import tempfile
 import time
 from collections.abc import Mapping, Sequence
@@ -42,9 +44,10 @@ from pathlib import Path
 
 import casadi as ca
 
-from ..files import BuildError, run_c_compiler
+from ..files import BuildError, c_compiler, run_c_compiler
 
-__all__ = ["library", "load", "cache_dir", "compilations", "compile_time", "compile_notice", "cpu", "machine",
+__all__ = ["library", "library_path", "library_in_background", "compile_staged", "spawn", "load", "cache_dir",
+           "compilations", "compile_time", "compile_notice", "cpu", "machine",
            "COMPILE_FLAGS", "PORTABLE_FLAGS", "BuildError"]
 
 PORTABLE_FLAGS = ("-O2", "-fPIC", "-shared")
@@ -128,9 +131,7 @@ def library(stem: str, sources: Mapping[str, str], extra: Sequence = (), keep_so
     """
     flags = tuple(COMPILE_FLAGS)  # read at call time: benchmarks/bench_flags.py swaps it
     extra = [Path(p).resolve() for p in extra]
-    key = hashlib.sha256("\n".join([*sources.values(), " ".join(flags), cpu(), *(p.read_text() for p in extra)]
-                                   ).encode()).hexdigest()[:24]
-    lib = cache_dir() / f"{stem}_{key}.so"
+    lib = library_path(stem, sources, extra)
     if lib.exists():
         return lib
     if _notice[0] is not None:
@@ -140,6 +141,65 @@ def library(stem: str, sources: Mapping[str, str], extra: Sequence = (), keep_so
         return _compile(lib, sources, extra, flags, keep_sources)
     finally:
         _compile_time[0] += time.perf_counter() - start
+
+
+def library_path(stem: str, sources: Mapping[str, str], extra: Sequence = ()) -> Path:
+    """Where :func:`library` keeps the library of these sources (it may not exist yet)."""
+    flags = tuple(COMPILE_FLAGS)
+    key = hashlib.sha256("\n".join([*sources.values(), " ".join(flags), cpu(),
+                                    *(Path(p).read_text() for p in extra)]).encode()).hexdigest()[:24]
+    return cache_dir() / f"{stem}_{key}.so"
+
+
+def library_in_background(stem: str, sources: Mapping[str, str], extra: Sequence = ()) -> Path:
+    """The path of :func:`library`'s library for these sources, compiled by a process of its own
+    if it is not in the cache yet: the caller goes on at once and finds the library there
+    (``path.exists()``) once it is done, later in its run or in a later run. The process
+    outlives the caller (an interrupted run still leaves the library for the next one); one
+    such compiler runs at a time per cache directory (the others wait their turn), and a
+    library another process is compiling already is left to it. Raises BuildError without a
+    C compiler."""
+    if c_compiler() is None:
+        raise BuildError("cc: no C compiler found (set CC or install gcc)")
+    extra = [str(Path(p).resolve()) for p in extra]
+    lib = library_path(stem, sources, extra)
+    if lib.exists():
+        return lib
+    with open(lib.with_suffix(".lock"), "a") as lock:
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:  # another process compiles it now
+            return lib
+        if _notice[0] is not None:
+            _notice[0](f"{stem} in the background (CasADi's virtual machine steps until it is ready)")
+        staged = Path(tempfile.mkdtemp(prefix=f"{lib.stem}.", suffix=".staged", dir=lib.parent))
+        for name, text in sources.items():
+            (staged / name).write_text(text)
+        fcntl.flock(lock, fcntl.LOCK_UN)
+    spawn([str(lib), str(staged), *extra])
+    return lib
+
+
+def spawn(args: list[str]) -> None:
+    """Start :func:`compile_staged` (args: the library, the staged sources, extra C files) in
+    a detached process of its own, which outlives this one."""
+    subprocess.Popen([sys.executable, "-c", "import sys; from rrr4.codegen.build import compile_staged; "
+                      "compile_staged(*sys.argv[1:])", *args], stdin=subprocess.DEVNULL,
+                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+
+
+def compile_staged(lib: str, staged: str, *extra: str) -> None:
+    """The background compiler of :func:`library_in_background`: the sources staged in the
+    directory `staged` into `lib`, one such compiler at a time per cache directory; the
+    staged directory is removed whatever happens."""
+    lib_path, src = Path(lib), Path(staged)
+    try:
+        with open(lib_path.parent / "background.lock", "a") as turn:
+            fcntl.flock(turn, fcntl.LOCK_EX)  # one background compiler at a time
+            sources = {p.name: p.read_text() for p in sorted(src.iterdir()) if p.is_file()}
+            _compile(lib_path, sources, [Path(p) for p in extra], tuple(COMPILE_FLAGS), False)
+    finally:
+        shutil.rmtree(src, ignore_errors=True)
 
 
 def _compile(lib: Path, sources: Mapping[str, str], extra: list, flags: tuple, keep_sources: bool) -> Path:

@@ -35,7 +35,7 @@ def parametric_feedback(problem: Problem) -> ca.Function:
     return _feedback(tuple(problem.joint(j).type == "revolute" for j in problem.model.actuated_joints))
 
 
-@functools.cache
+@functools.lru_cache(maxsize=16)  # per actuator kinds
 def _feedback(revolute: tuple[bool, ...]) -> ca.Function:
     n = len(revolute)
     th_ref, thd_ref, ff, th, thd = (ca.SX.sym(s, n) for s in ("theta_ref", "theta_d_ref", "tau_ff", "theta",

@@ -18,7 +18,6 @@ import casadi as ca
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from ..dynamics.family import graph_family
 from ..functions import mapped
 from ..preload import solve_preload
 from ..problem import Problem
@@ -108,9 +107,9 @@ def graph_references(problem: Problem, t: np.ndarray, preload=None) -> Reference
     traj = trajectory_function(problem.path)
     p, pd, pdd = (np.array(v).T for v in traj.map(N)(t[None, :]))
     q = problem.path_coordinates(p, pd, pdd)
-    _, qdd, th_d, th_dd = mech.motion(q, pd[:, :k], pdd[:, :k])
+    qd, _, th_d, th_dd = mech.motion(q, pd[:, :k], pdd[:, :k])
     th = np.array(model.actuator_coordinates_function.map(N)(q.T)[0]).T
-    fam = graph_family(mech, q, qdd, problem.gravity)
+    fam = problem.effort_family(p, pd, pdd, q=q)  # with every known force element
     m = fam.tau_n.shape[2]
     alpha = np.zeros((N, m))
     tau_ff, feasible = fam.tau_p, np.ones(N)
@@ -126,7 +125,6 @@ def graph_references(problem: Problem, t: np.ndarray, preload=None) -> Reference
     if problem.compensates:
         r = fam.r_p + np.einsum("kjcm,km->kjc", fam.r_n, alpha)
         W = slip_rows(problem)
-        qd = mech.motion(q, pd[:, :k], pdd[:, :k])[0]
         slip = qd @ W.T
         dt = 1e-4 * (t[1] - t[0] if N > 1 else 1e-3)
         mu = rolling_friction(problem, t) if problem.scene.actuation.seat_model == "rolling" else None

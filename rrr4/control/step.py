@@ -46,6 +46,9 @@ def pointwise_controller(problem: Problem) -> str:
     if problem.compensates and problem.scene.actuation.seat_model == "rolling":
         return ("the rolling seat model follows the journals' slip along the path (its references are tabulated "
                 "on the path samples)")
+    if problem.element_forces is not None:
+        return ("known force elements other than constant loads on the platform are balanced by the effort family "
+                "(its references are tabulated on the path samples)")
     return why_not_pointwise(problem)
 
 

@@ -82,7 +82,6 @@ the same convention when the journal sits on the second body (always in an n-RRR
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass, field, replace
 
 import casadi as ca
@@ -235,10 +234,11 @@ def build_equations(model: Model, effects: Effects, mode: str, parameters, v_min
     inputs (:data:`INPUTS`): which numbers the parametric equations take as their input
     ``parameters``: 'contact' (default) or 'geometry' (the contact numbers, masses, inertias
     and joint points; about 20 % more instructions, since zeros and ones in the geometry no
-    longer simplify, for sweeps over the mechanism). The parametric equations are built once
-    per structure and options. forces: the scene's force elements (:mod:`rrr4.dynamics.elements`;
-    their numbers follow the contact numbers in ``parameters``). Raises SceneError if the
-    actuation mode over-constrains the mechanism.
+    longer simplify, for sweeps over the mechanism). The parametric equations are built on
+    every call (``Problem.equations`` keeps them, once per structure and options). forces:
+    the scene's force elements (:mod:`rrr4.dynamics.elements`; their numbers follow the
+    contact numbers in ``parameters``). Raises SceneError if the actuation mode
+    over-constrains the mechanism.
     """
     return with_parameters(parametric_equations(model, effects, mode, v_min, baumgarte, inputs, forces), parameters)
 
@@ -247,7 +247,8 @@ def parametric_equations(model: Model, effects: Effects, mode: str, v_min: float
                          baumgarte: float = BAUMGARTE_OMEGA, inputs: str = "contact", forces: tuple = ()) -> Equations:
     """The parametric equations of the structure (every number of ``parameters`` an input;
     see :func:`build_equations`), before any numbers are folded in: :func:`with_parameters`
-    folds them. :meth:`rrr4.problem.Problem.equations` keeps them on the structure's Problem."""
+    folds them. Built anew on every call: :meth:`rrr4.problem.Problem.equations` keeps them on
+    the structure's Problem (``memo``), the one cache of them."""
     v_min = argument("v_min", v_min)
     baumgarte = argument("baumgarte", baumgarte, allow_zero=True)
     if inputs not in INPUTS:
@@ -256,7 +257,6 @@ def parametric_equations(model: Model, effects: Effects, mode: str, v_min: float
     return replace(par, parametric=par)
 
 
-@functools.lru_cache(maxsize=16)
 def _parametric(model: Model, effects: Effects, mode: str, v_min: float, omega: float, geometry: bool,
                 forces: tuple = ()) -> Equations:
     """The equations of a structure (``Problem.plant_key``, or with `geometry`

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["energy_terms", "energy_audit_residual"]
+__all__ = ["energy_terms", "energy_audit", "energy_audit_residual"]
 
 
 def energy_terms(energy_function, q, qd, work_in, dissipated_damping, dissipated_friction) -> dict:
@@ -31,9 +31,16 @@ def energy_terms(energy_function, q, qd, work_in, dissipated_damping, dissipated
             "dissipated_friction": np.asarray(dissipated_friction, float)}
 
 
-def energy_audit_residual(energy: dict) -> float:
-    """max_t |W_in - (E - E(0)) - D| / (largest |energy term| over the run); 0 if all terms vanish."""
+def energy_audit(energy: dict) -> tuple[float, float]:
+    """(largest imbalance max_t |W_in - (E - E(0)) - D| [J], the energy the run exchanges [J]:
+    the largest |energy term| over the run, of kinetic, potential, total, work_in, dissipated)."""
     total = energy["total"]
     imbalance = energy["work_in"] - (total - total[0]) - energy["dissipated"]
     scale = max(float(np.max(np.abs(energy[k]))) for k in ("kinetic", "potential", "work_in", "dissipated", "total"))
-    return float(np.max(np.abs(imbalance)) / scale) if scale > 0 else 0.0
+    return float(np.max(np.abs(imbalance))), scale
+
+
+def energy_audit_residual(energy: dict) -> float:
+    """max_t |W_in - (E - E(0)) - D| / (largest |energy term| over the run); 0 if all terms vanish."""
+    imbalance, scale = energy_audit(energy)
+    return imbalance / scale if scale > 0 else 0.0

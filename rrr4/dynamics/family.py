@@ -45,6 +45,11 @@ class EffortFamily:
                 self.r_p.transpose(2, 0, 1).reshape(2, N * nj),
                 self.r_n.transpose(2, 0, 3, 1).reshape(2, N * m * nj)]
 
+    def plus(self, other: EffortFamily) -> EffortFamily:
+        """This family with `other`'s particular efforts and reactions added: the family of the
+        summed loads, for `other` of the same mechanism and poses (its null part is ignored)."""
+        return EffortFamily(self.tau_p + other.tau_p, self.tau_n, self.r_p + other.r_p, self.r_n)
+
     @staticmethod
     def from_raw(raw) -> EffortFamily:
         """Inverse of :attr:`raw` for the outputs of a mapped 'inverse_dynamics' Function."""

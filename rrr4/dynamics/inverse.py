@@ -29,8 +29,6 @@ exerts on the outboard body of joint j, i.e. r_j = -lambda_j for Phi = gap.
 
 from __future__ import annotations
 
-import functools
-
 import casadi as ca
 
 from ..mechanism import Mechanism
@@ -38,7 +36,6 @@ from ..mechanism import kinematics as kin
 
 __all__ = ["inverse_dynamics_function", "joint_reactions_function", "actuator_motion_function"]
 
-@functools.cache
 def _actuator_motion(mech: Mechanism) -> ca.Function:
     pose, pose_d, shift = ca.SX.sym("pose", 3), ca.SX.sym("pose_d", 3), ca.SX.sym("shift", 2, mech.n)
     cs = (ca.cos(pose[2]), ca.sin(pose[2]))
@@ -59,9 +56,10 @@ def actuator_motion_function(mech: Mechanism) -> ca.Function:
     journals off-centre, see :func:`rrr4.mechanism.kinematics.chain_ik`), held fixed in the rate.
 
     The same closed-form expressions as the inverse dynamics (no trigonometry of the
-    angles), so a controller built from both shares them. Built once per mechanism.
+    angles), so a controller built from both shares them. Built once per mechanism (cached on
+    it, :meth:`rrr4.Mechanism.memo`).
     """
-    return _actuator_motion(mech)
+    return mech.memo(("actuator_motion",), lambda: _actuator_motion(mech))
 
 
 def _platform_wrench(loads, pose):
@@ -76,7 +74,12 @@ def _platform_wrench(loads, pose):
     return f, m
 
 
-@functools.cache
+def _reactions(mech: Mechanism, gravity: tuple[float, float], loads: tuple) -> ca.Function:
+    """:func:`joint_reactions_function`, built once per mechanism, gravity and loads (cached on
+    the mechanism: it lives as long as the mechanism does)."""
+    return mech.memo(("joint_reactions", gravity, loads), lambda: _build(mech, gravity, loads))
+
+
 def _build(mech: Mechanism, gravity: tuple[float, float], loads: tuple = ()) -> ca.Function:
     data, n = mech.data, mech.n
     pose, pose_d, pose_dd = (ca.SX.sym(s, 3) for s in ("pose", "pose_d", "pose_dd"))
@@ -158,13 +161,12 @@ def joint_reactions_function(mech: Mechanism, gravity=(0.0, 0.0), loads: tuple =
     constant loads on the platform, ((x, y) [m] platform frame, (fx, fy) [N], tz [N m],
     in_body_frame), as ``Problem.platform_loads``.
     """
-    return _build(mech, tuple(float(v) for v in gravity), tuple(loads))
+    return _reactions(mech, tuple(float(v) for v in gravity), tuple(loads))
 
 
-@functools.cache
 def _passive(mech: Mechanism, gravity: tuple[float, float], loads: tuple = ()) -> ca.Function:
     n = mech.n
-    f = _build(mech, gravity, loads)
+    f = _reactions(mech, gravity, loads)
     pose, pose_d, pose_dd = (ca.SX.sym(s, 3) for s in ("pose", "pose_d", "pose_dd"))
     tau_p, tau_n, r_p, r_n = f(pose, pose_d, pose_dd)[:4]
     m = tau_n.shape[1]
@@ -185,6 +187,7 @@ def inverse_dynamics_function(mech: Mechanism, gravity=(0.0, 0.0), loads: tuple 
     gravity (2,) [m/s^2] (``Problem.gravity``; ``Problem.inverse_dynamics`` passes it);
     loads: the constant loads on the platform (as :func:`joint_reactions_function`; a
     process load on the tool), which the efforts must balance. Built once per (mechanism,
-    gravity, loads) and cached.
+    gravity, loads), cached on the mechanism (:meth:`rrr4.Mechanism.memo`).
     """
-    return _passive(mech, tuple(float(v) for v in gravity), tuple(loads))
+    g, loads = tuple(float(v) for v in gravity), tuple(loads)
+    return mech.memo(("inverse_dynamics", g, loads), lambda: _passive(mech, g, loads))

@@ -44,13 +44,13 @@ from ..integrators import METHODS, FixedStepIntegrator
 from ..integrators.compiled import compiled
 from ..integrators.implicit import ImplicitIntegrator
 from ..problem import Problem
-from ..scene import parse_scene
+from ..scene import Scene
 from ..simulation import default_jit
 from ..simulation.initial import initial_state
 from ..simulation.system import in_tree, loop_of, measured, system_of
 from ..trajectory import trajectory_function
 from .measurements import Measurements, measurement_columns
-from .parameters import Parameter, identified_data
+from .parameters import Parameter, identified_scene
 
 __all__ = ["DynamicData", "DYNAMIC_KINDS", "CHAOS_LIMIT", "FD_STEP", "sensitivity_frame"]
 
@@ -121,13 +121,12 @@ def _build(problem: Problem, nd: int, dt: float, jit: bool):
 
 def _outputs(problem: Problem, eqs, loop, system, tree: bool) -> ca.Function:
     """x -> [task pose (3), actuator angles (n), efforts (n)]: what the run records at a state."""
-    model, par = problem.model, eqs.parametric
-    ny, nc, npe, ns = system.ny, len(eqs.clearance_joints), len(eqs.parameters), len(loop.settings)
-    x = ca.SX.sym("x", 1 + ny + system.nz)
-    t, y, z = x[0], x[1:1 + ny], x[1 + ny:]
-    parameters, settings = z[3 * nc:3 * nc + npe], z[3 * nc + npe:3 * nc + npe + ns]
-    nq = (ny - 3) // 2
-    q, qd = par.tree_state(y[:nq], y[nq:2 * nq], parameters) if tree else (y[:nq], y[nq:2 * nq])
+    model, par, L = problem.model, eqs.parametric, system.layout
+    x = ca.SX.sym("x", 1 + L.ny + L.nz)
+    t, parameters, settings = x[0], x[L.in_x("parameters")], x[L.in_x("settings")]
+    q, qd = x[L.in_x("q")], x[L.in_x("qd")]
+    if tree:
+        q, qd = par.tree_state(q, qd, parameters)
     theta, theta_d = measured(model, q, qd, par, parameters)
     tau = loop.control(*trajectory_function(problem.path)(t), theta, theta_d, settings)
     tau = tau[0] if isinstance(tau, (list, tuple)) else tau
@@ -137,7 +136,7 @@ def _outputs(problem: Problem, eqs, loop, system, tree: bool) -> ca.Function:
 class DynamicData:
     """The measured run and the sensitivity runs that predict it (see the module docstring)."""
 
-    def __init__(self, problem: Problem, m: Measurements, params: list[Parameter], scene_data=None):
+    def __init__(self, problem: Problem, m: Measurements, params: list[Parameter], scene: Scene | None = None):
         where = m.source or "measurements"
         bad = [q.key for q in params if q.kind not in DYNAMIC_KINDS]
         if bad:
@@ -148,10 +147,12 @@ class DynamicData:
             raise MeasurementError(f"{where}: t runs from {m.t[0]:.6g} s to {m.t[-1]:.6g} s (the scene's path runs "
                                    f"from 0 to {problem.path.duration:g} s; times are path times)")
         seated = problem.scene.initial.journals == "seated"
-        if seated and scene_data is None:
-            raise SceneError(f"scene: {problem.name!r} has no YAML file (its journals start seated, where the "
-                             "clearances put them: method 'dynamic' needs the scene's file to place them)")
-        self.problem, self.m, self.params, self.scene_data = problem, m, params, scene_data
+        scene = problem.scene if scene is None else scene  # the nominal scene, varied for each candidate
+        if seated and scene.data is None:
+            raise SceneError(f"scene: {problem.name!r} has no YAML data (its journals start seated, where the "
+                             "clearances put them: method 'dynamic' varies the scene's data to place them; read it "
+                             "with rrr4.load_scene or rrr4.scene.parse_scene)")
+        self.problem, self.m, self.params, self.scene = problem, m, params, scene
         self.f, self.system, self.loop, self.eqs, self.tree, self.method, self.dt = sensitivity_frame(
             problem, len(params), float(np.median(np.diff(m.t))))
         kinds = measurement_columns(problem)
@@ -206,12 +207,10 @@ class DynamicData:
         (journals seated where the candidate's clearances put them)."""
         pb, eqs = self.problem, self.eqs
         if self.seated:  # the candidate's equations: its seats with its own contact numbers
-            data = identified_data(pb, self.params, p, self.scene_data)
-            pb = Problem.from_scene(parse_scene(data, name=str(data.get("name", "candidate")), source=""))
+            pb = Problem.from_scene(identified_scene(self.scene, self.params, p, name="candidate"))
             eqs = pb.equations()
         x0 = initial_state(pb, eqs, self._efforts, self.tree, self.loop.settings)
-        nc, ny = len(eqs.clearance_joints), self.system.ny
-        x0[1 + ny + 3 * nc:1 + ny + 3 * nc + len(eqs.parameters)] = self.contact_numbers(p)
+        x0[self.parameter_rows] = self.contact_numbers(p)
         x0 = self.system.started(x0, self.frame_inputs(0, 1)[0])
         extra = getattr(self.method, "initial_extra", None)  # an implicit method's memory and counters
         return np.r_[x0, extra(self.system, x0, self.frame_inputs(0, 1)[0])] if extra else x0
@@ -242,7 +241,7 @@ class DynamicData:
         """(x0, S0 (nx, np), no columns without `sensitivities`): the run's initial state at the
         parameter values p and its sensitivities (the contact numbers' d/dp; a seated start's
         by forward differences)."""
-        nd, ny = (len(self.params) if sensitivities else 0), self.system.ny
+        nd, motion = (len(self.params) if sensitivities else 0), self.system.layout.in_x("motion")
         x = self.initial(p)
         S = np.zeros((x.size, nd))
         if sensitivities:
@@ -250,14 +249,13 @@ class DynamicData:
         if self.seated and sensitivities:  # the seated start moves with the clearances (only): forward differences
             for i in (i for i, q in enumerate(self.params) if q.kind == "clearance"):
                 up = self.shifted(p, i)
-                S[1:1 + ny, i] = (self.initial(up)[1:1 + ny] - x[1:1 + ny]) / (up[i] - p[i])
+                S[motion, i] = (self.initial(up)[motion] - x[motion]) / (up[i] - p[i])
         return x, S
 
     @property
     def parameter_rows(self) -> slice:
         """The entries of the frame's state x that hold the equations' parameters (contact numbers)."""
-        a = 1 + self.system.ny + 3 * len(self.eqs.clearance_joints)
-        return slice(a, a + len(self.eqs.parameters))
+        return self.system.layout.in_x("parameters")
 
     def roll(self, x, S, a: int, b: int):
         """Frames a..b-1 from the state x with its sensitivities S (nx, nd): (x at frame b, S there,

@@ -14,13 +14,13 @@ import numpy as np
 from ..checks import unknown_value
 from ..errors import MeasurementError, SceneError, SimulationError
 from ..problem import Problem
-from ..scene import Scene, parse_scene
+from ..scene import Scene
 from ..scene.vocabulary import IDENTIFICATION_METHODS
 from .dynamic import DynamicData
 from .least_squares import Z95, covariance, identifiability, levenberg_marquardt
 from .measurements import Measurements, measurements_from_simulation, read_measurements
 from .multiple_shooting import WindowedData, check_windows, first_frame
-from .parameters import Parameter, identified_data, resolve_parameters, scene_yaml
+from .parameters import Parameter, identified_scene, resolve_parameters
 from .seated import SeatedData, check_friction_explained, noise_from_residuals
 
 __all__ = ["identify", "Identification", "METHODS"]
@@ -201,12 +201,14 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
                          f"{problem.name!r} does not preload; method 'dynamic' shoots through the simulation)")
     wall = time.perf_counter()
     m = _measurements(problem, measurements, arm, noise)
-    yaml_nominal = scene_yaml(problem)
-    params = resolve_parameters(problem, parameters, yaml_nominal)
+    nominal = scene if isinstance(scene, Scene) else problem.scene  # the one given is the one varied
+    if nominal.data is not None:
+        nominal.with_values({})  # data a change in memory made stale: one line now, not after the fit
+    params = resolve_parameters(problem, parameters, nominal.data)
     if method == "seated":
         data = SeatedData(problem, m, params, effort_lag)
     else:
-        data = DynamicData(problem, m, params, yaml_nominal)
+        data = DynamicData(problem, m, params, nominal)
         if check_windows(windows, data.n_frames - first_frame(data), data.dt) > 1:
             data = WindowedData(data, windows)
     npar = len(params)
@@ -278,14 +280,12 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
                      if min(v - q.lower, q.upper - v) <= 1e-9 * (q.upper - q.lower))
     # a barely determined parameter keeps its nominal value in the identified scene
     written = [q.nominal if q.key in poor else v for q, v in zip(params, p, strict=True)]
-    yaml_data = identified_data(problem, params, written, yaml_nominal)
-    identified = None
-    if yaml_data is not None:
-        try:
-            identified = parse_scene(yaml_data, name=str(yaml_data.get("name", "identified")), source="")
-        except SceneError as e:
-            raise SceneError(f"identified scene: {e} (an estimate left the scene's allowed range; bound it with "
-                             "parameters=)") from None
+    try:
+        identified = identified_scene(nominal, params, written)
+    except SceneError as e:
+        raise SceneError(f"identified scene: {e} (an estimate left the scene's allowed range; bound it with "
+                         "parameters=)") from None
+    yaml_data = None if identified is None else identified.data
     fit = {"samples": len(m), "residuals": int(r.size), "reduced_chi2": cov["reduced_chi2"], "chi2": cov["chi2"],
            "rms_residual": {c: float(np.sqrt(np.mean(v ** 2))) for c, v in res["raw"].items()},
            "iterations": iterations, "converged": bool(converged), "wall_time_s": time.perf_counter() - wall,

@@ -81,7 +81,7 @@ def clearance_map(shooting: DynamicData) -> ca.Function:
 
     def build():
         par, nc = eqs.parametric, len(eqs.clearance_joints)
-        n = (shooting.system.ny - 3) // 2
+        n = shooting.system.layout.nq
         c, ratio, P = ca.SX.sym("c", n), ca.SX.sym("ratio", nc), ca.SX.sym("parameters", len(eqs.parameters))
         q = par.tree_state(c, ca.SX.zeros(n), P)[0] if tree else c
         e = ca.vec(par.acceleration(q=q, qd=ca.SX.zeros(q.shape[0]), parameters=P)["eccentricity"])
@@ -109,8 +109,9 @@ class WindowedData:
         self.bounds = np.round(np.linspace(first, s.n_frames, self.windows + 1)).astype(int)
         self.free_first = first > 0  # a span after t = 0: its first window's start is an unknown too
         self.n_params = len(s.params)
-        nq = (s.system.ny - 3) // 2  # the stepped coordinates; their rates follow, then the quadratures
+        nq = s.system.layout.nq  # the stepped coordinates; their rates follow, then the quadratures
         self.n_state = 2 * nq
+        motion = s.system.layout.in_x("motion")
         scale = np.r_[np.full(nq, STATE_SCALE), np.full(nq, STATE_SCALE / s.dt)]
         n_free = self.windows - 1 + self.free_first
         self.nuisance_scale = np.tile(scale, n_free)
@@ -120,10 +121,10 @@ class WindowedData:
         if self.free_first:
             x, *_ = s.roll(x, S, 0, first)
         self.before = x  # the nominal run's state at the first window's start (its discrete state)
-        starts = [x[1:1 + self.n_state]] if self.free_first else []
+        starts = [x[motion]] if self.free_first else []
         for a, b in zip(self.bounds[:-2], self.bounds[1:-1], strict=True):
             x, *_ = s.roll(x, S, a, b)
-            starts.append(x[1:1 + self.n_state])
+            starts.append(x[motion])
         self.nuisance_start = np.concatenate(starts) if starts else np.zeros(0)
         self.chaos, self.chaos_windows, self._cache = None, [], {}
         self.cmap = clearance_map(s)
@@ -182,10 +183,10 @@ class WindowedData:
         n_state) to the parameters and the window's unknowns (no columns without
         `sensitivities`)."""
         s, system, npar = self.shooting, self.shooting.system, self.n_params
-        ny, nz = system.ny, system.nz
+        ny, nz, motion = system.ny, system.nz, system.layout.in_x("motion")
         x = previous_end[:1 + ny + nz].copy()
         start, d_p, d_s = self.placed(k, w)
-        x[1:1 + self.n_state] = start
+        x[motion] = start
         x[s.parameter_rows] = s.contact_numbers(w[:npar])
         x[1 + ny:] = np.array(system.discrete(x[0], x[1:1 + ny], x[1 + ny:])).ravel()
         extra = getattr(s.method, "initial_extra", None)
@@ -193,8 +194,8 @@ class WindowedData:
         S = np.zeros((x.size, npar + self.n_state if sensitivities else 0))
         if sensitivities:
             S[s.parameter_rows, :npar] = s.D
-            S[1:1 + self.n_state, :npar] = d_p
-            S[1:1 + self.n_state, npar:] = d_s
+            S[motion, :npar] = d_p
+            S[motion, npar:] = d_s
         return x, S
 
     def run(self, w, sensitivities: bool = True):

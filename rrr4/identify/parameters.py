@@ -12,20 +12,18 @@
 
 from __future__ import annotations
 
-import copy
 import math
 import re
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from ..checks import describe, unknown_value
 from ..errors import SceneError
 from ..problem import Problem
-from ..scene import get_key, read_yaml, set_key
+from ..scene import Scene, get_key
 
-__all__ = ["Parameter", "resolve_parameters", "DEFAULT_PARAMETERS", "PATTERNS", "scene_yaml", "identified_data"]
+__all__ = ["Parameter", "resolve_parameters", "DEFAULT_PARAMETERS", "PATTERNS", "identified_scene"]
 
 DEFAULT_PARAMETERS = ("joints.radial_clearance", "effects.friction.coefficient", "effects.contact.stiffness")
 PATTERNS = ("joints.radial_clearance", "joints.per_joint.<J>.radial_clearance", "effects.friction.coefficient",
@@ -161,21 +159,13 @@ def resolve_parameters(problem: Problem, parameters=None, data: dict | None = No
     return out
 
 
-def scene_yaml(problem: Problem) -> dict | None:
-    """The YAML data of the problem's scene file (None without one)."""
-    source = problem.scene.source
-    return read_yaml(source) if source and Path(source).is_file() else None
-
-
-def identified_data(problem: Problem, params, values, data: dict | None = None) -> dict | None:
-    """The nominal scene's YAML data (`data`, else read from its file) with the values set at
-    the parameters' keys (None without a YAML file)."""
-    data = scene_yaml(problem) if data is None else data
-    if data is None:
+def identified_scene(scene: Scene, params, values, name: str = "identified") -> Scene | None:
+    """`scene` with the values set at the parameters' keys (:meth:`rrr4.scene.Scene.with_values`),
+    renamed '<name>_identified' where its data names it (else called `name`); None when the
+    scene holds no YAML data (built from dataclasses)."""
+    if scene.data is None:
         return None
-    data = copy.deepcopy(data)
-    for p, v in zip(params, values, strict=True):
-        set_key(data, p.key, float(v))
-    if isinstance(data.get("name"), str):
-        data["name"] = f"{data['name']}_identified"
-    return data
+    changes = {p.key: float(v) for p, v in zip(params, values, strict=True)}
+    if isinstance(scene.data.get("name"), str):
+        changes["name"] = f"{scene.data['name']}_identified"
+    return scene.with_values(changes, name=name)

@@ -5,7 +5,7 @@
 
 from ..scene.vocabulary import INTEGRATORS, registry
 from .adaptive import AdaptiveIntegrator
-from .base import FixedStepIntegrator, FrameInputs, Integrator, Run, System
+from .base import BACKGROUND, FixedStepIntegrator, FrameInputs, Integrator, Run, System
 from .bathe import Bathe
 from .casadi_plugins import Cvodes, Erk, Idas, Rosenbrock
 from .generalized_alpha import GeneralizedAlpha
@@ -18,6 +18,7 @@ from .scipy_ivp import RK45, Radau
 METHODS = registry(INTEGRATORS, {m.name: m for m in (Bathe, NewmarkTrapezoidal, GeneralizedAlpha, Ros2, RK4, Erk,
                                                      Rosenbrock, Cvodes, Idas, RK45, Radau)})
 
-__all__ = ["Integrator", "FixedStepIntegrator", "FrameInputs", "System", "Run", "RK4", "Bathe", "NewmarkTrapezoidal",
+__all__ = ["BACKGROUND", "Integrator", "FixedStepIntegrator", "FrameInputs", "System", "Run", "RK4", "Bathe",
+           "NewmarkTrapezoidal",
            "GeneralizedAlpha", "Ros2", "AdaptiveIntegrator", "Cvodes", "Idas", "Erk", "Rosenbrock", "RK45", "Radau",
            "METHODS"]

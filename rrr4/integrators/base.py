@@ -42,6 +42,7 @@ from ..errors import Rrr4Error
 from ..files import stop_requested
 from ..functions import evaluate
 
+BACKGROUND = "background"  # jit: compile the stepping in a process of its own, step in the VM until it is done
 CALLS = 20  # calls from Python that a run's stepping is split into (progress-bar updates)
 # output intervals per call at most: CasADi's mapaccum over k intervals takes memory that grows
 # with k while it is built (measured: 14 MB at k = 100, 160 MB at 1000) and keeps part of it as
@@ -121,6 +122,7 @@ class System:
     # closing); None: all of z. The rest (e.g. constant parameters) never changes.
     n_events: int | None = None
     peaks: ca.Function | None = None
+    layout: object = None  # the named parts of y and z (rrr4.simulation.layout.Layout); opaque to the integrators
     # (method, settings, h, steps per frame, frames per output) -> the built (and compiled)
     # unit of work; (that key, units per call, entries kept) -> the call that rolls it; the
     # implicit methods' Newton solvers; and "update" (see :meth:`update`): the system owns
@@ -213,6 +215,20 @@ class Integrator(ABC):
     def from_settings(cls, settings, jit: bool = False) -> Integrator:
         """The method configured by a scene's IntegratorSettings."""
 
+    def settings_key(self) -> tuple:
+        """The method and the values it was configured with (its public attributes, sorted by
+        name): what a System's compiled frames are keyed on, so two integrators configured alike
+        share them. Every public attribute is a plain value (bool, int, float, str, None, or a
+        tuple of them); anything else is a TypeError, never a key that only looks alike."""
+        def plain(name, v):
+            if isinstance(v, tuple):
+                return tuple(plain(name, x) for x in v)
+            if v is None or isinstance(v, (bool, int, float, str)):
+                return v
+            raise TypeError(f"{type(self).__name__}.{name}: {type(v).__name__} is not a plain setting value")
+        return type(self).__name__, tuple(sorted((k, plain(k, v)) for k, v in vars(self).items()
+                                                 if not k.startswith("_")))
+
     @abstractmethod
     def run(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int | None = None,
             progress: bool = False, every: int = 1, sink=None) -> Run:
@@ -291,8 +307,9 @@ class FixedStepIntegrator(Integrator):
         """States at the end of every `every`-th frame, (n_frames / every, system.kept), and
         statistics; u_frames (n_frames, nu), an array or :class:`FrameInputs`; n_frames a
         multiple of `every`; sink: see :meth:`Integrator.run`."""
-        return Run(self.roll(system, x0, u_frames, h, steps_per_frame, chunk, progress, every=every,
-                             sink=sink)[0], {})
+        states, _, stepping = self.roll(system, x0, u_frames, h, steps_per_frame, chunk, progress, every=every,
+                                        sink=sink)
+        return Run(states, {"stepping": stepping})
 
     def roll(self, system: System, x0, u_frames, h: float, steps_per_frame: int, chunk: int | None = None,
              progress: bool = False, every: int = 1, sink=None) -> tuple[np.ndarray | None, np.ndarray]:
@@ -308,8 +325,7 @@ class FixedStepIntegrator(Integrator):
         n_frames = u_frames.shape[0]
         if n_frames % every:
             raise ValueError(f"{n_frames} frames are not a multiple of every = {every}")
-        settings = tuple(sorted((k, repr(v)) for k, v in vars(self).items() if not k.startswith("_")))
-        key = (type(self).__name__, settings, float(h), int(steps_per_frame), int(every))
+        key = (*self.settings_key(), float(h), int(steps_per_frame), int(every))
         if key not in system.frames:
             # the unit of work is one output interval: `every` frames folded in one Function,
             # so the virtual machine calls it once per output, not once per frame
@@ -317,11 +333,18 @@ class FixedStepIntegrator(Integrator):
             if every > 1:
                 xu, uu = ca.MX.sym("x", unit.size1_in(0)), ca.MX.sym("u", unit.size1_in(1), every)
                 unit = ca.Function("interval", [xu, uu], [unit.fold(every)(xu, uu)], ["x", "u"], ["x_next"])
-            if self.jit:  # generated C of the whole loop, cached on disk (see .compiled)
+            if self.jit == BACKGROUND:  # the C compiled by a process of its own; the VM steps meanwhile
+                from .compiled import compiled_later
+                ready, pending = compiled_later(unit, system.c_sources)
+                if ready is None:
+                    system.frames[key, "pending"] = pending
+                unit = ready or unit
+            elif self.jit:  # generated C of the whole loop, cached on disk (see .compiled)
                 from .compiled import compiled
                 unit = compiled(unit, system.c_sources)
             system.frames[key] = unit
         unit = system.frames[key]
+        stepping = {"compiled": bool(self.jit) and (key, "pending") not in system.frames, "compiled_from_frame": None}
         n_units = n_frames // every
         chunk = max(1, chunk // every) if chunk else min(max(1, -(-n_units // CALLS)), MAX_CHUNK)  # intervals per call
         x = np.asarray(x0, float)
@@ -336,6 +359,9 @@ class FixedStepIntegrator(Integrator):
                 if stop_requested():  # an interrupt lost inside a solver (see rrr4.files.request_stop)
                     raise KeyboardInterrupt
                 k = min(chunk, n_units - k0)
+                if (key, "pending") in system.frames and system.frames[key, "pending"].exists():
+                    unit = self._switch_to_compiled(system, key)  # the same states, bit for bit, from here on
+                    stepping.update(compiled=True, compiled_from_frame=k0 * every)
                 if (key, k, keep) not in system.frames:  # the kept rows at each output and the last full state
                     xm, um = ca.MX.sym("x", x.size), ca.MX.sym("u", u_frames.shape[1], k * every)
                     xs = unit.mapaccum("outputs", k)(xm, um)
@@ -356,4 +382,16 @@ class FixedStepIntegrator(Integrator):
         finally:  # an error or interrupt must not leave a half-drawn bar under its message
             if bar is not None:
                 bar.close()
-        return out, x
+        return out, x, stepping
+
+    @staticmethod
+    def _switch_to_compiled(system: System, key) -> ca.Function:
+        """The frame of `key` from its library compiled in the background (now on disk), in
+        place of the virtual machine's; the chunk Functions built on the old one are dropped."""
+        from .compiled import load
+        lib = system.frames.pop((key, "pending"))
+        unit = load(system.frames[key].name(), lib)
+        system.frames[key] = unit
+        for k in [k for k in system.frames if isinstance(k, tuple) and len(k) == 3 and k[0] == key]:
+            del system.frames[k]
+        return unit

@@ -23,12 +23,13 @@ glibc) and bought 0.4 %: not done.
 from __future__ import annotations
 
 import platform
+from pathlib import Path
 
 import casadi as ca
 
-from ..codegen.build import compilations, library, load
+from ..codegen.build import compilations, library, library_in_background, load
 
-__all__ = ["compiled", "compilations", "inline_min_max"]
+__all__ = ["compiled", "compiled_later", "compilations", "inline_min_max", "load"]
 
 # read at call time (benchmarks/bench_flags.py swaps it): the rule below is glibc's x86-64
 # fmax/fmin (maxsd/minsd: the second operand when both are zeros); aarch64's glibc (fmaxnm) and
@@ -49,10 +50,22 @@ def compiled(f: ca.Function, sources=()) -> ca.Function:
     Raises BuildError (an Rrr4Error) if no C compiler ($CC, cc or gcc) is available or
     compilation fails.
     """
+    return load(f.name(), library(f.name(), _sources(f), extra=sources))
+
+
+def compiled_later(f: ca.Function, sources=()) -> tuple[ca.Function | None, Path]:
+    """(`f` compiled, as :func:`compiled`, if its library is in the cache, else None; the
+    library's path): a library not yet cached is compiled by a process of its own
+    (:func:`rrr4.codegen.build.library_in_background`) while the caller goes on, e.g. stepping
+    in CasADi's virtual machine; ``load(f.name(), path)`` once ``path.exists()``."""
+    lib = library_in_background(f.name(), _sources(f), extra=sources)
+    return (load(f.name(), lib) if lib.exists() else None), lib
+
+
+def _sources(f: ca.Function) -> dict[str, str]:
     cg = ca.CodeGenerator(f"{f.name()}.c", {"with_header": False})
     cg.add(f)
-    text = inline_min_max(cg.dump()) if INLINE_MIN_MAX else cg.dump()
-    return load(f.name(), library(f.name(), {f"{f.name()}.c": text}, extra=sources))
+    return {f"{f.name()}.c": inline_min_max(cg.dump()) if INLINE_MIN_MAX else cg.dump()}
 
 
 def inline_min_max(text: str) -> str:

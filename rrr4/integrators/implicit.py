@@ -400,12 +400,12 @@ class ImplicitIntegrator(FixedStepIntegrator):
         u0 = u_frames[:1][0]
         nq = second_order_split(system)
         nm = self.memory_size(nq)
-        states, last = self.roll(system, np.r_[x0, self.initial_extra(system, x0, u0)], u_frames, h,
-                                 steps_per_frame, chunk, progress, every=every, sink=sink)
+        states, last, stepping = self.roll(system, np.r_[x0, self.initial_extra(system, x0, u0)], u_frames, h,
+                                           steps_per_frame, chunk, progress, every=every, sink=sink)
         counts = dict(zip(COUNTERS, (int(round(c)) for c in last[x0.size + nm:x0.size + nm + len(COUNTERS)]),
                           strict=True))
         n_steps = steps_per_frame * u_frames.shape[0]
-        stats = {"newton": self.newton, **counts}
+        stats = {"newton": self.newton, **counts, "stepping": stepping}
         if self.tolerance is not None:
             a = dict(zip(ADAPTIVE, last[-len(ADAPTIVE):], strict=True))
             n_steps = int(a["accepted_steps"])

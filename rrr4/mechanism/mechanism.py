@@ -22,9 +22,10 @@ import numpy as np
 from ..checks import describe
 from ..errors import KinematicsError, SceneError
 from ..functions import QUIET
-from ..scene import GROUND, AssemblyMode, NRRRSpec, Scene, bare_nrrr_graph
+from ..scene import GROUND, NRRRSpec, Scene, bare_nrrr_graph
 from . import kinematics as kin
 from .model import Model
+from .modes import knee_conditions, mode_function, mode_values
 
 __all__ = ["Mechanism", "NRRRMechanism", "wrap_angle"]
 
@@ -51,6 +52,7 @@ class Mechanism:
     """
 
     def __init__(self, model: Model):
+        self._memo: dict = {}  # what is derived from this mechanism, see memo
         self.model = model
         self.n = model.n_actuators
         self.nq = model.nq
@@ -88,7 +90,9 @@ class Mechanism:
         pad = ca.MX.zeros(rows.numel())
         qdm = ca.solve(A, ca.vertcat(pad, td), "lapacklu")
         _, gam, _, _ = self.constraint_jacobian_function(qm, qdm)
-        qddm = ca.solve(A, ca.vertcat(gam[:rows.numel()], tdd), "lapacklu")
+        # every row's gamma, the task rows' too: a task point off its body's origin moves on a
+        # circle about it, so its acceleration has the centripetal part -omega^2 u
+        qddm = ca.solve(A, gam + ca.vertcat(pad, tdd), "lapacklu")
         self.motion_function = ca.Function("motion", [qm, td, tdd], [qdm, qddm, Sm @ qdm, Sm @ qddm],
                                            ["q", "target_d", "target_dd"], ["qd", "qdd", "theta_d", "theta_dd"])
         self._n_rows = rows.numel()
@@ -97,9 +101,18 @@ class Mechanism:
         p = ca.vertcat(target, offset)
         self._residual_jacobian = ca.Function("assembly_jacobian", [q, p], [residual, Jf])
         self.assembly = g.assembly
-        self.mode_function = ca.Function("assembly_mode", [q], [_mode_values(model, q, g.assembly)], ["q"], ["mode"])
+        self.mode_function = ca.Function("assembly_mode", [q], [mode_values(model, q, g.assembly)], ["q"], ["mode"])
         self.assembled_branch = None  # the branch the last assembly without a guess chose, see assemble
         self._rng_scale = _scene_scale(model)
+
+    def memo(self, key, build):
+        """build() once per mechanism and key: what is derived from this mechanism alone (its
+        closed-form inverse dynamics, branch functions) lives on it and goes with it, never in
+        a module-level cache keyed by the mechanism's identity. Mechanisms themselves are
+        cached per scene graph (:meth:`from_scene`, the :data:`MECHANISMS` most recent)."""
+        if key not in self._memo:
+            self._memo[key] = build()
+        return self._memo[key]
 
     # ------------------------------------------------------------------ construction
 
@@ -238,17 +251,60 @@ class Mechanism:
         revolute joint between two bodies with one other joint each, the loops' knees) the
         signs of bend and stretch and the angle from the first body's line to the second's,
         e.g. 'C: bend +, stretch - (+131.2 deg)'."""
-        conds = {m.joint: m for m in self.assembly or _default_conditions(self.model)}
+        conds = {m.joint: m for m in self.assembly or self._knees()[0]}
         if not conds:
             return "the only one (no loop)"
         both = tuple(replace(m, measure=k) for m in conds.values() for k in ("bend", "stretch"))
-        v = np.array(_mode_function(self.model, both)(np.asarray(q, float))).ravel().reshape(-1, 2)
+        branch = self.memo(("branch", both), lambda: mode_function(self.model, both))
+        v = np.array(branch(np.asarray(q, float))).ravel().reshape(-1, 2)
 
         def sign(x):
             return "+" if x > 1e-6 else "-" if x < -1e-6 else "0"
 
         return ", ".join(f"{j}: bend {sign(b)}, stretch {sign(d)} ({np.degrees(np.arctan2(b, d)):+.1f} deg)"
                          for j, (b, d) in zip(conds, v, strict=True))
+
+    def _knees(self) -> tuple:
+        """(the bend conditions at the loops' knees, their Function q -> values), built once."""
+        def build():
+            conds = knee_conditions(self.model)
+            return conds, mode_function(self.model, conds)
+        return self.memo(("knees",), build)
+
+    def branches(self, target, starts: int = 48) -> list[np.ndarray]:
+        """One closure q per assembly branch that closes at `target` (from the pose guesses and
+        the first `starts` seeded starts), told apart by the bend sign at every knee (the joints
+        :meth:`branch_text` reports when no mode is named); [] when the scene names its mode (an
+        n-RRR names its chains' working modes) or has no knee."""
+        conds, f = self._knees()
+        if self.assembly or self.modes is not None or not conds:
+            return []
+        p = np.r_[_vector("target", target, self.n_task), np.zeros(self._n_rows)]
+        found: dict = {}
+        for q0 in itertools.chain([self.model.pose_guess], itertools.islice(self._seeds(), starts)):
+            q, res = self._newton(self._least_squares(q0, p), p)
+            signs = np.sign(np.array(f(q)).ravel()) if res <= 1e-9 else np.zeros(1)
+            if np.all(signs != 0):
+                found.setdefault(tuple(signs.astype(int)), self._chosen(q))
+        return list(found.values())
+
+    def branch_hint(self, target) -> str:
+        """'' or one sentence for a scene that names no assembly mode where several branches
+        close at `target`: how many, and the ``mechanism.assembly`` entries that name each."""
+        found = self.branches(target)
+        if len(found) < 2:
+            return ""
+        conds, f = self._knees()
+
+        def entries(q):
+            signs = np.array(f(q)).ravel()
+            return "[" + ", ".join(f"{{joint: {c.joint}, bend: '{'+' if v > 0 else '-'}'}}"
+                                   for c, v in zip(conds, signs, strict=True)) + "]"
+        taken = entries(self.assemble(target))
+        others = [e for e in map(entries, found) if e != taken]
+        more = f"; and {len(others) - 3} more" if len(others) > 3 else ""
+        return (f"{len(found)} assembly branches close here and the scene names none (the one taken: {taken}); "
+                f"another may be the one meant: name it in mechanism.assembly, e.g. {'; '.join(others[:3])}{more}")
 
     def tracked_coordinates(self, targets, q0) -> tuple[np.ndarray, np.ndarray]:
         """(q (N, nq), closed (N,) bool) along targets (N, n_task), by continuation from q0:
@@ -282,7 +338,9 @@ class Mechanism:
     def driver_targets(self, t) -> np.ndarray:
         """(N, n_drivers) prescribed driver coordinates at times t (N,) [s]."""
         t = np.atleast_1d(np.asarray(t, float))
-        return np.column_stack([d.initial + d.speed * t for d in self.model.graph.drivers] or [np.zeros((len(t), 0))])
+        if not self.model.graph.drivers:
+            return np.zeros((len(t), 0))
+        return np.array(self.model.driver_values(ca.DM(t).T)[0]).T.reshape(len(t), -1)
 
     def path_jacobians(self, q) -> np.ndarray:
         """J (N, n, n_task) at states q (N, nq) of a task-driven graph: d theta = J d task."""
@@ -543,6 +601,18 @@ class NRRRMechanism(Mechanism):
                                         z if pose_dd is None else np.asarray(pose_dd, float))
         return tuple(np.array(v).ravel() for v in out)
 
+    def assemble(self, target, offsets=None, guess=None) -> np.ndarray:
+        """As :meth:`Mechanism.assemble`; without a guess, Newton from the closed-form
+        coordinates in the scene's working modes (the bare graph names no assembly mode, so the
+        seeded search could close on another elbow)."""
+        if guess is None:
+            target = _vector("target", target, self.n_task)
+            guess = self.body_motion(target)[0]
+            if not np.all(np.isfinite(guess)):
+                raise KinematicsError(f"the mechanism does not assemble at target {np.round(target, 6).tolist()} "
+                                      "(a chain cannot reach it in its working mode)")
+        return super().assemble(target, offsets, guess)
+
     def seated_coordinates(self, pose, eccentricity) -> np.ndarray:
         """q (nq,) with the platform at pose (3,) and each passive joint B1..Bn, C1..Cn
         opened by its eccentricity (2n, 2) [m] (outboard point - inboard point)."""
@@ -589,47 +659,6 @@ def wrap_angle(a):
     return np.pi - np.mod(np.pi - a, 2 * np.pi)
 
 
-def _mode_values(model: Model, q, conditions) -> ca.SX:
-    """The normalised cross (bend) or dot (stretch) product of u = joint - a's reference and
-    v = b's reference - joint at each condition's joint (see :class:`rrr4.scene.AssemblyMode`)."""
-    out = []
-    for m in conditions:
-        j = model.graph.joint(m.joint)
-        a, b = j.bodies
-        joint = model.point(q, a, j.points[0])
-        u = joint - model.point(q, a, m.points[0])
-        v = model.point(q, b, m.points[1]) - joint
-        num = u[0] * v[1] - u[1] * v[0] if m.measure == "bend" else u[0] * v[0] + u[1] * v[1]
-        out.append(num / ca.sqrt(ca.sumsqr(u) * ca.sumsqr(v) + 1e-300))
-    return ca.vertcat(*out) if out else ca.SX(0, 1)
-
-
-@functools.cache
-def _mode_function(model: Model, conditions) -> ca.Function:
-    q = ca.SX.sym("q", model.nq)
-    return ca.Function("branch", [q], [_mode_values(model, q, conditions)])
-
-
-@functools.cache
-def _default_conditions(model: Model) -> tuple:
-    """bend at every revolute joint between two bodies that each have one other joint (the
-    knees of the loops: a four-bar's coupler-rocker joint, an RRR chain's elbow)."""
-    joints = model.graph.joints
-    out = []
-    for j in joints:
-        if j.type != "revolute" or GROUND in j.bodies:
-            continue
-        refs = []
-        for k, body in enumerate(j.bodies):
-            other = [o for o in joints if o.name != j.name and body in o.bodies]
-            if len(other) == 1 and np.hypot(*np.subtract(other[0].points[other[0].bodies.index(body)],
-                                                          j.points[k])) > 1e-12:
-                refs.append(tuple(other[0].points[other[0].bodies.index(body)]))
-        if len(refs) == 2:
-            out.append(AssemblyMode(j.name, "bend", 1, (refs[0], refs[1])))
-    return tuple(out)
-
-
 def _scene_scale(model: Model) -> tuple[float, np.ndarray]:
     """(L, centre): a length [m] covering the mechanism (the sum of every body's point spans
     and the ground points' spread) and the centre of the ground points, for seeded starts."""
@@ -642,11 +671,14 @@ def _scene_scale(model: Model) -> tuple[float, np.ndarray]:
     return max(L, 1e-3), centre
 
 
-@functools.cache
+MECHANISMS = 64  # mechanisms kept per scene graph (a geometry sweep makes one per case)
+
+
+@functools.lru_cache(maxsize=MECHANISMS)
 def _nrrr(data: NRRRSpec, graph) -> NRRRMechanism:
     return NRRRMechanism(data, graph)
 
 
-@functools.cache
+@functools.lru_cache(maxsize=MECHANISMS)
 def _generic(graph) -> Mechanism:
     return Mechanism(Model.of(graph))

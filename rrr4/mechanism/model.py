@@ -15,7 +15,8 @@ Joint equations (2 rows each, Nikravesh 1988, sec. 3.4):
 
 Joint coordinates: theta_2 - theta_1 [rad] (revolute), u_1 . (p_2 - p_1) [m]
 (prismatic). An actuator's generalised force is S^T f with S = d(coordinate)/dq (virtual
-work), a driver adds the row coordinate(q) - (initial + speed t).
+work), a driver adds the row coordinate(q) - value(t), its motion law's value
+(:meth:`Model.driver_values`).
 
 Reaction convention (project-wide): the reaction of a revolute joint is the force [N,
 global frame] that body 1 (inboard) exerts on body 2 (outboard), r = -lambda for the rows
@@ -30,6 +31,7 @@ import casadi as ca
 import numpy as np
 
 from ..scene import GROUND, Graph, JointSpec
+from ..trajectory import driver_function
 
 __all__ = ["Model", "rotation", "perp", "geometry_parameters"]
 
@@ -61,6 +63,7 @@ class Model:
     """
 
     def __init__(self, graph: Graph):
+        self._constraints: dict = {}  # the constraints Functions built, see constraints
         self.graph = graph
         self.body_names = tuple(b.name for b in graph.bodies)
         self.nq = 3 * len(graph.bodies)
@@ -187,16 +190,20 @@ class Model:
         u1 = rotation(th1) @ ca.DM(j.axis) if j.bodies[0] != GROUND else ca.DM(j.axis)
         return ca.dot(u1, p2 - p1)
 
-    @functools.cache  # noqa: B019 (the model is immutable and lives as long as its cache entry)
     def constraints(self, joints: tuple[str, ...] | None = None, drivers: bool = False) -> ca.Function:
         """Function 'constraints': q, qd -> phi, phi_q, gamma for the named joints (default:
         the ideal ones) and, with drivers=True, one row per driver with its coordinate
         (the caller subtracts the prescribed value). Phi_q qdd = gamma + (driver
-        accelerations), gamma = -(Phi_q qd)_q qd. Rows in the order given, 2 per joint."""
+        accelerations), gamma = -(Phi_q qd)_q qd. Rows in the order given, 2 per joint.
+        Built once per model, joints and drivers (kept on the model)."""
         joints = self.constrained_joints if joints is None else tuple(joints)
-        q, qd = self._q, self._qd
-        return ca.Function("constraints", [q, qd], list(self.constraint_terms(q, qd, joints, drivers)), ["q", "qd"],
-                           ["phi", "phi_q", "gamma"])
+        key = (joints, bool(drivers))
+        if key not in self._constraints:
+            q, qd = self._q, self._qd
+            self._constraints[key] = ca.Function("constraints", [q, qd],
+                                                 list(self.constraint_terms(q, qd, joints, drivers)), ["q", "qd"],
+                                                 ["phi", "phi_q", "gamma"])
+        return self._constraints[key]
 
     def constraint_terms(self, q, qd, joints: tuple[str, ...], drivers: bool = False, geometry=None):
         """(phi, phi_q, gamma) of :meth:`constraints` as expressions of the symbols q, qd (and
@@ -209,11 +216,18 @@ class Model:
         return phi, phi_q, -ca.jtimes(phi_q @ qd, q, qd)
 
     def driver_values(self, t):
-        """(value, rate, acceleration) of every driver at time t (numeric or symbolic)."""
+        """(value, rate, acceleration) of every driver at time t (numeric or symbolic): initial +
+        speed t, speed, 0 for a constant speed, the driver's time law
+        (:func:`rrr4.trajectory.driver_function`) otherwise."""
         d = self.graph.drivers
-        return (ca.vertcat(*[x.initial + x.speed * t for x in d]) if d else ca.DM(0, 1),
-                ca.vertcat(*[x.speed for x in d]) if d else ca.DM(0, 1),
-                ca.DM.zeros(len(d)))
+        if not d:
+            return ca.DM(0, 1), ca.DM(0, 1), ca.DM.zeros(0)
+        if all(x.time_law == "constant" for x in d):  # the equations of a constant speed, as ever
+            return ca.vertcat(*[x.initial + x.speed * t for x in d]), ca.vertcat(*[x.speed for x in d]), \
+                ca.DM.zeros(len(d))
+        rows = [(x.initial + x.speed * t, x.speed + 0 * t, 0 * t) if x.time_law == "constant" else
+                driver_function(x)(t) for x in d]
+        return tuple(ca.vertcat(*col) for col in zip(*rows, strict=True))
 
     # ------------------------------------------------------------------ numeric helpers
 
@@ -235,6 +249,9 @@ class Model:
         return np.asarray(q)[:, self.coordinates(body)]
 
 
-@functools.cache
+MODELS = 128  # models kept per graph (a geometry sweep makes one per case, and one per structure key)
+
+
+@functools.lru_cache(maxsize=MODELS)
 def _model(graph: Graph) -> Model:
     return Model(graph)

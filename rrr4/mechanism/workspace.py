@@ -114,9 +114,10 @@ def check_scene(scene: Scene) -> Scene:
                              "must hold on the whole branch: choose a joint and points whose sign the motion keeps)")
     cond, t = pk.worst_condition
     if not cond <= p.max_condition_number:
+        hint = mech.branch_hint(sample_path(p).pose[0, :mech.n_task]) if mech.model.task is not None else ""
         raise SceneError(f"path: passes through a parallel singularity at t = {t:.4g} s "
                          f"(condition number of J {cond:.3g}, allowed <= path.max_condition_number = "
-                         f"{p.max_condition_number:g})")
+                         f"{p.max_condition_number:g})" + (f"; {hint}" if hint else ""))
     return scene
 
 

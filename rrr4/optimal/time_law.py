@@ -15,16 +15,21 @@ s_ddot in time), and point k uses a_k (the last point a_{N-1}). With the affine 
 are linear in (a, b, alpha) (the acceleration bound is a convex quadratic). The duration
 sum 2 ds / (c_k + c_{k+1}) and the effort integral sum (tau^T W tau) 2 ds / (c_k + c_{k+1})
 (W the preload weights) are convex, so the program is convex (Verscheure et al., IEEE TAC
-54(10), 2009) and IPOPT, on CasADi's sparse (banded) derivatives, finds its global optimum.
-The relaxation c <= sqrt(b) keeps every function smooth where the path is at rest.
+54(10), 2009) and IPOPT, on CasADi's sparse (banded) derivatives, finds its global optimum
+(solver 'convex'). The relaxation c <= sqrt(b) keeps every function smooth where the path is
+at rest. The time objective is solved by default by reachability analysis (solver
+'reachability', :mod:`rrr4.optimal.reachability`, TOPP-RA): the same constraints on both
+sides of every point with an alpha per side (the law reports the alpha of the segment after
+each point), so its duration is the convex program's to about 1e-5.
 
 Objectives: 'time'; 'effort' at a given duration; 'time+effort' (time plus effort_weight
 times the effort integral). ``contact=False`` drops the contact rows, ``null_space=False``
 fixes alpha = 0 (the minimum-norm efforts), so a user sees what each costs. Where the
 layer would pick one sign for all joints, both are solved and the faster kept; both are
-reported. Before solving, the path is checked at rest (a = b = 0): if no null-space effort
-within the limits meets the contact condition somewhere, or the limits cannot hold the
-path at rest, :class:`~rrr4.errors.InfeasibleError` names where and which constraint.
+reported. Before the convex program solves, the path is checked at rest (a = b = 0): if no
+null-space effort within the limits meets the contact condition somewhere, or the limits
+cannot hold the path at rest, :class:`~rrr4.errors.InfeasibleError` names where and which
+constraint (the reachability analysis runs the check where it finds no law).
 """
 
 from __future__ import annotations
@@ -48,11 +53,14 @@ from ..scene import time_table_text
 from ..scene.vocabulary import OBJECTIVES
 from ..trajectory import PathSamples
 from .family import PathFamily, path_family
+from .reachability import X_CAP, point_rows, project_out, recover_alpha, time_optimal_speeds
 
 __all__ = ["OptimalTimeLaw", "optimal_time_law", "binding_counts", "optimum_summary", "OBJECTIVES", "MAX_POINTS",
-           "contact_directions"]
+           "contact_directions", "SOLVERS",
+           "time_law_functions"]
 
 MAX_POINTS = 100_000
+SOLVERS = ("reachability", "convex")   # of the time law: TOPP-RA, the convex program (IPOPT)
 # a constraint whose relative slack is below this is reported as binding
 BINDING_TOL = 1e-5
 IPOPT_OPTIONS = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-10,
@@ -83,7 +91,7 @@ class OptimalTimeLaw:
     reactions (N+1, nj, 2) [N]; axial (N+1, nj) [N]: sigma d_j . r_j, the contact
     condition's left side (>= f_min where it holds); binding (N+1,): the constraint with the
     smallest slack where it binds ('' where none does); duration [s]; statistics: solver, status,
-    iterations, build and solve times, the duration with each sign."""
+    iterations (IPOPT), build and solve times, the duration with each sign."""
     objective: str
     t: np.ndarray
     s: np.ndarray
@@ -165,7 +173,7 @@ def optimal_time_law(scene, objective: str = "time", *, points: int = 1000, cont
                      null_space: bool = True, sign: int | None = None, duration: float | None = None,
                      effort_weight: float = 1.0, max_speed: float | None = None,
                      max_task_speed: float | None = None, max_task_acceleration: float | None = None,
-                     end_speeds=(0.0, 0.0), f_min: float | None = None) -> OptimalTimeLaw:
+                     end_speeds=(0.0, 0.0), f_min: float | None = None, solver: str | None = None) -> OptimalTimeLaw:
     """The optimal time law along the scene's path (see the module docstring).
 
     scene: a Scene, a Problem or a scene file's path. objective: 'time', 'effort' (needs
@@ -175,7 +183,10 @@ def optimal_time_law(scene, objective: str = "time", *, points: int = 1000, cont
     sign: +1 / -1 for the contact condition (default: both, the better kept). max_speed
     [1/s] on s_dot; max_task_speed [m/s], max_task_acceleration [m/s^2] of the task point.
     end_speeds: s_dot [1/s] at s = 0 and s = 1 (rest to rest by default). f_min [N]: default
-    the scene's ``actuation.preload.min_force``. Raises InfeasibleError where no law exists.
+    the scene's ``actuation.preload.min_force``. solver: 'reachability' (TOPP-RA,
+    :mod:`rrr4.optimal.reachability`: the time objective with at most one free null-space
+    effort and no task acceleration bound) or 'convex' (IPOPT on the convex program: every
+    objective); default the first where it applies. Raises InfeasibleError where no law exists.
     """
     problem = Problem.from_scene(scene)
     if objective not in OBJECTIVES:
@@ -206,17 +217,24 @@ def optimal_time_law(scene, objective: str = "time", *, points: int = 1000, cont
                          f"redundancy and f_min > 0; redundancy {m}, f_min {f_min:g} N): pass contact=False")
     if sign is not None and sign not in (1, -1):
         raise SceneError(f"sign: {sign!r} is not allowed (+1 or -1)")
+    solver = _solver(solver, objective, m if null_space else 0, bounds["max_task_acceleration"])
     fam = path_family(problem, np.linspace(0.0, 1.0, N + 1))
     _check_path(problem, fam)
     signs = (sign,) if sign is not None else ((1, -1) if contact else (1,))
     setup = _Setup(problem, fam, objective, contact, null_space, duration, effort_weight, bounds, ends, f_min)
     results, failures = {}, {}
     for sg in signs:
+        if solver == "reachability":   # the check at rest only names the constraint where no law exists
+            try:
+                results[sg] = setup.solve_reachability(sg)
+            except InfeasibleError as e:
+                failures[sg] = setup.at_rest(sg) or str(e)
+            continue
         where = setup.at_rest(sg)
         if where:
             failures[sg] = where
             continue
-        results[sg] = setup.solve(sg)
+        results[sg] = setup.solve_reachability(sg) if solver == "reachability" else setup.solve(sg)
     if not results:
         raise InfeasibleError("; ".join(failures[sg] for sg in signs))
     by_sign = {sg: (r.duration if r.statistics["success"] else None) for sg, r in results.items()}
@@ -231,6 +249,33 @@ def optimal_time_law(scene, objective: str = "time", *, points: int = 1000, cont
     best.statistics.update(duration_by_sign={f"{k:+d}": v for k, v in by_sign.items()},
                            at_rest_infeasible={f"{k:+d}": v for k, v in failures.items()})
     return best
+
+
+def time_law_functions(scene, points: int = 1000, *, sign: int = 1, contact: bool = True,
+                       null_space: bool = True, f_min: float | None = None):
+    """What both solvers of the time objective constrain, for cross-checks and benchmarks:
+    (family, F, lo, hi, labels), F (N+1, nf, 3 + m) the scaled coefficients of (a, b, alpha...,
+    1) of every constrained function at every grid point (the actuators' efforts over their
+    limits, then the contact rows over f_min) and lo <= F . (a, b, alpha, 1) <= hi (nf,); the
+    arguments as :func:`optimal_time_law`'s."""
+    problem = Problem.from_scene(scene)
+    fam = path_family(problem, np.linspace(0.0, 1.0, _grid(points) + 1))
+    f_min = problem.scene.actuation.preload.min_force if f_min is None else argument("f_min", f_min)
+    none = dict.fromkeys(("max_speed", "max_task_speed", "max_task_acceleration"))
+    setup = _Setup(problem, fam, "time", contact, null_space, None, 1.0, none, (0.0, 0.0), f_min)
+    return (fam, *setup.function_array(sign))
+
+
+def _solver(solver, objective, m, max_task_acceleration) -> str:
+    """The solver asked for, or the default: reachability analysis where it applies."""
+    if solver is not None and solver not in SOLVERS:
+        raise unknown_value("solver", "value", solver, SOLVERS)
+    why = ("the objective is 'time'" if objective != "time" else
+           f"at most one free null-space effort (here {m})" if m > 1 else
+           "no max_task_acceleration (a quadratic bound)" if max_task_acceleration is not None else "")
+    if solver == "reachability" and why:
+        raise SceneError(f"solver: 'reachability' is not allowed here (it needs {why}): use 'convex'")
+    return solver or ("convex" if why else "reachability")
 
 
 def _check_path(problem: Problem, fam: PathFamily) -> None:
@@ -338,15 +383,12 @@ class _Setup:
                               shape=(2 * N1 * F, N1 * nv))
         return A, g0.ravel()
 
-    def solve(self, sign: int) -> OptimalTimeLaw:
-        fam, N1, m = self.fam, len(self.fam.s), self.m
-        N = N1 - 1
-        ds = 1.0 / N
-        nv = 2 + m
-        t0 = time.perf_counter()
+    def _functions(self, sign):
+        """The constrained functions of (a, b, alpha) at every point: per function its
+        coefficients (c_a, c_b, c_g (N+1,), c_n (N+1, m)), scale, label and scaled bounds; the
+        efforts' first (one per actuator)."""
+        fam, m = self.fam, self.m
         n_act = fam.tau_a.shape[1]
-        # linear rows: each point is reached with the acceleration of the segment before it and
-        # left with that of the segment after it: the constraints hold on both sides, one alpha
         efforts = [(fam.tau_a[:, i], fam.tau_b[:, i], fam.tau_g[:, i], fam.tau_n[:, i, :m]) for i in range(n_act)]
         coefs, scale, labels = list(efforts), list(1.0 / self.limits), [f"actuator {n}" for n in self.names]
         lo_f, hi_f = [-1.0] * n_act, [1.0] * n_act
@@ -359,10 +401,112 @@ class _Setup:
                 labels.append(f"contact {self.joints[j]}")
                 lo_f.append(1.0)
                 hi_f.append(np.inf)
+        return efforts, coefs, scale, labels, np.array(lo_f), np.array(hi_f)
+
+    def function_array(self, sign):
+        """F (N+1, nf, 3 + m): per point and function the coefficients of (a, b, alpha..., 1),
+        scaled so that the bounds lo_f, hi_f (nf,) are -1, 1 (actuators) or 1, inf (contact);
+        and the functions' labels."""
+        _, coefs, scale, labels, lo_f, hi_f = self._functions(sign)
+        F = np.stack([np.column_stack([sc * c_a, sc * c_b, sc * c_n, sc * c_g])
+                      for (c_a, c_b, c_g, c_n), sc in zip(coefs, scale, strict=True)], axis=1)
+        return F, lo_f, hi_f, labels
+
+    def speed_bounds(self) -> np.ndarray:
+        """(N+1,) the largest b = s_dot^2 the speed bounds allow (inf where none)."""
+        fam = self.fam
+        bmax = np.full(len(fam.s), np.inf)
+        if self.bounds["max_speed"] is not None:
+            bmax = np.minimum(bmax, self.bounds["max_speed"] ** 2)
+        if self.bounds["max_task_speed"] is not None:
+            speed2 = np.sum(fam.pose_s[:, :2] ** 2, axis=1)   # the task point's x, y
+            bmax = np.minimum(bmax, self.bounds["max_task_speed"] ** 2 / np.maximum(speed2, 1e-300))
+        N = len(fam.s) - 1
+        for k, v in ((0, self.ends[0]), (N, self.ends[1])):
+            if v**2 > bmax[k] * (1 + 1e-12):
+                raise SceneError(f"end_speeds: s_dot {v:g} 1/s at s = {k / N:g} is not allowed (above the speed "
+                                 f"bounds there: {np.sqrt(bmax[k]):.4g} 1/s)")
+        return bmax
+
+    def solve_reachability(self, sign: int) -> OptimalTimeLaw:
+        """The time objective by reachability analysis (:mod:`rrr4.optimal.reachability`); the
+        law checked on both sides of every point, and solved again without pruning the rows
+        should a constraint fail by more than 1e-6 (none has)."""
+        N1 = len(self.fam.s)
+        t0 = time.perf_counter()
+        F, lo_f, hi_f, labels = self.function_array(sign)
+        G, h, margin = point_rows(F, lo_f, hi_f, np.array([lab.startswith("contact") for lab in labels]))
+        G2, h2 = project_out(G, h)
+        X = np.minimum(self.speed_bounds(), X_CAP)
+        build = time.perf_counter() - t0
+        for prune_rows in (True, False):
+            t1 = time.perf_counter()
+            b = self._speeds(sign, G2, h2, X, prune_rows)
+            a_seg = np.diff(b) * (N1 - 1) / 2.0
+            sides = [np.r_[a_seg, a_seg[-1]], np.r_[a_seg[0], a_seg]]    # after and before each point
+            alphas = [self._alpha(G, h, margin, a, b) for a in sides]
+            solve_time = time.perf_counter() - t1
+            worst = max((self._violation(F, lo_f, hi_f, a, b, al) for a, al in zip(sides, alphas, strict=True)),
+                        key=lambda w: w[0])
+            if worst[0] <= 1e-6:
+                break
+        ok = worst[0] <= 1e-6
+        stats = {"solver": "reachability", "return_status": "Solve_Succeeded" if ok else "Constraint_Violation",
+                 "success": ok, "build_time_s": build, "solve_time_s": solve_time, "points": N1, "sign": sign,
+                 "pruned": prune_rows, "max_violation": worst[0], "worst_s": float(self.fam.s[worst[1]]),
+                 "worst_constraint": labels[worst[2]]}
+        law = self._law(sign, b, alphas[0], stats, one_sided=True)
+        stats["objective_value"] = law.duration
+        return law
+
+    def _speeds(self, sign, G2, h2, X, prune_rows) -> np.ndarray:
+        """b (N+1,) of the time-optimal law on the projected rows, or InfeasibleError."""
+        fam, v0, v1 = self.fam, *self.ends
+        b, where = time_optimal_speeds(G2, h2, 1.0 / (len(fam.s) - 1), X, v0**2, v1**2, prune_rows=prune_rows)
+        if b is None:
+            at = "s_dot at s = 0 is too fast to reach the end" if where == "start" else \
+                f"none passes s = {fam.s[int(where.split()[1])]:.4g}"
+            raise InfeasibleError(f"optimal time law: no law from s_dot {v0:g} to {v1:g} 1/s keeps every constraint "
+                                  f"(sign {sign:+d}): {at}")
+        if b.max() > 0.5 * X_CAP:
+            raise SceneError(f"max_speed: None is not allowed for this path (nothing else bounds s_dot: it reaches "
+                             f"{np.sqrt(b.max()):.3g} 1/s): give max_speed [1/s]")
+        return b
+
+    def _alpha(self, G, h, margin, a, b) -> np.ndarray:
+        """alpha (N+1, m) at (a, b): the largest contact margin within the limits, or without
+        the contact condition the preload weights' least effort clipped into them."""
+        fam, m, N1 = self.fam, self.m, len(self.fam.s)
+        preferred = np.zeros((N1, m))
+        if m and not margin.any():
+            n, tau = fam.tau_n[:, :, 0], fam.efforts(a, b, np.zeros((N1, fam.tau_n.shape[2])))
+            W = self.weights
+            preferred[:, 0] = -np.einsum("kn,n,kn->k", n, W, tau) / np.maximum(np.einsum("kn,n,kn->k", n, W, n),
+                                                                                1e-300)
+        return recover_alpha(G[2:], h - G[0] * a - G[1] * b, margin, preferred)
+
+    @staticmethod
+    def _violation(F, lo_f, hi_f, a, b, alpha):
+        """(largest violation of lo_f <= F . (a, b, alpha, 1) <= hi_f, its point, its function)."""
+        values = np.einsum("kfi,ki->kf", F, np.column_stack([a, b, alpha, np.ones(len(a))]))
+        viol = np.maximum(lo_f - values, values - hi_f)
+        k, f = np.unravel_index(int(np.argmax(viol)), viol.shape)
+        return float(max(viol[k, f], 0.0)), int(k), int(f)
+
+    def solve(self, sign: int) -> OptimalTimeLaw:
+        fam, N1, m = self.fam, len(self.fam.s), self.m
+        N = N1 - 1
+        ds = 1.0 / N
+        nv = 2 + m
+        t0 = time.perf_counter()
+        n_act = fam.tau_a.shape[1]
+        # linear rows: each point is reached with the acceleration of the segment before it and
+        # left with that of the segment after it: the constraints hold on both sides, one alpha
+        efforts, coefs, scale, labels, lo_f, hi_f = self._functions(sign)
         A, g0 = self._rows(coefs, scale)
         F = len(coefs)
-        lo = np.tile(np.array(lo_f), 2 * N1) - g0
-        hi = np.tile(np.array(hi_f), 2 * N1) - g0
+        lo = np.tile(lo_f, 2 * N1) - g0
+        hi = np.tile(hi_f, 2 * N1) - g0
         X = ca.MX.sym("x", nv * N1)  # per point: b, c, alpha (grid-major: a banded KKT system)
         b, c = X[0::nv], X[1::nv]
         G = [ca.mtimes(ca.DM(sparse_to_casadi(A)), X)]
@@ -395,20 +539,12 @@ class _Setup:
                 f = time_total + self.effort_weight * effort
         G = ca.densify(ca.vertcat(*G))
         # bounds on the unknowns
-        bmax = np.full(N1, np.inf)
-        if self.bounds["max_speed"] is not None:
-            bmax = np.minimum(bmax, self.bounds["max_speed"] ** 2)
-        if self.bounds["max_task_speed"] is not None:
-            speed2 = np.sum(fam.pose_s[:, :k2] ** 2, axis=1)
-            bmax = np.minimum(bmax, self.bounds["max_task_speed"] ** 2 / np.maximum(speed2, 1e-300))
+        bmax = self.speed_bounds()
         lbx = np.zeros((nv, N1))
         ubx = np.vstack([bmax, np.sqrt(bmax), np.full((m, N1), np.inf)])
         lbx[2:] = -np.inf
         v0, v1 = self.ends
         for k, v in ((0, v0), (N, v1)):
-            if v**2 > bmax[k] * (1 + 1e-12):
-                raise SceneError(f"end_speeds: s_dot {v:g} 1/s at s = {k / N:g} is not allowed (above the speed "
-                                 f"bounds there: {np.sqrt(bmax[k]):.4g} 1/s)")
             lbx[0, k] = ubx[0, k] = v**2
             lbx[1, k] = ubx[1, k] = v
         # start: a sine speed profile below the speed bounds; alpha 0
@@ -443,14 +579,15 @@ class _Setup:
         stats.update(max_violation=float(max(viol.max(), 0.0)), worst_s=float(fam.s[point]), worst_constraint=label)
         return law
 
-    def _law(self, sign, b, alpha, stats) -> OptimalTimeLaw:
+    def _law(self, sign, b, alpha, stats, one_sided=False) -> OptimalTimeLaw:
         fam = self.fam
         N1 = len(fam.s)
         N = N1 - 1
         ds = 1.0 / N
         sd = np.sqrt(b)
         a_seg = np.diff(b) / (2 * ds)
-        a, a_left = np.r_[a_seg, a_seg[-1]], np.r_[a_seg[0], a_seg]
+        a = np.r_[a_seg, a_seg[-1]]
+        a_left = a if one_sided else np.r_[a_seg[0], a_seg]   # one_sided: TOPP-RA's scheme
         seg = 2 * ds / np.maximum(sd[:-1] + sd[1:], 1e-300)
         t = np.r_[0.0, np.cumsum(seg)]
         m_all = fam.tau_n.shape[2]
@@ -491,8 +628,7 @@ class _Setup:
             slack.append((1.0 - acc / self.bounds["max_task_acceleration"])[:, None])
             names.append("task acceleration")
         S = np.concatenate(slack, axis=1)
-        out = []
-        for row in S:
-            idx = [i for i in np.argsort(row) if row[i] < BINDING_TOL]
-            out.append(", ".join(names[i] for i in idx))
-        return tuple(out)
+        order = np.argsort(S, axis=1, kind="stable")
+        count = (S < BINDING_TOL).sum(axis=1)
+        return tuple(", ".join(names[i] for i in row[:n])
+                     for row, n in zip(order.tolist(), count.tolist(), strict=True))

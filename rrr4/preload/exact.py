@@ -77,7 +77,7 @@ def _fixed(f_min: float, weights: tuple[float, ...], limits: tuple[float, ...], 
     return fix_last_input(parametric_exact_preload(len(weights), nj), [*weights, *limits, f_min, branch])
 
 
-@functools.cache
+@functools.lru_cache(maxsize=16)  # per size
 def parametric_exact_preload(n: int, nj: int) -> ca.Function:
     """The law of :func:`exact_preload_function` with the input ``settings`` last
     (weights (n), torque limits (n) [N m], f_min [N], branch in {-1, 0, +1})."""

@@ -47,7 +47,7 @@ QP_OPTIONS = registry(QP_SOLVERS, _OPTIONS)  # the registry, by the scene's voca
 FEASIBILITY_TOL = 1e-6
 
 
-@functools.cache
+@functools.lru_cache(maxsize=16)  # per size
 def _qp_parts(n: int, nj: int, m: int) -> tuple[ca.Function, ca.Function]:
     """SX Functions 'qp_data' (inputs, settings -> H, g, A, lba, uba; rows unscaled, upper
     bounds of the joint rows infinite) and 'qp_result' (inputs, settings, alpha -> tau,
@@ -153,7 +153,7 @@ def _fixed_scalar(f_min: float, weights: tuple[float, ...], limits: tuple[float,
     return fix_last_input(parametric_scalar_qp_preload(len(weights), len(signs)), [*weights, *limits, f_min, *signs])
 
 
-@functools.cache
+@functools.lru_cache(maxsize=16)  # per size
 def parametric_scalar_qp_preload(n: int, nj: int) -> ca.Function:
     """The law of :func:`scalar_qp_preload_function` with the input ``settings`` last:
     weights (n), torque limits (n) [N m], f_min [N], and the axial-force sign of each of the nj

@@ -24,13 +24,14 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+import yaml  # noqa: E402
 from matplotlib.animation import FFMpegWriter, FuncAnimation, PillowWriter, writers  # noqa: E402
 
 from ..checks import argument, describe  # noqa: E402
 from ..errors import Rrr4Error  # noqa: E402
 from ..mechanism import Model  # noqa: E402
 from ..problem import Problem  # noqa: E402
-from ..scene import GROUND, Scene, load_yaml, parse_scene  # noqa: E402
+from ..scene import GROUND, Scene, inline_tables, load_yaml, parse_scene  # noqa: E402
 from .figures import STYLE, save_figure  # noqa: E402
 from .study import ARMS  # noqa: E402
 
@@ -50,6 +51,9 @@ def save_motion(study, path: Path, rate: float | None = None) -> Path | None:
         return None
     text = Path(scene.source).read_text()
     parsed = parse_scene(load_yaml(text, scene.source), name=Path(scene.source).stem, source=scene.source)
+    raw = load_yaml(text, scene.source)
+    if inline_tables(raw, Path(scene.source).parent):  # the tables beside the scene file travel with it
+        text = yaml.safe_dump(raw, sort_keys=False)
     # the file's scene, but for the path (an optimal law or motion replayed: pose_ref holds it)
     if replace(parsed, path=scene.path) != scene:
         return None     # the file changed since the study read it

@@ -47,7 +47,7 @@ WINDOWED = ("platform_error_rms_m", "platform_error_max_m", "torque_rms_Nm", "fr
             "driver and acceleration metrics of a driven scene")
 WHOLE_RUN = ("contact_loss_events", "last_contact_loss_s", "peak_contact_force_N (clearance joints)",
              "min_contact_force_N (clearance joints)", "max_penetration_m", "torque_peak_Nm", "energy_audit_residual",
-             "settling_time_s")
+             "converged", "settling_time_s")
 SETTLING_TAIL = 0.25    # the last quarter of the run is the platform error's steady behaviour
 SETTLING_MARGIN = 0.1   # the band: that quarter's range, widened by 10 % of its largest error on each side
 
@@ -125,7 +125,9 @@ def arm_metrics(sim: Simulation, wall_time: float, skip: float = 0.0, compile_ti
     _max_m (position distance to the commanded path); torque_rms_Nm (over time and
     actuators), torque_peak_Nm (over every step in torque mode);
     settling_time_s (with a task body: :func:`settling_time` of the platform error, whole run);
-    energy_audit_residual; wall_time_s (building and stepping, without compiling C);
+    energy_audit_residual; converged (the energy audit's verdict, :mod:`rrr4.simulation.verdict`)
+    with energy_audit_tolerance, energy_imbalance_J and energy_exchanged_J behind it;
+    wall_time_s (building and stepping, without compiling C); stepping (:func:`stepping_text`);
     compile_time_s (the C compiler's time for this simulation, 0 when its libraries were in
     the cache); simulated_time_s; integrator, step_s, steps.
     A metric that does not apply is absent: the contact metrics list the clearance and the
@@ -161,13 +163,33 @@ def arm_metrics(sim: Simulation, wall_time: float, skip: float = 0.0, compile_ti
         **task,
         **efforts,
         "energy_audit_residual": float(sim.energy_audit_residual),
+        **_verdict(sim),
         "wall_time_s": float(wall_time),
         "compile_time_s": float(compile_time),
+        "stepping": stepping_text(sim),
         "simulated_time_s": float(sim.t[-1] - sim.t[0]),
         "integrator": sim.stats["method"],
         "step_s": float(sim.stats["step"]),
         "steps": int(sim.stats["steps"]),
     }
+
+
+def stepping_text(sim: Simulation) -> str:
+    """How a run stepped: 'compiled C', 'virtual machine', or 'virtual machine, compiled C from
+    t = ... s' (the compile policy of :func:`rrr4.simulation.default_jit`; the same states)."""
+    s = sim.stats.get("stepping") or {}
+    if not s.get("compiled"):
+        return "virtual machine"
+    t = s.get("compiled_from_s")
+    return "compiled C" if t is None else f"virtual machine, compiled C from t = {t:.4g} s"
+
+
+def _verdict(sim: Simulation) -> dict:
+    """converged and the numbers behind it: the residual's tolerance, the largest energy
+    imbalance [J] and the energy the run exchanges [J] (:attr:`Simulation.verdict`)."""
+    v = sim.verdict
+    return {"converged": v.converged, "energy_audit_tolerance": v.tolerance, "energy_imbalance_J": v.imbalance_J,
+            "energy_exchanged_J": v.energy_exchanged_J}
 
 
 def _at_limit(sim: Simulation, keep: np.ndarray) -> dict:

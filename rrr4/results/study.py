@@ -27,11 +27,15 @@ ARMS = PRELOAD_ARMS + DRIVEN_ARMS
 @dataclass(frozen=True)
 class StudyArm:
     """One clearance simulation of the study, its wall time [s] (building + stepping, without
-    compiling C) and the C compiler's time [s] for it (0 when its libraries were cached)."""
+    compiling C) and the C compiler's time [s] for it (0 when its libraries were cached);
+    convergence: with ``run_study(converge=...)``, the steps tried until its verdict passed
+    (steps_s, energy_audit_residuals, wall_time_s and compile_time_s of all of them, budget_s,
+    converged)."""
     name: str
     simulation: Simulation
     wall_time: float
     compile_time: float = 0.0
+    convergence: dict | None = None
 
 
 @dataclass(frozen=True)
@@ -44,8 +48,10 @@ class Study:
     infeasibility report of the preload ('' if feasible); refinement: a driven scene's
     clearance arm rerun at half the step (None otherwise); skip [s]: the start-up window the
     metrics over the output samples discard (:mod:`rrr4.results.metrics`); overrides: what the
-    caller set instead of the scene (t_end_s, integrator, step_s, output_rate_Hz, skip_s), as
-    given, for summary.json.
+    caller set instead of the scene (t_end_s, integrator, step_s, output_rate_Hz, skip_s,
+    converge_budget_s), as
+    given, for summary.json; foresight: the one-line warnings said before the run
+    (:func:`rrr4.simulation.foresight.foresight_lines`).
     """
     scene: Scene
     t_path: np.ndarray
@@ -58,6 +64,7 @@ class Study:
     refinement: StudyArm | None = None
     skip: float = 0.0
     overrides: dict = field(default_factory=dict)
+    foresight: tuple[str, ...] = ()
 
     @property
     def problem(self) -> Problem:

@@ -20,12 +20,15 @@ from ..preload import PreloadSolution, PreloadWarning, solve_preload
 from ..problem import Problem
 from ..scene import Scene
 from ..scene.vocabulary import CONTACT_LAW_KEYS, FRICTION_LAW_KEYS
-from ..trajectory import sample_path, trajectory_function
+from ..simulation import halving_check, remedy
+from ..simulation.foresight import foresight_lines
+from ..simulation.verdict import HALVING_WINDOW
+from ..trajectory import sample_path
 from .metrics import SETTLING_MARGIN, SETTLING_TAIL, WHOLE_RUN, WINDOWED, arm_metrics, driven_metrics, driven_window
 from .study import PRELOAD_ARMS, Study
 
 __all__ = ["scene_summary", "scene_check", "study_summary", "target_checks", "contact_numbers", "preload_lines",
-           "CLIPPED"]
+           "CLIPPED", "unconverged", "verdict_line"]
 
 # what the simulation does with efforts beyond the limits (one sentence for check, run, summary.json)
 CLIPPED = ("the controller clips every effort at its limit, so there the journals are not held with f_min")
@@ -120,18 +123,52 @@ COMPENSATED_RMS_TARGET = 1e-6  # [m] platform RMS error the compensated arm aims
 
 def target_checks(summary: dict) -> dict:
     """The targets, evaluated: zero losses with preload over the whole run, RMS platform error
-    with preload <= half of that without; with compensation, zero losses and RMS <= 1 um."""
+    with preload <= half of that without; with compensation, zero losses and RMS <= 1 um.
+    No target is claimed on an arm that has not converged (its energy audit,
+    :mod:`rrr4.simulation.verdict`): then ``not_claimed`` says which arm, and the targets that
+    need it are absent."""
     w, wo, c = summary.get("with_preload"), summary.get("without_preload"), summary.get("with_preload_compensated")
     if w is None or wo is None:
         return {}
-    ratio = w["platform_error_rms_m"] / wo["platform_error_rms_m"] if wo["platform_error_rms_m"] > 0 else None
-    out = {"zero_losses_with_preload": sum(w["contact_loss_events"].values()) == 0,
-           "rms_error_ratio_with_to_without": ratio,
-           "rms_error_at_most_half": ratio is not None and ratio <= 0.5}
-    if c is not None:
+    off = [name for name, m in (("with_preload", w), ("without_preload", wo), ("with_preload_compensated", c))
+           if m is not None and not m.get("converged", True)]
+    out: dict = {"not_claimed": f"not converged: {', '.join(off)}; no target is claimed on an unconverged arm"} \
+        if off else {}
+    if not {"with_preload", "without_preload"} & set(off):
+        ratio = w["platform_error_rms_m"] / wo["platform_error_rms_m"] if wo["platform_error_rms_m"] > 0 else None
+        out.update({"zero_losses_with_preload": sum(w["contact_loss_events"].values()) == 0,
+                    "rms_error_ratio_with_to_without": ratio,
+                    "rms_error_at_most_half": ratio is not None and ratio <= 0.5})
+    if c is not None and "with_preload_compensated" not in off:
         out.update({"zero_losses_compensated": sum(c["contact_loss_events"].values()) == 0,
                     "compensated_rms_at_most_1um": c["platform_error_rms_m"] <= COMPENSATED_RMS_TARGET})
     return out
+
+
+def unconverged(summary: dict) -> dict:
+    """arm -> its metrics, for every arm of a study summary (the driven scene's half-step rerun
+    included) whose energy audit says it has not converged."""
+    return {k: m for k, m in summary.items() if isinstance(m, dict) and m.get("converged") is False}
+
+
+def verdict_line(summary: dict) -> str | None:
+    """The one line that says which arms of a study have not converged, by how much, and what
+    would converge them (None when every arm has converged)."""
+    off = unconverged(summary)
+    if not off:
+        return None
+    arms = ", ".join(f"{k} ({_why(m)})" for k, m in off.items())
+    step = min(m["step_s"] for m in off.values())
+    return f"not converged: {arms}; numbers of these arms are not to be trusted: try {remedy(step)}"
+
+
+def _why(m: dict) -> str:
+    """Why an arm has not converged: its energy audit, else its step-halving check."""
+    if m["energy_audit_residual"] > m["energy_audit_tolerance"] or "step_halving" not in m:
+        return f"energy audit residual {m['energy_audit_residual']:.3g} > {m['energy_audit_tolerance']:g}"
+    h = m["step_halving"]
+    return (f"at half the step it moves by {h['difference_m']:.3g} m > {h['tolerance_m']:.3g} m over the first "
+            f"{h['window_s']:g} s")
 
 
 def force_element_summary(e) -> dict:
@@ -169,6 +206,7 @@ def study_summary(study: Study) -> dict:
         out.update(gains={"kp_Nm_per_rad": sc.actuation.kp, "kd_Nms_per_rad": sc.actuation.kd},
                    controller=_controller(study))
     out["overrides"] = dict(study.overrides)  # what the command line set instead of the scene
+    out["before_the_run"] = list(study.foresight)  # a law outside its range, a step too coarse (one line each)
     out["metrics_window"] = {
         "skip_s": study.skip, "over_window": list(WINDOWED), "over_whole_run": list(WHOLE_RUN),
         "settling_time": f"the first instant from which on the platform error stays within its range over the last "
@@ -181,6 +219,8 @@ def study_summary(study: Study) -> dict:
     out.update({k: None for k in PRELOAD_ARMS})
     for name, arm in study.arms.items():
         out[name] = arm_metrics(arm.simulation, arm.wall_time, study.skip, arm.compile_time)
+        if arm.convergence is not None:  # rrr4 run --converge: the steps tried until the verdict passed
+            out[name]["step_refinement"] = arm.convergence
     if "ideal" in study.arms:
         for k in PRELOAD_ARMS:
             out.pop(k)
@@ -230,7 +270,20 @@ def _driven(study: Study, out: dict) -> dict:
             "steps_s": [coarse["step_s"], fine["step_s"]],
             "trajectory_difference_m": _trajectory_difference(study.arms["with_clearance"].simulation,
                                                               ref.simulation)}
+        res["with_clearance"].update(_halving(study, res["step_convergence"]["trajectory_difference_m"]))
     return res
+
+
+def _halving(study: Study, differences: dict) -> dict:
+    """The clearance arm's step-halving check (:func:`rrr4.simulation.halving_check`) over the
+    first millisecond (the whole run when shorter), and its verdict: converged only if both the
+    energy audit and the check pass."""
+    key = f"first_{HALVING_WINDOW * 1e3:g}_ms"
+    window = HALVING_WINDOW if key in differences else study.t_end
+    clearance = min(study.scene.joint(j).radial_clearance for j in study.scene.clearance_joints)
+    check = halving_check(differences.get(key, differences["whole_run"]), window, clearance)
+    arm = study.arms["with_clearance"].simulation
+    return {"step_halving": check, "converged": arm.verdict.converged and check["passes"]}
 
 
 def _trajectory_difference(coarse, fine) -> dict:
@@ -285,6 +338,9 @@ def scene_check(scene: Scene | Problem) -> tuple[str, PreloadSolution | None]:
     text = _scene_text(problem)
     if sol is not None:
         text += "\n" + "\n".join(preload_lines(sol, problem))
+    warn = foresight_lines(problem, preload=sol)
+    if warn:
+        text += "\n" + "\n".join(warn)
     return text, sol
 
 
@@ -298,12 +354,7 @@ def _assembly_lines(problem: Problem) -> list[str]:
     """The assembled pose of every body at t = 0 (the path's start, or the drivers' initial
     values) and the branch the assembly chose (the named mechanism.assembly, or which one)."""
     scene, mech = problem.scene, problem.mechanism
-    if problem.model.task is not None:
-        target = np.array(trajectory_function(scene.path)(0.0)[0]).ravel()[:mech.n_task]
-    else:
-        target = mech.driver_targets(0.0)[0]
-    z = np.zeros(len(target))
-    q = problem.body_motion(target, z, z)[0]
+    q = problem.start_coordinates
     if problem.closed_form:
         branch = "working modes " + " ".join(f"{c.name}:{'+' if c.working_mode > 0 else '-'}"
                                              for c in scene.mechanism.chains) + " (the chains' working_mode)"
@@ -316,6 +367,9 @@ def _assembly_lines(problem: Problem) -> list[str]:
         x, y, th = q[3 * k:3 * k + 3]
         lines.append(f"  {b}: ({x * 1e3:+.3f}, {y * 1e3:+.3f}) mm, {math.degrees(wrap_angle(th)):+.3f} deg")
     lines.append(f"  branch: {branch}")
+    hint = problem.branch_hint
+    if hint:
+        lines.append(f"  {hint}")
     return lines
 
 
@@ -345,6 +399,11 @@ def _scene_text(problem: Problem) -> str:
         rev = scene.graph.joint(d.joint).type == "revolute"
         what = (f"{math.degrees(d.initial):g} deg at {d.speed * 30 / math.pi:g} rpm" if rev
                 else f"{d.initial:g} m at {d.speed:g} m/s")
+        if d.time_law != "constant":  # a motion law: its travel over its duration, then at rest
+            what = (f"{math.degrees(d.initial):g} deg, {d.time_law} law: {math.degrees(d.travel):g} deg in "
+                    f"{d.duration:g} s (mean {d.speed * 30 / math.pi:g} rpm), then at rest" if rev else
+                    f"{d.initial:g} m, {d.time_law} law: {d.travel:g} m in {d.duration:g} s (mean {d.speed:g} m/s), "
+                    "then at rest")
         lines.append(f"driver {d.name}: joint {d.joint} from {what}")
     lines += _assembly_lines(problem)
     lines.append("")

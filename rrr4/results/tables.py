@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from .study import PRELOAD_ARMS, Study
-from .summary import contact_lines
+from .summary import contact_lines, unconverged, verdict_line
 
 __all__ = ["write_timeseries_csv", "report_markdown"]
 
@@ -108,6 +108,9 @@ def report_markdown(summary: dict) -> str:
     row("largest share of time at an effort limit", lambda m: _fmt(max(m.get("effort_at_limit_fraction", {}).values(),
                                                                        default=None)))
     row("energy audit residual", lambda m: _fmt(m["energy_audit_residual"], 1.0, 3))
+    row("verdict (energy audit)", _word)
+    if any("step_refinement" in m for _, m in arms):
+        row("steps tried until converged [s] (--converge)", _refined)
     row("simulated time [s]", lambda m: _fmt(m["simulated_time_s"]))
     row("integrator, step [s]", lambda m: f"{m['integrator']}, {m['step_s']:g}")
     row("wall time [s]", lambda m: _fmt(m["wall_time_s"], 1.0, 3))
@@ -136,22 +139,59 @@ def report_markdown(summary: dict) -> str:
               + ", ".join(f"{k} = {v}" for k, v in e.items() if k not in ("name", "type", "bodies"))
               for e in summary.get("forces", ())]
     lines = [f"# Study of `{summary['scene']}`", "", summary["description"], "", pre_line, "", *_contact(summary),
+             *_before(summary),
              *forces, *([""] if forces else []), *_window(summary), *rows, *per]
     tg = summary.get("targets") or {}
-    if tg:
+    if tg.get("not_claimed"):
+        lines += ["", f"Targets: **not claimed** ({tg['not_claimed']})."]
+    if "zero_losses_with_preload" in tg:
         lines += ["", "Targets: zero losses with preload over the whole run: "
                   f"**{'yes' if tg['zero_losses_with_preload'] else 'no'}**; RMS error with/without = "
                   f"{_fmt(tg['rms_error_ratio_with_to_without'], 1.0, 3)} (target <= 0.5: "
                   f"**{'yes' if tg['rms_error_at_most_half'] else 'no'}**)."]
-        if "zero_losses_compensated" in tg:
-            lines += ["", "With clearance compensation: zero losses "
-                      f"**{'yes' if tg['zero_losses_compensated'] else 'no'}**, RMS error <= 1 um "
-                      f"**{'yes' if tg['compensated_rms_at_most_1um'] else 'no'}**."]
+    if "zero_losses_compensated" in tg:
+        lines += ["", "With clearance compensation: zero losses "
+                  f"**{'yes' if tg['zero_losses_compensated'] else 'no'}**, RMS error <= 1 um "
+                  f"**{'yes' if tg['compensated_rms_at_most_1um'] else 'no'}**."]
+    lines += _verdict(summary)
     journals = summary.get("initial_journals", "centred")
     lines += ["", f"Start: journals {journals}"
               + (" (each clearance journal rests on its bearing wall under the ideal reaction at t = 0; "
                  "with no load, as without preload at rest, it stays centred)." if journals == "seated" else ".")]
     return "\n".join(lines) + "\n"
+
+
+def _refined(m: dict) -> str:
+    """The steps an arm of `rrr4 run --converge` tried, with their residuals and total cost."""
+    r = m.get("step_refinement")
+    if r is None:
+        return "-"
+    tried = ", ".join(f"{h:g} ({'failed' if e is None else f'{e:.2g}'})"
+                      for h, e in zip(r["steps_s"], r["energy_audit_residuals"], strict=True))
+    return f"{tried}; {r['wall_time_s'] + r['compile_time_s']:.3g} s"
+
+
+def _before(summary: dict) -> list[str]:
+    """The warnings said before the run (a law outside its range, a step too coarse), then a blank line."""
+    warn = summary.get("before_the_run") or []
+    return [f"**Before the run:** {w}." for w in warn] + ([""] if warn else [])
+
+
+def _word(m: dict) -> str:
+    """An arm's verdict in the report's table (an arm of a summary from before the verdict: -)."""
+    return "-" if "converged" not in m else "converged" if m["converged"] else "**not converged**"
+
+
+def _verdict(summary: dict) -> list[str]:
+    """The paragraph that says which arms have not converged and what would converge them;
+    nothing when all have."""
+    line = verdict_line(summary)
+    if line is None:
+        return []
+    tol = next(iter(unconverged(summary).values()))["energy_audit_tolerance"]
+    return ["", f"**{line[0].upper() + line[1:]}.** An arm has converged when its largest energy imbalance is at "
+            f"most {tol:g} of the energy it exchanges and, for a driven scene's clearance arm, when its half-step "
+            "rerun stays within 1 % of the smallest radial clearance over the first millisecond (docs/checks.md)."]
 
 
 def _window(summary: dict) -> list[str]:
@@ -193,6 +233,7 @@ def _driven_report(summary: dict) -> str:
         for d in arms[0][1].get(key, {}):
             row(f"peak effort of driver {d} [{unit}]", lambda m, d=d, key=key: _fmt(m[key][d]))
     row("energy audit residual", lambda m: _fmt(m["energy_audit_residual"], 1.0, 3))
+    row("verdict (energy audit; clearance arm: and its half-step rerun)", _word)
     row("wall time [s]", lambda m: _fmt(m["wall_time_s"], 1.0, 3))
     diff = (summary.get("step_convergence") or {}).get("trajectory_difference_m", {})
     agree = ("Largest centre-of-mass distance between the runs at the two steps: "
@@ -203,5 +244,5 @@ def _driven_report(summary: dict) -> str:
              f"t = {after:.4g} s (the start transient). The half-step column repeats the clearance run at half "
              "the step: where it agrees, the number has converged in the step; impact-resolved quantities of a "
              "rattling joint (peak forces, the timing of single impacts) are sensitive to it.", "",
-             *_contact(summary), *rows, "", agree]
+             *_contact(summary), *_before(summary), *rows, "", agree, *_verdict(summary)]
     return "\n".join(lines) + "\n"

@@ -1,7 +1,10 @@
 """Scenes: the YAML schema as frozen dataclasses (:mod:`.schema`), its reader and validation
 (:mod:`.reader`, :mod:`.fields`), the vocabulary of allowed names (:mod:`.vocabulary`), the
-n-RRR expansion into a graph (:mod:`.nrrr`), dotted key paths (:mod:`.keys`), tabulated
-time laws (:mod:`.time_table`) and force elements (:mod:`.forces`).
+n-RRR expansion into a graph (:mod:`.nrrr`), dotted key paths (:mod:`.keys`), the YAML data a
+scene keeps and :meth:`Scene.with_values`, the one way to change a scene in memory
+(:mod:`.data`), tabulated time laws (:mod:`.time_table`), drivers' motion laws
+(:mod:`.drivers`), force elements (:mod:`.forces`) and the table files a scene names,
+inlined (:mod:`.tables`).
 
 Imports nothing of the package but :mod:`rrr4.errors` and :mod:`rrr4.checks`.
 """
@@ -37,6 +40,7 @@ from .schema import (
     Scene,
     WearEffect,
 )
+from .tables import inline_tables
 from .time_table import TIME_TABLE_COLUMNS, check_time_table, read_time_table, time_table_text
 from .vocabulary import GROUND, MATERIALS, choices
 
@@ -49,5 +53,5 @@ __all__ = [
     "expand_nrrr", "bare_nrrr_graph", "get_key", "set_key", "key_steps",
     "MAX_SAMPLES", "MAX_BYTES", "MAX_DEPTH", "MAX_NODES",
     "ForceElement", "LOAD_TABLE_COLUMNS", "read_load_table",
-    "TIME_TABLE_COLUMNS", "check_time_table", "read_time_table", "time_table_text",
+    "TIME_TABLE_COLUMNS", "check_time_table", "read_time_table", "time_table_text", "inline_tables",
 ]

@@ -18,6 +18,8 @@ from ..checks import describe, unknown_value
 from ..errors import SceneError
 from ..files import read_text, shown
 from .assembly import read_assembly
+from .data import with_data
+from .drivers import read_driver
 from .fields import MAX_SAMPLES, Section
 from .forces import read_forces
 from .lubrication import read_lubrication
@@ -28,7 +30,6 @@ from .schema import (
     Body,
     Chain,
     ContactEffect,
-    DriverSpec,
     Effects,
     FrictionEffect,
     Graph,
@@ -214,7 +215,7 @@ def _clearance(v, key: str, bodies: tuple[str, str]) -> dict:
     return out
 
 
-def _graph(sec: Section) -> Graph:
+def _graph(sec: Section, base: Path = Path()) -> Graph:
     ground = dict(_points(sec.section("ground"), "points"))
     sec.section("ground").done(["points"])
     raw_bodies = sec.raw("bodies")
@@ -302,17 +303,9 @@ def _graph(sec: Section) -> Graph:
         actuators.append(ActuatorSpec(_name(e, default=joint), joint, e.number("limit", positive=True)))
         e.done()
     drivers = []
-    for e, joint in refs("drivers", "drivers"):
-        jt = joints[jnames.index(joint)]
-        if e.has("speed_rpm"):
-            speed = e.number("speed_rpm") * 2 * math.pi / 60
-            if jt.type != "revolute":
-                raise SceneError(f"{e.key('speed_rpm')}: not allowed on a prismatic joint (give speed in m/s)")
-        else:
-            speed = e.number("speed")
-        initial = math.radians(e.number("initial_deg", 0.0)) if jt.type == "revolute" else e.number("initial", 0.0)
-        drivers.append(DriverSpec(_name(e, default=joint), joint, initial, speed))
-        e.done()
+    for e, joint in refs("drivers", "drivers"):  # their motion laws: .drivers
+        revolute = joints[jnames.index(joint)].type == "revolute"
+        drivers.append(read_driver(e, _name(e, default=joint), joint, revolute, base))
     seen: dict[str, str] = {}
     for key, items in (("actuators", actuators), ("drivers", drivers)):
         for i, x in enumerate(items):
@@ -547,8 +540,7 @@ def _integrator(sec: Section) -> IntegratorSettings:
 
 
 def _initial(sec: Section) -> Initial:
-    v = Initial(sec.vector("platform_velocity", 3, [0.0, 0.0, 0.0]),
-                sec.choice("journals", JOURNAL_STARTS, "centred"))
+    v = Initial(sec.vector("platform_velocity", 3, [0.0, 0.0, 0.0]), sec.choice("journals", JOURNAL_STARTS, "centred"))
     sec.done()
     return v
 
@@ -567,7 +559,7 @@ def parse_scene(data, name: str = "scene", source: str = "") -> Scene:
         actuation, limits = _actuation(top.section("actuation"), mech.n_chains)
         graph = expand_nrrr(mech, joints, limits)
     else:
-        mech, graph = None, _graph(msec)
+        mech, graph = None, _graph(msec, Path(source).parent if source else Path())
         if top.has("joints"):
             raise SceneError("joints: not allowed with mechanism.kind 'graph' (give each joint's clearance in "
                              "mechanism.joints)")
@@ -594,7 +586,7 @@ def parse_scene(data, name: str = "scene", source: str = "") -> Scene:
     if scene.integrator.step > p.duration:
         raise SceneError(f"integrator.step: {scene.integrator.step:g} s is not allowed (must not exceed "
                          f"path.duration = {p.duration:g} s)")
-    return scene
+    return with_data(scene, data, parse_scene)
 
 
 class _UniqueKeyLoader(yaml.SafeLoader):

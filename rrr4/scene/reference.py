@@ -50,6 +50,12 @@ PROBES = {
     ],
     "flores_slider_crank.yaml": [
         {"mechanism.drivers[0]": {"joint": "O", "speed": 10.0}},
+        {"mechanism.drivers[0]": {"joint": "O", "time_law": "quintic", "travel_deg": 360.0, "duration": 0.1}},
+        {"mechanism.drivers[0]": {"joint": "O", "time_law": "table", "travel_deg": 360.0,
+                                  "time_table": [[0.0, 0.0, 0.0], [0.1, 1.0, 20.0]]}},
+        {"mechanism.drivers[0]": {"joint": "O", "time_law": "table", "speed_table": [[0.0, 0.0], [0.1, 20.0]]}},
+        {"mechanism.drivers[0]": {"joint": "P", "time_law": "linear", "initial": 0.17, "travel": 0.01,
+                                  "duration": 0.1}},
         {"mechanism.joints[0].clearance": {"radial_clearance": 5e-4, "journal_radius": 0.01,
                                            "lubrication": {"law": "long-bearing", "viscosity": 0.04,
                                                            "length": 0.02},

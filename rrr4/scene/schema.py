@@ -3,10 +3,13 @@ key says otherwise. Plain data: nothing here knows how a scene is read or simula
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 
 from ..checks import argument, describe
 from ..errors import SceneError
+from .data import data_describes, set_values, values_changed
 from .forces import ForceElement
 from .time_table import check_time_table
 from .vocabulary import GROUND
@@ -168,11 +171,20 @@ class ActuatorSpec:
 
 @dataclass(frozen=True)
 class DriverSpec:
-    """A joint coordinate prescribed in time: initial + speed t [rad or m, rad/s or m/s]."""
+    """A joint coordinate prescribed in time [rad or m]. time_law 'constant': initial + speed t
+    (speed [rad/s or m/s]). Any other law of :data:`rrr4.scene.vocabulary.DRIVER_LAWS` is a
+    path's time law s(t) in [0, 1] over `duration` [s] (or the rows (t, s, s_dot) of
+    `time_table`, also what a scene's speed table becomes): initial + travel s(t), resting at
+    initial + travel after it; speed is then the mean speed travel / duration (what counts per
+    revolution use)."""
     name: str
     joint: str
     initial: float
     speed: float
+    time_law: str = "constant"
+    travel: float = 0.0
+    duration: float = 0.0
+    time_table: tuple[tuple[float, float, float], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -331,6 +343,34 @@ class Scene:
     integrator: IntegratorSettings
     forces: tuple[ForceElement, ...] = ()  # spring-dampers and loads (rrr4.scene.forces); () for none
     source: str = field(default="", compare=False)
+    # the YAML mapping it was read from, table files inlined (rrr4.scene.data); None when
+    # built from dataclasses. Read-only: change a scene with with_values.
+    data: dict | None = field(default=None, compare=False, repr=False)
+    # what read it from its data (rrr4.scene.parse_scene), which with_values calls again
+    read: Callable | None = field(default=None, compare=False, repr=False)
+
+    def with_values(self, values: Mapping, name: str | None = None) -> Scene:
+        """This scene with the YAML values at dotted keys replaced (``{'joints.radial_clearance':
+        1.2e-4, 'mechanism.chains[0].base[1]': 0.31}``, list items as ``[i]``), read and
+        validated again as its file would be (data checks only; :func:`rrr4.load_scene` also
+        checks the mechanism against its model). The one way studies change a scene in memory:
+        it works for a scene read from a file and for one parsed from a mapping in Python
+        (:func:`rrr4.scene.parse_scene`), and keeps earlier in-memory changes made through
+        :meth:`with_torque_limit` and :meth:`with_time_table`. name: the new scene's name when
+        its data names none (default this one's). Raises SceneError in one line (a bad key or
+        value; a scene without data, or changed with ``dataclasses.replace`` since it was read)."""
+        return values_changed(self, values, name)
+
+    @functools.cached_property
+    def data_current(self) -> bool:
+        """True if :attr:`data` read again gives this scene (False after a change made with
+        ``dataclasses.replace``, which :meth:`with_values` would lose; checked once)."""
+        return self.data is not None and self.read is not None and data_describes(self)
+
+    def _with_data_values(self, values: dict) -> dict | None:
+        """:attr:`data` with `values` set in a copy (None stays None): the YAML side of an
+        in-memory change, so the data keeps describing the scene."""
+        return None if self.data is None else set_values(self.data, values)
 
     @property
     def joints(self) -> tuple[JointSpec, ...]:
@@ -367,14 +407,19 @@ class Scene:
         if len(values) != n:
             raise SceneError(f"torque_limit: {describe(limits)} is not allowed (one number > 0, or a list of {n})")
         acts = tuple(replace(a, limit=v) for a, v in zip(self.graph.actuators, values, strict=True))
-        return replace(self, graph=replace(self.graph, actuators=acts))
+        keys = ({"actuation.torque_limit": list(values)} if self.mechanism is not None else
+                {f"mechanism.actuators[{i}].limit": v for i, v in enumerate(values)})
+        return replace(self, graph=replace(self.graph, actuators=acts), data=self._with_data_values(keys))
 
     def with_time_table(self, rows) -> Scene:
         """This scene with its path followed by the time table `rows` (t [s], s, s_dot [1/s];
         checked as :func:`rrr4.scene.check_time_table` does): time_law 'table', the duration
         the table's. E.g. ``scene.with_time_table(law.table)`` for an optimal time law."""
         table = check_time_table(rows)
-        return replace(self, path=replace(self.path, time_law="table", time_table=table, duration=table[-1][0]))
+        data = self._with_data_values({"path.time_law": "table", "path.time_table": [list(r) for r in table],
+                                       "path.duration": table[-1][0]})
+        return replace(self, path=replace(self.path, time_law="table", time_table=table, duration=table[-1][0]),
+                       data=data)
 
     def with_ideal_joints(self) -> Scene:
         """This scene with every joint ideal (the ideal twin of a clearance mechanism)."""
@@ -382,9 +427,11 @@ class Scene:
 
     def with_joints(self, joints) -> Scene:
         """This scene with joint specs replaced by `joints` (matched by name), e.g. to
-        change which joints have clearance."""
+        change which joints have clearance. The result holds no YAML data (joint specs have
+        no one place in it), so :meth:`with_values` refuses it."""
         new = {j.name: j for j in joints}
-        return replace(self, graph=replace(self.graph, joints=tuple(new.get(j.name, j) for j in self.graph.joints)))
+        return replace(self, graph=replace(self.graph, joints=tuple(new.get(j.name, j) for j in self.graph.joints)),
+                       data=None)
 
 
 PASSIVE_JOINTS = ("B1", "B2", "B3", "B4", "C1", "C2", "C3", "C4")

@@ -86,3 +86,4 @@ def time_table_text(t, s, s_dot, s_ddot=None) -> str:
     lines = [",".join(head)]
     lines += [",".join(f"{float(v):.17g}" for v in row) for row in zip(*cols, strict=True)]
     return "\n".join(lines) + "\n"
+

@@ -8,8 +8,9 @@ registry agree. Imports nothing.
 
 from __future__ import annotations
 
-__all__ = ["MECHANISM_KINDS", "JOINT_TYPES", "PATH_TYPES", "TIME_LAWS", "ACTUATION_MODES", "CONTACT_LAWS",
-           "FRICTION_LAWS", "LUBRICATION_LAWS", "ASSEMBLY_MEASURES", "CONTACT_LAW_KEYS", "FRICTION_LAW_KEYS",
+__all__ = ["MECHANISM_KINDS", "JOINT_TYPES", "PATH_TYPES", "TIME_LAWS", "DRIVER_LAWS", "ACTUATION_MODES",
+           "CONTACT_LAWS", "FRICTION_LAWS", "LUBRICATION_LAWS", "ASSEMBLY_MEASURES",
+           "CONTACT_LAW_KEYS", "FRICTION_LAW_KEYS",
            "LUBRICATION_LAW_KEYS", "WEAR_SURFACES", "FORCE_ELEMENTS", "LOAD_FRAMES", "INTEGRATORS",
            "ERROR_CONTROLLED", "NEWTON", "COORDINATES", "PRELOAD_METHODS", "COMPENSATIONS", "QP_SOLVERS",
            "JOURNAL_STARTS", "OBJECTIVES", "IDENTIFICATION_METHODS", "MATERIALS",
@@ -23,6 +24,9 @@ JOINT_TYPES = ("revolute", "prismatic")
 ASSEMBLY_MEASURES = ("bend", "stretch")
 PATH_TYPES = ("circle", "line", "waypoints", "none")  # none: no task, the drivers set the motion
 TIME_LAWS = ("quintic", "cycloidal", "linear", "table")  # table: path.time_table, e.g. an optimal one
+# mechanism.drivers[].time_law: constant speed (the default), or a path's time law moving the
+# driver by its travel over its duration (rest to rest for quintic and cycloidal)
+DRIVER_LAWS = ("constant",) + TIME_LAWS
 ACTUATION_MODES = ("torque", "prescribed", "free")  # free: zero actuator torque
 CONTACT_LAWS = ("hertz", "kelvin-voigt", "hunt-crossley", "lankarani-nikravesh", "flores", "gonthier")
 FRICTION_LAWS = ("coulomb", "ambrosio", "smooth", "stribeck")  # a scene may also say 'none'

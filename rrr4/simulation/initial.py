@@ -14,6 +14,7 @@ from ..dynamics.builder import Equations, profiles_of
 from ..dynamics.family import graph_family
 from ..problem import Problem
 from ..trajectory import trajectory_function
+from .layout import Layout
 
 __all__ = ["initial_state", "seated_offsets"]
 
@@ -70,9 +71,7 @@ def initial_state(problem: Problem, eqs: Equations, efforts, tree: bool, setting
         target, target_d, target_dd = (pose0[:k], (pose_d0 + np.asarray(scene.initial.platform_velocity))[:k],
                                        pose_dd0[:k])
     else:
-        target = mech.driver_targets(0.0)[0]
-        target_d = np.array([d.speed for d in scene.graph.drivers])
-        target_dd = np.zeros(len(target))
+        target, target_d, target_dd = (np.array(v, float).ravel() for v in model.driver_values(0.0))
     q0, qd0, qdd0 = problem.body_motion(target, target_d, target_dd)
     seated = np.zeros(nc)
     if scene.initial.journals == "seated" and nc and (eqs.mode != "free" or scene.graph.drivers):
@@ -82,5 +81,9 @@ def initial_state(problem: Problem, eqs: Equations, efforts, tree: bool, setting
         q0 = problem.seated_coordinates(target, offsets, guess=q0)
         seated = np.any(offsets != 0, axis=1).astype(float)
     y0 = np.r_[q0, qd0] if not tree else np.hstack([np.array(v).ravel() for v in eqs.tree_coordinates(q0, qd0)])
-    worn = np.zeros(sum(m for *_, m in eqs.worn))  # the wear quadratures
-    return np.r_[0.0, y0, 0.0, 0.0, 0.0, worn, np.full(nc, eqs.v_min), seated, np.zeros(nc), eqs.parameters, settings]
+    L = Layout(nq=len(y0) // 2, n_wear=sum(m for *_, m in eqs.worn), nc=nc, n_parameters=len(eqs.parameters),
+               n_settings=len(settings))  # without the peaks: System.started appends them
+    x0 = np.zeros(1 + L.ny + L.nz)  # t, the energy and wear quadratures and the losses start at 0
+    x0[L.in_x("motion")], x0[L.in_x("delta_dot0")], x0[L.in_x("in_contact")] = y0, eqs.v_min, seated
+    x0[L.in_x("parameters")], x0[L.in_x("settings")] = eqs.parameters, settings
+    return x0

@@ -58,7 +58,6 @@ class Outputs:
         self.last = np.empty(system.kept)  # the kept state of the last output
         self.seconds = 0.0
         self.bad: int | None = None
-        self.n_wear = sum(m for *_, m in eqs.worn)  # wear quadratures after the energy's
         head, peaks = system.kept_entries
         self(-1, np.r_[np.asarray(x0, float)[head], np.asarray(x0, float)[peaks]][None, :])
 
@@ -86,18 +85,17 @@ class Outputs:
         if self.bad is not None or m == 0:
             return
         X = self._buffer[:m]
-        eqs, model, nq, nc = self.eqs, self.problem.model, self.eqs.nq, len(self.eqs.clearance_joints)
+        eqs, model, nc, L = self.eqs, self.problem.model, len(self.eqs.clearance_joints), self.system.layout
+        q, qd = X[:, L.in_x("q")], X[:, L.in_x("qd")]
         if self.tree:  # back to reference-point coordinates
-            p = eqs.tree_acceleration.size1_in(0)
-            qs = mapped(eqs.tree_state, p=X[:, 1:1 + p].T, pd=X[:, 1 + p:1 + 2 * p].T)
-            q, qd, rest = qs["q"].T, qs["qd"].T, X[:, 1 + 2 * p:]
-        else:
-            q, qd, rest = X[:, 1:1 + nq], X[:, 1 + nq:1 + 2 * nq], X[:, 1 + 2 * nq:]
-        finite = np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(qd), axis=1) & np.all(np.isfinite(rest), axis=1)
+            qs = mapped(eqs.tree_state, p=q.T, pd=qd.T)
+            q, qd = qs["q"].T, qs["qd"].T
+        finite = np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(qd), axis=1) & np.all(np.isfinite(X), axis=1)
         if not finite.all():
             self.bad = a + int(np.argmax(~finite))
             return
-        W, Dd, Df, z = rest[:, 0], rest[:, 1], rest[:, 2], rest[:, 3 + self.n_wear:]
+        W, Dd, Df = X[:, L.in_x("energy")].T  # the kept state holds z's events in place (kept_entries)
+        dd0, inc = X[:, L.in_x("delta_dot0")], X[:, L.in_x("in_contact")]
         t = self.t[a:a + m]
         out = {name: v[a:a + m] for name, v in self.arrays.items()}  # views: written in place
         out["q"][:], out["qd"][:] = q, qd
@@ -108,7 +106,7 @@ class Outputs:
         elif self.references is not None:
             th, th_d, th_dd = self.references(t)
         acc = mapped(eqs.acceleration, q=q.T, qd=qd.T, effort=effort.T, theta_ref=th.T, theta_d_ref=th_d.T,
-                     theta_dd_ref=th_dd.T, delta_dot0=z[:, :nc].T, in_contact=z[:, nc:2 * nc].T, t=t[None, :])
+                     theta_dd_ref=th_dd.T, delta_dot0=dd0.T, in_contact=inc.T, t=t[None, :])
 
         def per_joint(v, rows):  # (rows, cols * m) -> (m, cols, rows), or (cols, m) -> (m, cols)
             return np.asarray(v).reshape(rows, m, -1).transpose(1, 2, 0) if rows == 2 else np.asarray(v).T
@@ -137,14 +135,14 @@ class Outputs:
         """The Simulation of the outputs taken (all of them: the run is over, and no state was
         non-finite), with `stats`."""
         self.flush()
-        eqs, model, nc = self.eqs, self.problem.model, len(self.eqs.clearance_joints)
-        z = self.last[1 + self.system.ny:]
-        wear, at = {}, 1 + self.system.ny - self.n_wear
+        eqs, model, L = self.eqs, self.problem.model, self.system.layout
+        wear, at = {}, L.in_x("wear").start
         for joint, surface, m in eqs.worn:  # the depths worn over the run, per profile
             wear.setdefault(joint, {})[surface] = self.last[at:at + m].copy()
             at += m
         losses = {j: 0 for j in model.passive_joints}
-        losses.update({j: int(round(v)) for j, v in zip(eqs.clearance_joints, z[2 * nc:3 * nc], strict=True)})
+        losses.update({j: int(round(v)) for j, v in zip(eqs.clearance_joints, self.last[L.in_x("losses")],
+                                                         strict=True)})
         return Simulation(
             scene=self.problem.scene, clearance_joints=eqs.clearance_joints,
             ideal_passive_joints=eqs.passive_ideal_joints, terms=eqs.terms, t=self.t, **self.arrays,

@@ -9,6 +9,7 @@ import numpy as np
 from ..checks import unknown_value
 from ..problem import Problem
 from ..scene import Scene
+from .verdict import Verdict, energy_verdict
 
 __all__ = ["Simulation"]
 
@@ -39,7 +40,8 @@ class Simulation:
     that wear (``effects.wear``), joint -> surface ('bearing', 'journal') -> the node depths
     (M,) [m] worn over the run, Archard's law integrated at every step
     (:mod:`rrr4.contact.wear`; empty without wear).
-    :meth:`body` gives the (N, 3) pose of any body.
+    :meth:`body` gives the (N, 3) pose of any body; :attr:`verdict` whether the run has
+    converged (its energy audit, :mod:`rrr4.simulation.verdict`).
     """
     scene: Scene
     clearance_joints: tuple[str, ...]
@@ -67,6 +69,11 @@ class Simulation:
     film_force: np.ndarray | None = None
     friction_force: np.ndarray | None = None
     wear: dict = field(default_factory=dict)
+
+    @property
+    def verdict(self) -> Verdict:
+        """The energy audit's verdict on this run: converged or not, and the numbers behind it."""
+        return energy_verdict(self.energy)
 
     def body(self, name: str) -> np.ndarray:
         """(N, 3) pose [x, y, theta] [m, m, rad] of the centre of mass of the body `name`."""

@@ -24,6 +24,7 @@ the actuators carry no effort. A graph without a task body moves by its drivers
 from __future__ import annotations
 
 import functools
+import math
 import os
 import time
 import warnings
@@ -39,7 +40,7 @@ from ..dynamics.builder import with_profiles
 from ..errors import SceneError, SimulationError
 from ..files import c_compiler
 from ..functions import graph_size, mapped
-from ..integrators import METHODS, FrameInputs, Integrator
+from ..integrators import BACKGROUND, METHODS, FrameInputs, Integrator
 from ..problem import Problem
 from ..scene import MAX_SAMPLES, IntegratorSettings, Scene
 from .initial import initial_state
@@ -47,7 +48,7 @@ from .outputs import Outputs
 from .result import Simulation
 from .system import REFERENCES, Loop, in_tree, loop_of, measured, system_of
 
-__all__ = ["simulate", "OVERRIDES", "default_jit", "frame_times"]
+__all__ = ["simulate", "OVERRIDES", "default_jit", "frame_times", "run_end"]
 
 OVERRIDES = ("step", "output_rate", "preload", "v_min", "baumgarte", "jit", "progress", "references", "controller",
              "model", "inputs", "wear")
@@ -57,12 +58,16 @@ MAX_STEPS = 1e10  # integrator steps one simulate call may take
 _NO_COMPILER_WARNED = False
 
 
-def default_jit() -> bool:
-    """Whether simulate compiles its stepping by default: when a C compiler exists (cached on
-    disk, so a scene compiles once), unless the environment sets RRR4_JIT=0. Without a
-    compiler it warns once and steps in CasADi's virtual machine, 5 to 10 times slower."""
+def default_jit() -> bool | str:
+    """How simulate steps by default: where a C compiler exists, 'background' (a frame whose
+    library is in the on-disk cache steps in it; otherwise a process of its own compiles it
+    while CasADi's virtual machine steps, and the run moves to the library, bit for bit the
+    same states, at its next block once it is ready, or the next run does: a first run never
+    waits for the compiler); RRR4_JIT=1 compiles first and then steps (True), RRR4_JIT=0 never
+    compiles (False). Without a compiler it warns once and steps in the virtual machine."""
     global _NO_COMPILER_WARNED
-    if os.environ.get("RRR4_JIT", "1").strip() == "0":
+    forced = os.environ.get("RRR4_JIT", "").strip()
+    if forced == "0":
         return False
     if c_compiler() is None:
         if not _NO_COMPILER_WARNED:
@@ -70,7 +75,15 @@ def default_jit() -> bool:
                           "machine, several times slower", RuntimeWarning, stacklevel=3)
             _NO_COMPILER_WARNED = True
         return False
-    return True
+    return True if forced == "1" else BACKGROUND
+
+
+def _stepping(stepping, t_grid) -> dict | None:
+    """The run's stepping record with the time [s] its move to compiled C happened at, if it did."""
+    if not stepping:
+        return None
+    k = stepping.get("compiled_from_frame")
+    return {**stepping, "compiled_from_s": float(t_grid(np.array([k]))[0]) if k else None}
 
 
 def _integrator(settings: IntegratorSettings, integrator, jit: bool) -> Integrator:
@@ -105,6 +118,26 @@ def _interpolated(t_s: np.ndarray, th, th_d, th_dd, ff):
                       "ff": ff[np.searchsorted(t_s, t)], "ffd": np.zeros((len(t), ff.shape[1]))}
 
 
+def _whole(periods: float) -> bool:
+    return abs(round(periods) - periods) <= 1e-6 * max(1.0, periods)
+
+
+def run_end(scene: Scene) -> tuple[float, str]:
+    """(t_end [s], note) of a run of `scene` by default: the path duration, rounded up to whole
+    control periods when a sampled controller runs it (torque mode with
+    ``actuation.control_rate``) and the duration is not whole (e.g. an optimal time law
+    taken as the path's time table): the run ends with the law, the path resting at its end
+    pose for the fraction of the last period. note: one line saying so ('' when not rounded)."""
+    duration, c = scene.path.duration, scene.actuation.control_rate
+    if scene.actuation.mode != "torque" or not c or _whole(duration * c):
+        return duration, ""
+    n = math.ceil(duration * c)
+    t_end = n / c
+    return t_end, (f"the path ends at {duration:.9g} s, {duration * c:.6g} control periods at {c:g} Hz: the run "
+                   f"takes {n} whole periods to {t_end:.9g} s (the last {1e3 * (t_end - duration):.3g} ms at rest at "
+                   "the path's end)")
+
+
 def _frames(ctrl: Problem, t_end: float, rate: float, held: bool) -> tuple[int, int]:
     """(number of frames, frames per output): frames are the output intervals, or the
     control periods of a sampled controller (then every m-th frame is an output)."""
@@ -112,9 +145,11 @@ def _frames(ctrl: Problem, t_end: float, rate: float, held: bool) -> tuple[int, 
         return max(int(round(t_end * rate)), 1), 1
     c = ctrl.scene.actuation.control_rate
     n = int(round(t_end * c))
-    if n < 1 or abs(n - t_end * c) > 1e-6 * max(1.0, t_end * c):
-        raise SceneError(f"actuation.control_rate: {c:g} Hz is not allowed with t_end {t_end:g} s (the run must be "
-                         "a whole number of control periods)")
+    if n < 1 or not _whole(t_end * c):
+        whole = max(math.ceil(t_end * c), 1)
+        raise SceneError(f"t_end: {t_end:.9g} s is not allowed with actuation.control_rate {c:g} Hz (the run must be "
+                         f"a whole number of control periods, e.g. {whole / c:.9g} s = {whole} periods; without "
+                         "t_end a run ends with the path, rounded up to whole periods)")
     m = max(int(round(c / rate)), 1)
     while n % m:
         m -= 1
@@ -133,7 +168,8 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
 
     integrator: None (the scene's integrator.method), a name from
     :data:`rrr4.integrators.METHODS`, or an integrator instance. t_end [s] defaults to the
-    path duration. overrides: step [s] (rounded so a whole number of steps fits one output
+    path duration, rounded up to whole control periods with a sampled controller
+    (:func:`run_end`). overrides: step [s] (rounded so a whole number of steps fits one output
     interval or control period), output_rate [Hz] (default: path.sample_rate; with a sampled
     controller, at most its rate), controller: 'python' (default; the controller step in
     CasADi) or 'generated' (the C that :func:`rrr4.codegen` writes, compiled with the C
@@ -142,8 +178,11 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
     with t, tau, e.g. a PreloadSolution: the feed-forward efforts instead of the controller's
     own), model (a Scene: the controller's model of the simulated mechanism, default the scene
     itself; e.g. nominal parameters against a mechanism built with tolerances), v_min [m/s],
-    baumgarte [rad/s], jit (step in compiled C; default: yes when a C
-    compiler exists and RRR4_JIT is not 0, see :func:`default_jit`), progress (bar),
+    baumgarte [rad/s], jit (True: compile the stepping, then step in C; False: CasADi's
+    virtual machine; 'background': the library if cached, else the virtual machine while a
+    process of its own compiles it, moving to it once ready; default :func:`default_jit`:
+    'background' where a C compiler exists, RRR4_JIT=1 or 0 forcing either way; ``stats``
+    records how the run stepped under 'stepping'), progress (bar),
     references: 'exact' (default; an n-RRR controller runs its closed form inside every
     right-hand side, or at every control instant when sampled) or 'sampled' (its references,
     feed-forward included, evaluated once per path sample and interpolated, cubic Hermite:
@@ -161,7 +200,7 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
     bad = sorted(set(overrides) - set(OVERRIDES))
     if bad:
         raise unknown_value(bad[0], "override", bad[0], OVERRIDES)
-    t_end = scene.path.duration if t_end is None else argument("t_end", t_end)
+    t_end = run_end(scene)[0] if t_end is None else argument("t_end", t_end)
     rate = scene.path.sample_rate if overrides.get("output_rate") is None else argument("output_rate",
                                                                                           overrides["output_rate"])
     h_req = scene.integrator.step if overrides.get("step") is None else argument("step", overrides["step"])
@@ -183,7 +222,8 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
     if overrides.get("wear"):  # worn profiles: other input numbers, the same compiled code
         eqs = with_profiles(eqs, overrides["wear"])
     jit = overrides.get("jit")
-    method = _integrator(scene.integrator, integrator, default_jit() if jit is None else bool(jit))
+    method = _integrator(scene.integrator, integrator,
+                         default_jit() if jit is None else BACKGROUND if jit == BACKGROUND else bool(jit))
     model = problem.model
     model_scene = overrides.get("model") or scene
     if isinstance(model_scene, Problem):
@@ -241,6 +281,7 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
              "compensation": ctrl.scene.actuation.compensation if eqs.mode == "torque" else "none",
              "seat_model": ctrl.scene.actuation.seat_model if eqs.mode == "torque" and ctrl.compensates else "none"}
     stats.update(run.stats)
+    stats["stepping"] = _stepping(run.stats.get("stepping"), t_grid)
     return outputs.simulation(stats)
 
 

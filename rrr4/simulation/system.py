@@ -11,7 +11,6 @@ compiled code.
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import casadi as ca
@@ -33,8 +32,10 @@ from ..mechanism import Model
 from ..problem import Problem
 from ..scene import PathSpec
 from ..trajectory import trajectory_function
+from .layout import Layout
 
-__all__ = ["Loop", "loop_of", "system_of", "problem_system", "measured", "in_tree", "extremes", "REFERENCES"]
+__all__ = ["Loop", "loop_of", "system_of", "state_layout", "problem_system", "measured", "in_tree", "extremes",
+           "REFERENCES"]
 
 
 def hermite(s, h, a, b, da, db):
@@ -104,22 +105,17 @@ def system_of(problem: Problem, eqs: Equations, loop: Loop, refs: ca.Function | 
 def _build_system(eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bool) -> System:
     model = eqs.model
     par = eqs.parametric
-    n, nc = eqs.n_actuators, len(eqs.clearance_joints)
-    nq = par.tree_acceleration.size1_in(0) if tree else eqs.nq  # the coordinates stepped
-    ns = len(loop.settings)
-    n_peaks = 3 * nc + (n if eqs.mode == "torque" else 0)
-    nw = sum(m for *_, m in eqs.worn)  # the wear profiles' node depths: quadratures after the energy's
-    t, y = ca.SX.sym("t"), ca.SX.sym("y", 2 * nq + 3 + nw)
-    z = ca.SX.sym("z", 3 * nc + len(eqs.parameters) + ns + n_peaks)
+    n = eqs.n_actuators
+    L = state_layout(eqs, loop, tree)
+    t, y, z = ca.SX.sym("t"), ca.SX.sym("y", L.ny), ca.SX.sym("z", L.nz)
     width = {"exact": 0, "sampled": 10 * n, "held": n}[loop.kind]
     u = ca.SX.sym("u", 2 + width)
-    dd0, inc, losses = z[:nc], z[nc:2 * nc], z[2 * nc:3 * nc]
-    parameters = z[3 * nc:3 * nc + len(eqs.parameters)]
-    settings, peaks = z[3 * nc + len(eqs.parameters):z.shape[0] - n_peaks], z[z.shape[0] - n_peaks:]
+    dd0, inc, losses = z[L.delta_dot0], z[L.in_contact], z[L.losses]
+    parameters, settings, peaks = z[L.parameters], z[L.settings], z[L.peaks]
 
     def configuration(y, parameters):
         """(q, qd) of the state y: its first entries, or from the tree coordinates."""
-        return par.tree_state(y[:nq], y[nq:2 * nq], parameters) if tree else (y[:nq], y[nq:2 * nq])
+        return par.tree_state(y[L.q], y[L.qd], parameters) if tree else (y[L.q], y[L.qd])
 
     q, qd = configuration(y, parameters)
     zeros = ca.SX.zeros(n)
@@ -145,12 +141,12 @@ def _build_system(eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bo
     refs_in = dict(effort=effort, theta_ref=th, theta_d_ref=th_d, theta_dd_ref=th_dd, delta_dot0=dd0, in_contact=inc,
                    t=t, parameters=parameters)
     if tree:
-        out = par.tree_acceleration(p=y[:nq], pd=y[nq:2 * nq], **refs_in)
-        ydot = ca.vertcat(y[nq:2 * nq], out["pdd"], out["power_in"], out["power_damping"], out["power_friction"])
+        out = par.tree_acceleration(p=y[L.q], pd=y[L.qd], **refs_in)
+        ydot = ca.vertcat(y[L.qd], out["pdd"], out["power_in"], out["power_damping"], out["power_friction"])
     else:
         out = par.acceleration(q=q, qd=qd, **refs_in)
         ydot = ca.vertcat(qd, out["qdd"], out["power_in"], out["power_damping"], out["power_friction"])
-    if nw:
+    if L.n_wear:
         ydot = ca.vertcat(ydot, out["wear_rate"])
     ode = ca.Function("ode", [t, y, z, u], [ydot], ["t", "y", "z", "u"], ["y_dot"])
     dd0n, incn, loss = par.contact_update(q, qd, dd0, inc, parameters)
@@ -169,15 +165,24 @@ def _build_system(eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bo
         # references (n each) or the time (1), see rrr4.control.step_inputs
         sizes = [loop.control.size1_in(i) for i in range(loop.control.n_in() - 3)]
         ym, zm, uf = ca.MX.sym("y", y.shape[0]), ca.MX.sym("z", z.shape[0]), ca.MX.sym("u_frame", 2 + sum(sizes))
-        pm = zm[3 * nc:3 * nc + len(eqs.parameters)]
+        pm = zm[L.parameters]
         meas = measured(model, *configuration(ym, pm), par, pm)
         ends = [int(e) for e in np.cumsum([2, *sizes])]
         args = [uf[a:b] for a, b in zip(ends[:-1], ends[1:], strict=True)]
-        eff = loop.control(*args, *meas, zm[z.shape[0] - n_peaks - ns:z.shape[0] - n_peaks])
+        eff = loop.control(*args, *meas, zm[L.settings])
         eff = eff[0] if isinstance(eff, (list, tuple)) else eff
         control = ca.Function("control", [ym, zm, uf], [ca.vertcat(uf[:2], eff)], ["y", "z", "u_frame"], ["u"])
-    return System(ode, disc, control, loop.sources, n_events=3 * nc,
-                  peaks=peak_values if n_peaks else None)
+    return System(ode, disc, control, loop.sources, n_events=L.events,
+                  peaks=peak_values if L.n_peaks else None, layout=L)
+
+
+def state_layout(eqs: Equations, loop: Loop, tree: bool) -> Layout:
+    """The :class:`~rrr4.simulation.layout.Layout` of the System these equations, loop and
+    coordinates build (see :func:`system_of`)."""
+    nc, n = len(eqs.clearance_joints), eqs.n_actuators
+    nq = eqs.parametric.tree_acceleration.size1_in(0) if tree else eqs.nq  # the coordinates stepped
+    return Layout(nq=nq, n_wear=sum(m for *_, m in eqs.worn), nc=nc, n_parameters=len(eqs.parameters),
+                  n_settings=len(loop.settings), n_peaks=3 * nc + (n if eqs.mode == "torque" else 0))
 
 
 def extremes(eqs: Equations, maxima) -> dict:
@@ -216,7 +221,8 @@ def loop_of(problem: Problem, eqs: Equations, controller: str, references: str, 
             raise SceneError("controller: 'generated' is not allowed without actuation.control_rate (the generated "
                              "controller runs as a sampled controller with zero-order hold: set a rate in Hz)")
         step, source = generated_controller(problem)
-        return Loop("held", _without_settings(step), True, None, (source,), key=("generated", str(source)))
+        held_step = problem.memo(("generated_step", str(source)), lambda: _without_settings(step))
+        return Loop("held", held_step, True, None, (source,), key=("generated", str(source)))
     if why:
         return Loop("held" if held else "sampled", parametric_feedback(problem), False, None,
                     settings=tuple(feedback_settings(problem)), key=("feedback", tuple(
@@ -226,10 +232,10 @@ def loop_of(problem: Problem, eqs: Equations, controller: str, references: str, 
                 key=("controller", problem.controller_key))
 
 
-@functools.lru_cache(maxsize=16)
 def _without_settings(step: ca.Function) -> ca.Function:
-    """`step` with an empty last input ``settings`` (the generated C holds the scene's numbers),
-    one per step, so that the systems built on it are found again."""
+    """`step` with an empty last input ``settings`` (the generated C holds the scene's numbers);
+    kept on the problem (one per generated source), so that the systems built on it are found
+    again."""
     ins = [ca.MX.sym(step.name_in(i), step.sparsity_in(i)) for i in range(step.n_in())]
     return ca.Function(step.name(), [*ins, ca.MX.sym("settings", 0)], step(*ins), [*step.name_in(), "settings"],
                        step.name_out())

@@ -16,7 +16,6 @@ identified') and once with the true perturbed scene ('model: true').
 
 from __future__ import annotations
 
-import copy
 import json
 import time
 from pathlib import Path
@@ -25,7 +24,7 @@ from ..errors import SceneError
 from ..files import write_atomic
 from ..problem import Problem
 from ..results.metrics import scalar_metrics
-from ..scene import Scene, parse_scene, read_yaml, set_key
+from ..scene import Scene
 from ..simulation import simulate
 from .study import arm_scene
 
@@ -50,18 +49,13 @@ IDENTIFIED = ("joints.radial_clearance", "effects.friction.coefficient", "effect
 METRICS = ("platform_error_rms_m", "platform_error_max_m", "contact_loss_events")  # of scalar_metrics, per row
 
 
-def _nominal_data(problem: Problem) -> dict:
-    """The YAML data of the problem's scene file (what a case varies)."""
-    source = problem.scene.source
-    if not source or not Path(source).is_file():
-        raise SceneError(f"scene: {problem.name!r} has no YAML file to vary (load it with rrr4.load_scene)")
-    return read_yaml(source)
-
-
-def perturbed(problem: Problem, case: str) -> Scene:
-    """The mechanism of robustness case `case` (a key of :data:`CASES`): the problem's scene
-    YAML with one parameter changed at its dotted key (n-RRR scenes)."""
-    scene = problem.scene
+def perturbed(problem: Problem | Scene, case: str) -> Scene:
+    """The mechanism of robustness case `case` (a key of :data:`CASES`): the scene (of the
+    problem) with one parameter changed at its dotted key (n-RRR scenes), through
+    :meth:`rrr4.scene.Scene.with_values`, so a scene changed in memory or built in Python is
+    varied as it is."""
+    scene = problem if isinstance(problem, Scene) else problem.scene
+    problem = Problem.from_scene(scene)
     if case not in CASES:
         raise SceneError(f"case: {case!r} is not allowed (choose one of: {', '.join(CASES)})")
     if CASES[case] is None:
@@ -69,16 +63,15 @@ def perturbed(problem: Problem, case: str) -> Scene:
     if not problem.closed_form:
         raise SceneError("mechanism.kind: robustness cases are defined for n-RRR scenes")
     key, how, v = CASES[case]
-    data = copy.deepcopy(_nominal_data(problem))
     first, link = scene.clearance_joints[0], scene.mechanism.chains[0].driving
     nominal = {"joints.radial_clearance": scene.joint(first).radial_clearance,
                "effects.contact.stiffness": problem.joint_stiffness(first),
                "mechanism.chains[0].driving_link.length": link.length}.get(key)
-    set_key(data, key, nominal * v if how == "factor" else nominal + v if how == "add" else v)
+    values = {key: nominal * v if how == "factor" else nominal + v if how == "add" else v}
     if key.startswith("mechanism.chains[0].driving_link"):  # the link's mass and inertia stay nominal
-        set_key(data, "mechanism.chains[0].driving_link.mass", link.mass)
-        set_key(data, "mechanism.chains[0].driving_link.inertia", link.inertia)
-    return parse_scene(data, name=f"{scene.name}, {case}", source="")
+        values.update({"mechanism.chains[0].driving_link.mass": link.mass,
+                       "mechanism.chains[0].driving_link.inertia": link.inertia})
+    return scene.with_values(values, name=f"{scene.name}, {case}")
 
 
 def robustness(scene: Scene | Problem, t_end: float | None = None, progress: bool = False, log=None,
@@ -91,15 +84,15 @@ def robustness(scene: Scene | Problem, t_end: float | None = None, progress: boo
     'identified', the row also holding the estimates)."""
     say = log or (lambda _m: None)
     problem = Problem.from_scene(scene)
-    scene = problem.scene
+    scene = scene if isinstance(scene, Scene) else problem.scene  # the one given is the one varied
     if not problem.closed_form or not problem.clearance_joints:
         raise SceneError("mechanism: robustness cases are defined for n-RRR scenes with clearance joints "
                          f"(scene {scene.name!r} has {'none' if problem.closed_form else 'a graph'})")
-    _nominal_data(problem)  # refuse a scene without its YAML before simulating anything
+    scene.with_values({})  # refuse a scene without its YAML data before simulating anything
     models = {arm: arm_scene(problem, arm) for arm in ARMS}
     rows = []
     for case in CASES:
-        plant = Problem.from_scene(perturbed(problem, case))
+        plant = Problem.from_scene(perturbed(scene, case))
         runs = {}
         for arm, model in models.items():
             say(f"{case}: {arm.replace('_', ' ')}")

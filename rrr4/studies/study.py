@@ -48,7 +48,7 @@ import numpy as np
 
 from ..checks import argument, unknown_value
 from ..codegen.build import compile_time
-from ..errors import SceneError
+from ..errors import Rrr4Error, SceneError
 from ..files import c_compiler
 from ..integrators import METHODS
 from ..preload import solve_preload
@@ -58,10 +58,13 @@ from ..results.metrics import check_skip
 from ..results.study import Study, StudyArm
 from ..results.summary import preload_lines
 from ..scene import MAX_SAMPLES, Scene
-from ..simulation import simulate
+from ..simulation import run_end, simulate
+from ..simulation.foresight import foresight_lines
 from ..trajectory import sample_path
 
-__all__ = ["run_study", "arm_scene", "study_controller"]
+__all__ = ["run_study", "arm_scene", "study_controller", "MAX_HALVINGS"]
+
+MAX_HALVINGS = 6  # run_study(converge=...): at most 1/64 of the first step
 
 
 def arm_scene(problem: Problem, arm: str) -> Scene:
@@ -99,23 +102,34 @@ def _min_norm_torques(problem: Problem, t_path: np.ndarray) -> np.ndarray:
 
 def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float | None = None,
               integrator: str | None = None, output_rate: float | None = None, skip: float = 0.0,
-              progress: bool = False, log=None) -> Study:
+              converge: float | None = None, progress: bool = False, log=None) -> Study:
     """Run the study of `scene`.
 
-    t_end [s]: simulated time (default the path duration); step [s]: integrator step
-    (default the scene's); integrator: method name (default the scene's); output_rate [Hz]:
-    outputs kept per second (default every step, so that losses are located to a step; at
-    most 1/step); skip [s]: the start-up window the metrics discard (0 <= skip < t_end, see
-    :mod:`rrr4.results.metrics`); progress: show the simulations' progress bars; log:
-    callable taking one line of text per stage. What is given is recorded in
-    ``Study.overrides``.
+    t_end [s]: simulated time (default the path duration, rounded up to whole control
+    periods with a sampled controller: :func:`rrr4.simulation.run_end`, said in the log);
+    step [s]: integrator step (default the scene's); integrator: method name (default the
+    scene's); output_rate [Hz]: outputs kept per second (default every step, so that losses
+    are located to a step; at most 1/step); skip [s]: the start-up window the metrics discard
+    (0 <= skip < t_end, see :mod:`rrr4.results.metrics`); converge [s]: a wall-time budget per
+    arm within which an arm whose verdict fails (:mod:`rrr4.simulation.verdict`) is rerun at
+    half its step until it passes (:func:`_converged`; None: every arm runs once at `step`);
+    progress: show the simulations' progress bars; log: callable taking one line of text per
+    stage, and one per warning of :func:`rrr4.simulation.foresight.foresight_lines` (a contact
+    law outside its range, a step that cannot resolve the stiffest contact vibration) before
+    any arm runs. What is given is recorded in ``Study.overrides``; the warnings in
+    ``Study.foresight``.
     """
     say = log or (lambda _msg: None)
     problem = Problem.from_scene(scene)
     scene = problem.scene
     given = {"t_end_s": t_end, "integrator": integrator, "step_s": step, "output_rate_Hz": output_rate,
-             "skip_s": skip or None}
-    t_end = scene.path.duration if t_end is None else argument("t_end", t_end)
+             "skip_s": skip or None, "converge_budget_s": converge}
+    if t_end is None:
+        t_end, note = run_end(scene)
+        if note:
+            say(note)
+    else:
+        t_end = argument("t_end", t_end)
     h = scene.integrator.step if step is None else argument("step", step)
     if integrator is not None and integrator not in METHODS:
         raise unknown_value("integrator", "integrator", integrator, METHODS)
@@ -123,6 +137,8 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
         raise SceneError(f"output_rate: {output_rate:g} Hz is not allowed at step {h:g} s (at most one output per "
                          f"step: <= {1.0 / h:g} Hz)")
     skip = check_skip(skip, t_end)
+    if converge is not None:
+        argument("converge", converge)
     rate = 1.0 / h if output_rate is None else float(output_rate)
     if t_end * rate > MAX_SAMPLES:  # refuse before the preload is computed
         raise SceneError(f"t_end: {t_end:g} s is not allowed at step {h:g} s (the study keeps every step: at most "
@@ -145,8 +161,11 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
         if not preload.all_feasible:  # loud: where, which actuator, by how much, and what the simulation does
             for line in preload_lines(preload, problem):
                 say(line)
+    foresight = tuple(foresight_lines(problem, h, integrator, preload))  # before any arm runs
+    for line in foresight:
+        say(line)
 
-    def arm(name, sc, step=h, controller="python"):
+    def run_arm(name, sc, step, controller):
         say(f"simulate {name.replace('_', ' ')}: {t_end:g} s, step {step:g} s"
             + (", generated controller in the loop" if controller == "generated" else ""))
         wall, compiling = time.perf_counter(), compile_time()
@@ -155,12 +174,18 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
         compiling = compile_time() - compiling
         return StudyArm(name, sim, time.perf_counter() - wall - compiling, compiling)
 
+    def arm(name, sc, step=h, controller="python"):
+        first = run_arm(name, sc, step, controller)
+        return first if converge is None else _converged(first, lambda k: run_arm(name, sc, k, controller), converge,
+                                                         t_end, output_rate, say)
+
     arms, refinement = {}, None
     if problem.model.task is None:
         arms["with_clearance"] = arm("with_clearance", scene)
         arms["ideal"] = arm("ideal", scene.with_ideal_joints())
         if scene.clearance_joints:
-            refinement = arm("with_clearance (half step)", scene, step=h / 2)
+            fine = arms["with_clearance"].simulation.stats["step"] / 2
+            refinement = run_arm("with_clearance (half step)", scene, fine, "python")
     else:
         names = (("with_preload", "with_preload_compensated") if preload is not None and scene.clearance_joints
                  else ("with_preload",) if preload is not None else ())
@@ -170,4 +195,38 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
         arms["without_preload"] = arm("without_preload", arm_scene(problem, "without_preload"))
     return Study(scene=scene, t_path=t_path, tau_min_norm=tau_min_norm, preload=preload,
                  preload_warning=preload_warning, arms=arms, t_end=t_end, step=h, refinement=refinement, skip=skip,
-                 overrides={k: v for k, v in given.items() if v is not None})
+                 overrides={k: v for k, v in given.items() if v is not None}, foresight=foresight)
+
+
+def _converged(first: StudyArm, rerun, budget: float, t_end: float, output_rate, say) -> StudyArm:
+    """`first`, or the arm rerun (`rerun(step)`) at half its step, again and again, until its
+    verdict passes: at most :data:`MAX_HALVINGS` times, while the next run (predicted to cost
+    twice the last) fits in `budget` [s] of wall time and the outputs of every step in
+    MAX_SAMPLES. A rerun that fails (e.g. blows up) is recorded and the step halved again. The
+    arm returned (the last that ran) carries the history (``StudyArm.convergence``): the steps
+    tried, their residuals (None where the run failed), what they cost together (wall and
+    compile time [s]) and whether the arm returned passed."""
+    arm, step, cost = first, first.simulation.stats["step"], first.wall_time
+    steps, residuals, spent, compiling = [step], [first.simulation.verdict.residual], first.wall_time, \
+        first.compile_time
+    while not arm.simulation.verdict.converged and len(steps) <= MAX_HALVINGS:
+        text = arm.simulation.verdict.text() if residuals[-1] is not None else "failed"
+        step /= 2
+        cost *= 2
+        if spent + cost > budget or (output_rate is None and t_end / step > MAX_SAMPLES):
+            break
+        say(f"{first.name.replace('_', ' ')}: {text} at step {step * 2:g} s; again at {step:g} s")
+        wall = time.perf_counter()
+        steps.append(step)
+        try:
+            arm = rerun(step)
+        except Rrr4Error as e:
+            say(f"{first.name.replace('_', ' ')} at step {step:g} s: {str(e).splitlines()[0]}")
+            residuals.append(None)
+            spent += time.perf_counter() - wall
+            continue
+        residuals.append(arm.simulation.verdict.residual)
+        spent, compiling, cost = spent + arm.wall_time, compiling + arm.compile_time, arm.wall_time
+    history = {"steps_s": steps, "energy_audit_residuals": residuals, "wall_time_s": spent,
+               "compile_time_s": compiling, "budget_s": budget, "converged": arm.simulation.verdict.converged}
+    return replace(arm, convergence=history)

@@ -21,7 +21,9 @@ and its ideal twin), with the columns :data:`DRIVEN_METRICS`
 (:func:`rrr4.results.metrics.driven_scalar_metrics`: impacts per driver revolution, the
 acceleration deviation against the ideal twin, which a ``with_clearance`` arm simulates
 even when the spec does not ask for its row, the driver efforts, penetration and peak
-contact force). A metric that does not apply to an arm is an empty cell. Every case is
+contact force). A metric that does not apply to an arm is an empty cell. Every row ends with
+``converged``: the energy audit's verdict on that arm (:mod:`rrr4.simulation.verdict`); a
+number of a row that says False is not to be trusted. Every case is
 built and validated as a scene before anything runs; a bad spec or case value is one
 :class:`~rrr4.errors.SceneError` line naming the key.
 
@@ -35,7 +37,6 @@ cases already there (keyed by a hash of the case's scene).
 
 from __future__ import annotations
 
-import copy
 import csv
 import hashlib
 import io
@@ -63,13 +64,14 @@ from ..results.metrics import (
     scalar_metrics,
 )
 from ..results.study import DRIVEN_ARMS, PRELOAD_ARMS
-from ..scene import get_key, key_steps, parse_scene, read_load_table, read_time_table, read_yaml, set_key
+from ..scene import Scene, get_key, key_steps, parse_scene, read_scene, read_yaml
 
 __all__ = ["sweep", "load_spec", "SweepSpec", "METRICS", "DRIVEN_METRICS", "spec_arms", "DISTRIBUTIONS", "case_options",
            "GEOMETRY_KEYS", "PATH_KEYS"]
 
-METRICS = (*SCALAR_METRICS, "wall_time_s")  # the CSV columns of each arm, scene with a task body
-DRIVEN_METRICS = (*DRIVEN_SCALAR_METRICS, "wall_time_s")  # those of a driven scene
+# the CSV columns of each arm, scene with a task body; converged: the energy audit's verdict on the arm
+METRICS = (*SCALAR_METRICS, "wall_time_s", "converged")
+DRIVEN_METRICS = (*DRIVEN_SCALAR_METRICS, "wall_time_s", "converged")  # those of a driven scene
 DISTRIBUTIONS = ("normal", "uniform")
 SPEC_KEYS = ("scene", "t_end", "skip", "arms", "grid", "monte_carlo")
 MAX_CASES = 100_000
@@ -81,12 +83,13 @@ CASE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 @dataclass(frozen=True)
 class SweepSpec:
-    """A validated sweep: the base scene's YAML data and path, t_end (None: the path's
-    duration), the arms, the varied keys, the cases (key -> value dicts, in order), and the
+    """A validated sweep: the base scene and its file (None for a scene built in Python), t_end
+    (None: the path's duration), the arms, the varied keys, the cases (key -> value dicts, in
+    order, each set on the base scene with :meth:`rrr4.scene.Scene.with_values`), and the
     start-up window skip [s] the metrics discard; driven: the scene has no task body (its
     drivers set the motion), so its arms are DRIVEN_ARMS."""
-    base: dict
-    scene_path: Path
+    scene: Scene
+    scene_path: Path | None
     t_end: float | None
     arms: tuple[str, ...]
     keys: tuple[str, ...]
@@ -95,6 +98,16 @@ class SweepSpec:
     mc_keys: tuple[str, ...] = ()
     skip: float = 0.0
     driven: bool = False
+
+    @property
+    def base(self) -> dict:
+        """The base scene's YAML data (:attr:`rrr4.scene.Scene.data`, its tables inlined)."""
+        return self.scene.data
+
+    @property
+    def name(self) -> str:
+        """The base scene file's stem, or the name of a scene built in Python."""
+        return self.scene.name if self.scene_path is None else self.scene_path.stem
 
 
 def spec_arms(driven: bool) -> tuple[tuple[str, ...], tuple[str, ...]]:
@@ -121,32 +134,24 @@ def load_spec(path) -> SweepSpec:
     return parse_spec(data, p.parent)
 
 
-def _inline_tables(base: dict, folder: Path) -> None:
-    """Replace the table files a scene names (path.time_table, forces[].table) by their rows,
-    so that the cases carry them and a worker, in any directory or on another machine, reads
-    no file."""
-    path = base.get("path")
-    if isinstance(path, dict) and isinstance(path.get("time_table"), str):
-        path["time_table"] = [list(r) for r in read_time_table(folder / path["time_table"], "path.time_table")]
-    forces = base.get("forces")
-    for i, e in enumerate(forces if isinstance(forces, list) else []):
-        if isinstance(e, dict) and isinstance(e.get("table"), str):
-            e["table"] = [list(r) for r in read_load_table(folder / e["table"], f"forces[{i}].table")]
-
-
 def parse_spec(data: dict, root: Path = Path(".")) -> SweepSpec:
-    """Validate a spec mapping; relative scene paths are taken from `root`."""
+    """Validate a spec mapping; relative scene paths are taken from `root`. Its ``scene`` is
+    the base scene's YAML file or, from Python, a :class:`~rrr4.scene.Scene` (read from a file,
+    or parsed from a mapping: it holds its YAML data, which the cases change)."""
     bad = sorted(set(data) - set(SPEC_KEYS))
     if bad:
         raise SceneError(f"{bad[0]}: unknown key of a sweep spec (allowed: {', '.join(SPEC_KEYS)})")
-    if not isinstance(data.get("scene"), str) or "\0" in data["scene"]:  # a NUL is no path
-        raise SceneError(f"scene: {describe(data.get('scene'))} is not allowed (the base scene's YAML file)")
-    scene_path = (root / data["scene"]).resolve()
-    base = read_yaml(scene_path, "scene")
-    _inline_tables(base, scene_path.parent)
+    scene, scene_path = data.get("scene"), None
+    if isinstance(scene, Scene):
+        scene.with_values({})  # it holds YAML data that still describes it
+    elif not isinstance(scene, str) or "\0" in scene:  # a NUL is no path
+        raise SceneError(f"scene: {describe(scene)} is not allowed (the base scene's YAML file, or a Scene)")
+    else:
+        scene_path = (root / scene).resolve()
+        scene = read_scene(scene_path)  # its table files inlined in its data, so the cases carry them
     # the base itself is a valid scene that assembles along its path
-    driven = check_scene(parse_scene(copy.deepcopy(base), name=scene_path.stem,
-                                     source=str(scene_path))).graph.task is None
+    driven = check_scene(scene).graph.task is None
+    base = scene.data
     t_end = data.get("t_end")
     if t_end is not None:
         t_end = _number("t_end", t_end, "t_end [s]")
@@ -187,13 +192,13 @@ def parse_spec(data: dict, root: Path = Path(".")) -> SweepSpec:
     cases = tuple({**pt, **smp} for pt in points for smp in samples)
     keys = tuple(grid) + tuple(k for k in mc_keys if k not in grid)
     for case in cases:  # every case is a valid scene before anything runs, and runs longer than skip
-        scene, _ = case_scene(base, scene_path, case)
-        if (scene.graph.task is None) != driven:
+        case_base, _ = case_scene(scene, case)
+        if (case_base.graph.task is None) != driven:
             values = ", ".join(f"{k} = {describe(v)}" for k, v in case.items())
             raise SceneError(f"grid: the case {values} is not allowed (it makes {kind} into another kind; the arms "
                              "of a sweep follow its base scene's kind)")
-        skip = check_skip(skip, scene.path.duration if t_end is None else t_end)
-    return SweepSpec(base, scene_path, t_end, tuple(arms), keys, cases, tuple(grid), tuple(mc_keys), float(skip),
+        skip = check_skip(skip, case_base.path.duration if t_end is None else t_end)
+    return SweepSpec(scene, scene_path, t_end, tuple(arms), keys, cases, tuple(grid), tuple(mc_keys), float(skip),
                      driven)
 
 
@@ -297,20 +302,17 @@ def _monte_carlo(mc, base) -> tuple[list[dict], list[str]]:
     return [{k: float(v[i]) for k, v in draws.items()} for i in range(n)], list(draws)
 
 
-def case_scene(base: dict, scene_path: Path, case: dict):
-    """(Scene, YAML text) of one case: the base data with the case's values set."""
-    data = copy.deepcopy(base)
-    for k, v in case.items():
-        set_key(data, k, v)
-    text = yaml.safe_dump(data, sort_keys=True)
+def case_scene(scene: Scene, case: dict) -> tuple[Scene, str]:
+    """(Scene, YAML text) of one case: the base `scene` with the case's values set
+    (:meth:`rrr4.scene.Scene.with_values`), and its data as the text a worker reads."""
     try:
-        scene = parse_scene(data, name=scene_path.stem, source="")
+        out = scene.with_values(case)
         if any(k.startswith(("mechanism.", "path.")) for k in case):  # it must still assemble along its path
-            check_scene(scene)
+            check_scene(out)
     except SceneError as e:
         values = ", ".join(f"{k} = {describe(v)}" for k, v in case.items())
         raise SceneError(f"{e} (in the case {values})") from None
-    return scene, text
+    return out, yaml.safe_dump(out.data, sort_keys=True)
 
 
 def case_id(text: str, t_end, arms, skip: float = 0.0) -> str:
@@ -400,7 +402,8 @@ def run_case(text: str, name: str, t_end, arms, jit: bool = False, options: dict
         if row["status"] == "ok":
             sim = sims[row["arm"]]
             row.update(driven_scalar_metrics(sim, None if row["arm"] == "ideal" else sims.get("ideal"), t_from,
-                                             revolution) if driven else scalar_metrics(sim, skip))
+                                             revolution) if driven else scalar_metrics(sim, skip),
+                       converged=sim.verdict.converged)
     rows = [r for r in rows if r["arm"] in arms]
     used = _built(problems)
     reused = tuple(k for i, k in enumerate(STRUCTURES)
@@ -462,7 +465,7 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
         spec = load_spec(spec)
     elif isinstance(spec, dict):
         spec = parse_spec(spec)
-    out = check_writable(Path(out) if out is not None else Path("results") / "sweeps" / (name or spec.scene_path.stem))
+    out = check_writable(Path(out) if out is not None else Path("results") / "sweeps" / (name or spec.name))
     if (out / "results.csv").exists() and not (out / "results.csv").is_file():
         raise SceneError(f"--out: '{out}' is not allowed (its results.csv is not a file)")
     if scheduler is not None:
@@ -477,7 +480,7 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
     done = _done(csv_path, columns)
     todo = []
     for case in spec.cases:
-        _, text = case_scene(spec.base, spec.scene_path, case)
+        _, text = case_scene(spec.scene, case)
         cid = case_id(text, spec.t_end, spec.arms, spec.skip)
         if cid not in done:
             todo.append((cid, case, text))
@@ -498,7 +501,7 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
             client = _connect(Client, scheduler)
         bar = None
         try:
-            futures = {client.submit(run_case, text, spec.scene_path.stem, spec.t_end, spec.arms, jit, options,
+            futures = {client.submit(run_case, text, spec.name, spec.t_end, spec.arms, jit, options,
                                      spec.skip, pure=False):
                        (cid, c) for cid, c, text in todo}
             if progress:
@@ -528,6 +531,6 @@ def sweep(spec, out=None, scheduler: str | None = None, workers: int | None = No
             if cluster is not None:
                 cluster.close()
     from ..results.figures import sweep_figures
-    figures = sweep_figures(csv_path, spec.keys, spec.grid_keys, spec.mc_keys, out, name or spec.scene_path.stem)
+    figures = sweep_figures(csv_path, spec.keys, spec.grid_keys, spec.mc_keys, out, name or spec.name)
     return {"csv": csv_path, "cases": len(spec.cases), "skipped": skipped, "failed": failed, "rows": rows_out,
             "figures": figures, "compiled": jit, "options": options, "compilations": built, "reused": reused}

@@ -81,6 +81,10 @@ def cycle_duration(problem: Problem) -> float:
     if not drivers or scene.graph.joint(drivers[0].joint).type != "revolute" or drivers[0].speed == 0:
         raise SceneError("mechanism.drivers: rrr4 wear needs a task path or a first driver that turns a revolute "
                          "joint at a non-zero speed (one cycle is one revolution)")
+    if drivers[0].time_law != "constant":
+        raise SceneError(f"mechanism.drivers[0].time_law: {drivers[0].time_law!r} is not allowed with rrr4 wear (one "
+                         "cycle is one revolution at a constant speed, each starting where the last one ended: "
+                         "choose constant)")
     return 2.0 * math.pi / abs(drivers[0].speed)
 
 

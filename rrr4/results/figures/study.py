@@ -201,9 +201,9 @@ def driver_window(study: Study) -> tuple:
     """(x values for a simulation, x label, x limits): the first driver's angle [deg] (its
     travel from ``initial_deg``, in the direction it turns) over two revolutions after the
     first (the start transient), or over the run when it is shorter than three; time when
-    there is no revolute driver."""
+    there is no revolute driver at a constant speed."""
     d = study.scene.graph.drivers[0] if study.scene.graph.drivers else None
-    if d is None or study.scene.graph.joint(d.joint).type != "revolute" or d.speed == 0:
+    if d is None or study.scene.graph.joint(d.joint).type != "revolute" or d.speed == 0 or d.time_law != "constant":
         return (lambda sim: sim.t), "t [s]", (0.0, study.t_end)
     start = np.degrees(d.initial)
     travel = np.degrees(abs(d.speed) * study.t_end)

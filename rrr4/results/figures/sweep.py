@@ -1,5 +1,6 @@
 """Figures of a sweep's results.csv: each metric against each varied key (the arms in one
-plot), a heat map over the first two grid keys, and histograms of a Monte Carlo."""
+plot; a case whose arm has not converged, its ``converged`` cell False, drawn hollow), a heat
+map over the first two grid keys, and histograms of a Monte Carlo."""
 
 from __future__ import annotations
 
@@ -29,6 +30,11 @@ def _read(csv_path: Path) -> list[dict]:
         return [r for r in csv.DictReader(f) if r["status"] == "ok"]
 
 
+def _converged(row: dict) -> bool:
+    """A row's verdict (its `converged` cell; a sweep from before the verdict: True)."""
+    return row.get("converged", "True") != "False"
+
+
 def _values(rows: list[dict], metric: str, scale: float = 1.0, key: str | None = None):
     """(x, y): the `key` column (or zeros) and metric * scale of the rows where the metric
     applies (a metric that does not apply to an arm is an empty cell)."""
@@ -56,10 +62,13 @@ def sweep_figures(csv_path, keys, grid_keys, mc_keys, out_dir, title: str = "") 
             ax.axis("off")
         for ax, key in zip(axes.ravel(), keys, strict=False):
             for arm in arms:
-                x, y = _values([r for r in rows if r["arm"] == arm], metric, scale, key)
-                if not y.size:
-                    continue
-                ax.plot(x, y, "o", ms=4, alpha=0.7, color=STYLE[arm]["color"], label=STYLE[arm]["label"])
+                mine = [r for r in rows if r["arm"] == arm]
+                for ok in (True, False):  # an unconverged case (its verdict) is drawn hollow
+                    x, y = _values([r for r in mine if _converged(r) == ok], metric, scale, key)
+                    if y.size:
+                        ax.plot(x, y, "o", ms=4, alpha=0.7, color=STYLE[arm]["color"],
+                                mfc=STYLE[arm]["color"] if ok else "none",
+                                label=STYLE[arm]["label"] + ("" if ok else ", not converged"))
             ax.set_xlabel(key, fontsize=8)
             ax.set_ylabel(label, fontsize=8)
             ax.ticklabel_format(axis="x", useOffset=False, style="sci", scilimits=(-3, 4))
