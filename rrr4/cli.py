@@ -110,6 +110,9 @@ def _optimize(args) -> int:
     print(f"optimal duration: {law['duration_s']:.6g} s ({law['objective']}, "
           f"{'with the contact condition' if law['contact_condition'] else 'actuator limits'}, "
           f"{grid}, {st['solver']}, {steps}{st['solve_time_s']:.3g} s solve)")
+    if "max_condition_number_at_nodes" in law:
+        print(f"along the whole motion ({law['margins_checked_at']} instants): largest condition number of J "
+              f"{law['max_condition_number']:.4g} ({law['max_condition_number_at_nodes']:.4g} at the nodes)")
     if summary.get("contact_cost_ratio"):
         print(f"with the actuator limits only: {summary['optimal_duration_limits_only_s']:.6g} s; keeping contact "
               f"costs x{summary['contact_cost_ratio']:.3f} in cycle time")
