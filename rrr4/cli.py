@@ -110,6 +110,9 @@ def _optimize(args) -> int:
     print(f"optimal duration: {law['duration_s']:.6g} s ({law['objective']}, "
           f"{'with the contact condition' if law['contact_condition'] else 'actuator limits'}, "
           f"{grid}, {st['solver']}, {steps}{st['solve_time_s']:.3g} s solve)")
+    if "max_condition_number_at_nodes" in law:
+        print(f"along the whole motion ({law['margins_checked_at']} instants): largest condition number of J "
+              f"{law['max_condition_number']:.4g} ({law['max_condition_number_at_nodes']:.4g} at the nodes)")
     if summary.get("contact_cost_ratio"):
         print(f"with the actuator limits only: {summary['optimal_duration_limits_only_s']:.6g} s; keeping contact "
               f"costs x{summary['contact_cost_ratio']:.3f} in cycle time")
@@ -226,10 +229,9 @@ def _windows(text: str | None) -> int:
 
 
 def _identify(args) -> int:
-    import warnings
     from pathlib import Path
 
-    from .identify import MeasurementWarning, identify, read_measurements
+    from .identify import identify, read_measurements
     from .mechanism import load_scene
     from .results.identification import MARKER, write_identification
     scene = load_scene(args.scene)
@@ -251,16 +253,11 @@ def _identify(args) -> int:
         if len(window) != 2 or not window[0] < window[1]:
             from .errors import SceneError
             raise SceneError(f"--window: {args.window!r} is not allowed (T0:T1 in s with T0 < T1, e.g. 0.2:0.8)")
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", MeasurementWarning)
-        measured = read_measurements(args.measurements, scene, arm=args.arm)
-        if window is not None:
-            measured = measured.window(*window)
-        ident = identify(scene, measured, parameters=parameters, method=args.method, noise=noise or None,
-                         windows=_windows(args.windows))
-    for w in caught:
-        if issubclass(w.category, MeasurementWarning):
-            _say(f"rrr4 identify: warning: {w.message}")
+    measured = read_measurements(args.measurements, scene, arm=args.arm)
+    if window is not None:
+        measured = measured.window(*window)
+    ident = identify(scene, measured, parameters=parameters, method=args.method, noise=noise or None,
+                     windows=_windows(args.windows))
     files = write_identification(ident, out)
     print(ident.table())
     print(f"wrote {', '.join(files)} to {out}/")
@@ -363,12 +360,15 @@ def build_parser() -> argparse.ArgumentParser:
     op.add_argument("scene", help="scene YAML file with a task body, e.g. problems/paper_circle.yaml")
     op.add_argument("--objective", choices=OBJECTIVES, default="time",
                     help="time (default), effort (at --duration) or time+effort")
-    op.add_argument("--duration", type=float, default=None, help="duration [s] for --objective effort")
-    op.add_argument("--points", type=int, default=1000, help="grid intervals along the path (default 1000)")
+    op.add_argument("--duration", type=float, default=None, help="duration [s] for --objective effort or "
+                                                                   "time+effort (refused with time)")
+    op.add_argument("--points", type=int, default=None, help="grid intervals along the path (default 1000; "
+                                                             "refused with --to)")
     op.add_argument("--to", nargs=3, type=float, metavar=("X", "Y", "PHI"),
                     help="a point-to-point motion instead: rest to rest from the path's start to the task pose "
                          "X [m], Y [m], PHI [rad], the path free")
-    op.add_argument("--nodes", type=int, default=40, help="intervals of a --to motion (default 40)")
+    op.add_argument("--nodes", type=int, default=None, help="intervals of a --to motion (default 40; refused "
+                                                            "without --to)")
     op.add_argument("--no-replay", action="store_true", help="solve only; do not replay the law")
     op.add_argument("--out", help="directory (default results/<scene name>_optimal/); replaced atomically")
     op.set_defaults(func=_optimize)
@@ -487,9 +487,9 @@ def main(argv=None) -> int:
         return 2
     except KeyboardInterrupt:
         return _interrupted(interrupted)
-    except (NotImplementedError, SystemError):
-        if interrupted:  # a signal that landed inside a CasADi call comes back as one of these
-            return _interrupted(interrupted)
+    except Exception:
+        if interrupted:  # a signal that landed inside a CasADi call comes back as its error (a RuntimeError of
+            return _interrupted(interrupted)  # a mapped call such as map1001_qp_preload, a SystemError, ...)
         raise
     except BrokenPipeError:  # e.g. `rrr4 check SCENE | head`: the reader left, nothing to report
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

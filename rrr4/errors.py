@@ -26,3 +26,8 @@ class InfeasibleError(Rrr4Error, RuntimeError):
 class MeasurementError(Rrr4Error, ValueError):
     """A measurement file or array cannot be used: the message names the file, the column
     (and row), the value and what is allowed."""
+
+
+class SolverError(Rrr4Error, RuntimeError):
+    """A numerical solver stopped without an answer where one exists (an optimal-control
+    problem known to be feasible): the message names the solver's status and what to change."""

@@ -7,6 +7,10 @@
   it was);
 - :func:`run_c_compiler`: the system C compiler (``$CC``, else ``cc`` or ``gcc``), for the
   compiled stepping and for the generated controller alike;
+- :func:`read_text`: the one bounded reader of a text file rrr4 reads (a scene, a spec, a
+  table, measurements): it exists, is a regular file, not too large (checked before it is
+  read), not binary, UTF-8 (a byte-order mark dropped); :func:`read_json`: the same for a JSON
+  file, with its nesting bounded and, where asked, a mapping required;
 - :func:`request_stop`: after it (the command line calls it on Ctrl-C or SIGTERM) nothing is
   moved into place any more, and the long loops (the simulation's stepping, a sweep's cases)
   raise KeyboardInterrupt at their next block (:func:`stop_requested`). The interrupt itself
@@ -17,6 +21,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -26,7 +31,11 @@ from pathlib import Path
 from .errors import Rrr4Error, SceneError
 
 __all__ = ["atomic_file", "write_atomic", "atomic_directory", "check_target", "check_writable", "run_c_compiler",
-           "c_compiler", "BuildError", "request_stop", "stop_requested"]
+           "c_compiler", "BuildError", "request_stop", "stop_requested", "read_text", "read_json", "shown",
+           "MAX_JSON_BYTES", "MAX_JSON_DEPTH"]
+
+MAX_JSON_BYTES = 64 * 2**20  # largest JSON file read [bytes] (a summary.json is a few kB)
+MAX_JSON_DEPTH = 64          # deepest nesting of objects and arrays
 
 _stop = [False]  # whether a stop was requested since the command started (see request_stop)
 
@@ -46,6 +55,69 @@ def stop_requested() -> bool:
 def _check_stop() -> None:
     if _stop[0]:
         raise KeyboardInterrupt
+
+
+def shown(path) -> str:
+    """A file name as shown in a one-line message: every unprintable character escaped."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(path))
+
+
+def read_text(path, what: str, required: str, max_bytes: int, error=SceneError) -> str:
+    """The text of the file `path` (`what` names it in errors, e.g. 'scene file'; `required`
+    says what is allowed, e.g. 'a YAML scene file'): it must exist, be a regular file (not a
+    directory, a device or a pipe), hold at most max_bytes (checked before reading), no NUL
+    byte, and be UTF-8 (a leading byte-order mark is dropped). Raises `error` in one line."""
+    p, name = Path(path), shown(path)
+    if not p.exists():
+        raise error(f"{what} '{name}' does not exist")
+    if p.is_dir():
+        raise error(f"{what} '{name}' is a directory ({required} is required)")
+    if not p.is_file():
+        raise error(f"{what} '{name}' is not a regular file (a device or a pipe; {required} is required)")
+    try:
+        size = p.stat().st_size
+        if size > max_bytes:
+            raise error(f"{what} '{name}' is too large ({size:,} bytes; at most {max_bytes:,})")
+        with p.open("rb") as f:
+            raw = f.read(max_bytes + 1)
+    except OSError as e:
+        raise error(f"{what} '{name}' cannot be read ({e.strerror})") from None
+    if len(raw) > max_bytes:  # it grew while read
+        raise error(f"{what} '{name}' is too large (more than {max_bytes:,} bytes)")
+    if b"\0" in raw:
+        raise error(f"{what} '{name}' is binary ({required} is required)")
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        raise error(f"{what} '{name}' is not UTF-8 text (invalid byte at offset {e.start}; {required} is "
+                    "required)") from None
+
+
+def read_json(path, what: str = "JSON file", mapping: bool = True, max_bytes: int = MAX_JSON_BYTES,
+              max_depth: int = MAX_JSON_DEPTH, error=Rrr4Error):
+    """The data of the JSON file `path` (`what` names it in errors), read by :func:`read_text`:
+    valid JSON, nested at most max_depth deep, and with `mapping` an object (a list or a number
+    is refused by its type, never echoed). Raises `error` in one line."""
+    name = shown(path)
+    text = read_text(path, what, "a JSON text file", max_bytes, error)
+    deep = f"{what} '{name}' is nested too deeply (at most {max_depth} levels of objects and arrays)"
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise error(f"{what} '{name}' is not valid JSON (line {e.lineno}, column {e.colno}: {e.msg})") from None
+    except RecursionError:
+        raise error(deep) from None
+    stack = [(data, 1)]
+    while stack:
+        v, depth = stack.pop()
+        if isinstance(v, (dict, list)):
+            if depth > max_depth:
+                raise error(deep)
+            stack.extend((x, depth + 1) for x in (v.values() if isinstance(v, dict) else v))
+    if mapping and not isinstance(data, dict):
+        raise error(f"{what} '{name}' is not a JSON object (it holds a {type(data).__name__}; an object of keys is "
+                    "required)")
+    return data
 
 
 class BuildError(Rrr4Error, RuntimeError):

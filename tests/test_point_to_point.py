@@ -9,7 +9,7 @@ import pytest
 
 import rrr4
 from rrr4 import load_scene
-from rrr4.errors import InfeasibleError, KinematicsError, SceneError
+from rrr4.errors import InfeasibleError, KinematicsError, SceneError, SolverError
 from rrr4.optimal import optimal_motion, optimal_time_law, point_to_point
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -144,7 +144,7 @@ def test_transmission_margin_holds_at_every_node_and_binds(paper_scene):
 
 def test_solver_failure_names_the_worst_constraint_and_node(paper_scene, monkeypatch):
     monkeypatch.setitem(point_to_point.IPOPT_OPTIONS, "ipopt.max_iter", 3)
-    with pytest.raises(InfeasibleError, match=r"solver stopped with Maximum_Iterations_Exceeded \(largest violation "
+    with pytest.raises(SolverError, match=r"solver stopped with Maximum_Iterations_Exceeded \(largest violation "
                                               r"[0-9.e+-]+, [a-z_ ()A-Z0-9]+ at (node|interval|end) \d+\)$") as e:
         optimal_motion(paper_scene, [0.02, 0.0, 0.0], nodes=10, sign=1)
     assert "\n" not in str(e.value)

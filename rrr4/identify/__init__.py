@@ -17,7 +17,6 @@ from .identify import METHODS, Identification, identify, verdict_text
 from .least_squares import COLLINEARITY_LIMIT
 from .measurements import (
                            Measurements,
-                           MeasurementWarning,
                            measurement_columns,
                            measurements_from_simulation,
                            read_measurements,
@@ -25,6 +24,6 @@ from .measurements import (
 from .parameters import DEFAULT_PARAMETERS, PATTERNS, Parameter, resolve_parameters
 from .seated import seated_model
 
-__all__ = ["identify", "Identification", "METHODS", "Measurements", "MeasurementWarning", "read_measurements",
+__all__ = ["identify", "Identification", "METHODS", "Measurements", "read_measurements",
            "measurements_from_simulation", "measurement_columns", "Parameter", "resolve_parameters",
            "DEFAULT_PARAMETERS", "PATTERNS", "seated_model", "COLLINEARITY_LIMIT", "verdict_text"]

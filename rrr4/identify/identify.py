@@ -21,7 +21,7 @@ from .least_squares import Z95, covariance, identifiability, levenberg_marquardt
 from .measurements import Measurements, measurements_from_simulation, read_measurements
 from .multiple_shooting import WindowedData, check_windows, first_frame
 from .parameters import Parameter, identified_scene, resolve_parameters
-from .seated import SeatedData, noise_from_residuals
+from .seated import SeatedData, check_friction_explained, noise_from_residuals
 
 __all__ = ["identify", "Identification", "METHODS"]
 
@@ -258,13 +258,19 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
     r, J = res["r"], res["J"] * derivative(u)
     if start.size:  # the start states are nuisance unknowns: the parameters' columns with theirs projected out
         J = J[:, :npar] - J[:, npar:] @ np.linalg.lstsq(J[:, npar:], J[:, :npar], rcond=None)[0]
-    cov = covariance(J, r, scale, dof=sum(float(np.sum(v)) for v in res["expected"].values()))
+    try:
+        cov = covariance(J, r, scale, dof=sum(float(np.sum(v)) for v in res["expected"].values()))
+    except np.linalg.LinAlgError as e:  # e.g. residuals of measurements in the wrong units overflow
+        raise MeasurementError(f"{m.source or 'measurements'}: the fit's covariance cannot be computed ({e}); are "
+                               "the columns in SI units (m, rad, N m)?") from None
     if method == "dynamic" and len(given) == len(sigma) and not cov["reduced_chi2"] <= FIT_LIMIT:
         raise SimulationError(f"method 'dynamic': the fit does not reproduce the measurements (reduced chi^2 "
                               f"{cov['reduced_chi2']:.3g} with the noise levels given, allowed {FIT_LIMIT:g}): the "
                               "shooting ended in a local minimum (journals that rattle: the run it starts from is "
                               "too far from the measured one) or the noise levels given are too small; no estimate is "
                               "returned")
+    friction = [q.key for q in params if q.kind == "friction"]
+    explained = check_friction_explained(data, res, friction[0]) if method == "seated" and friction else None
     se = cov["standard_error"]
     keys = [q.key for q in params]
     verdict = identifiability(J, keys, _excite(dict(zip(keys, params, strict=True))))
@@ -284,6 +290,8 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
            "rms_residual": {c: float(np.sqrt(np.mean(v ** 2))) for c, v in res["raw"].items()},
            "iterations": iterations, "converged": bool(converged), "wall_time_s": time.perf_counter() - wall,
            "angles": "measured" if data.angles_measured else "controller references", "preload": data.preload,
+           **({"friction_explained_ratio": explained[0], "friction_sliding_fraction": explained[1]}
+              if explained is not None else {}),
            "effort_lag_s": data.lag, **({"simulations": data.runs, "sensitivity_disagreement": data.chaos,
                                          "sensitivity_disagreement_nominal": chaos_nominal}
                                         if method == "dynamic" else {}),

@@ -11,26 +11,27 @@ optionally behind an arm prefix (``with_preload_x_m``). Every other column is ig
 from __future__ import annotations
 
 import csv
+import io
 import math
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..checks import describe
-from ..errors import MeasurementError
+from ..errors import KinematicsError, MeasurementError, SceneError
+from ..files import read_text, shown
 from ..problem import Problem
+from ..trajectory import trajectory_function
 
-__all__ = ["Measurements", "MeasurementWarning", "read_measurements", "measurements_from_simulation",
+__all__ = ["Measurements", "read_measurements", "measurements_from_simulation",
            "POSE_COLUMNS", "measurement_columns"]
 
 POSE_COLUMNS = ("x_m", "y_m", "theta_rad")
 MAX_ROWS = 2_000_000
-
-
-class MeasurementWarning(UserWarning):
-    """Measurements that can be used but look wrong (e.g. a pose in millimetres)."""
+MAX_BYTES = 256 * 2**20  # largest measurement file read [bytes]
+ANGLE_TOL = 0.5  # [rad] the farthest a measured actuator angle may lie from the scene's along its path
+CHECKED_ROWS = 200  # rows (evenly spread) at which the actuator angles are compared with the scene's
 
 
 def measurement_columns(problem: Problem) -> dict[str, list[str]]:
@@ -158,43 +159,50 @@ def read_measurements(path, problem: Problem | None = None, arm: str | None = No
     (or `scene`) names the actuators; `arm` picks one arm's columns of a study's
     timeseries.csv; `noise` {column: standard deviation} (column names without the prefix).
     Raises MeasurementError (one line) for a missing file, missing columns, non-monotone
-    time, NaN; warns (MeasurementWarning) when a pose column looks like millimetres."""
+    time, NaN, and units the scene makes implausible (:func:`check_units`)."""
     problem = Problem.from_scene(problem if problem is not None else scene)
-    p = Path(path)
-    if not p.is_file():
-        raise MeasurementError(f"{path}: no such measurement file")
-    with open(p, newline="") as f:
-        reader = csv.reader(f)
-        try:
-            header = [h.strip() for h in next(reader)]
-        except StopIteration:
-            raise MeasurementError(f"{path}: the file is empty (a header row with t_s and measured columns is "
-                                   "required)") from None
-        data = []
-        for k, row in enumerate(reader):
-            if k >= MAX_ROWS:
-                raise MeasurementError(f"{path}: more than {MAX_ROWS} rows (split the run into windows)")
-            if not row:
-                continue
-            if len(row) != len(header):
-                raise MeasurementError(f"{path}: row {k + 2} has {len(row)} values for {len(header)} columns")
-            data.append(row)
+    header, data = _read_rows(path)
     tname = "t_s" if "t_s" in header else "t" if "t" in header else None
     if tname is None:
-        raise MeasurementError(f"{path}: no time column (t_s or t) among {describe(header)}")
+        raise MeasurementError(f"{shown(path)}: no time column (t_s or t) among {describe(header)}")
     cols = {}
-    for name in header:
-        j = header.index(name)
+    for j, name in enumerate(header):
         try:
             cols[name] = np.array([float(r[j]) if r[j].strip() else np.nan for r in data])
         except ValueError:
             bad = next(i for i, r in enumerate(data) if not _is_number(r[j]))
-            raise MeasurementError(f"{path}: column {name} is {describe(data[bad][j])} in row {bad + 2} "
+            raise MeasurementError(f"{shown(path)}: column {name} is {describe(data[bad][j])} in row {bad + 2} "
                                    "(numbers are required)") from None
-    used = select_columns(problem, header, cols, str(path), arm)
-    m = Measurements(cols[tname], used, dict(noise or {}), str(path))
+    used = select_columns(problem, header, cols, shown(path), arm)
+    m = Measurements(cols[tname], used, dict(noise or {}), shown(path))
     check_units(problem, m)
     return m
+
+
+def _read_rows(path) -> tuple[list[str], list[list[str]]]:
+    """The header and the rows of the CSV file (read by :func:`rrr4.files.read_text`); one-line
+    MeasurementError for a file that is not there, not a regular UTF-8 text file, too large,
+    not CSV (a cell beyond the CSV reader's field limit), ragged or empty."""
+    text = read_text(path, "measurement file", "a CSV text file with a header row", MAX_BYTES, MeasurementError)
+    reader = csv.reader(io.StringIO(text, newline=""))
+    data: list[list[str]] = []
+    try:
+        header = [h.strip() for h in next(reader)]
+        for k, row in enumerate(reader):
+            if k >= MAX_ROWS:
+                raise MeasurementError(f"{shown(path)}: more than {MAX_ROWS} rows (split the run into windows)")
+            if not row:
+                continue
+            if len(row) != len(header):
+                raise MeasurementError(f"{shown(path)}: row {k + 2} has {len(row)} values for {len(header)} columns")
+            data.append(row)
+    except StopIteration:
+        raise MeasurementError(f"{shown(path)}: the file is empty (a header row with t_s and measured columns is "
+                               "required)") from None
+    except csv.Error as e:
+        raise MeasurementError(f"{shown(path)}: not a readable CSV at row {reader.line_num} ({e}; a CSV text file "
+                               "with a header row is required)") from None
+    return header, data
 
 
 def _is_number(s: str) -> bool:
@@ -206,13 +214,48 @@ def _is_number(s: str) -> bool:
 
 
 def check_units(problem: Problem, m: Measurements) -> None:
-    """Warn when the pose columns look like millimetres (beyond ten times the mechanism's reach)."""
-    reach = _reach(problem)
+    """The units' plausibility against the scene, before any fit (MeasurementError in one line):
+    the task body's position within the mechanism's reach (millimetres are refused), each
+    revolute actuator's angle within ANGLE_TOL of the scene's along its path at the same time
+    (degrees, another zero or another working mode are refused), each prismatic actuator's
+    position within the reach of the scene's."""
+    where, reach = m.source or "measurements", _reach(problem)
     for c in ("x_m", "y_m"):
-        if c in m.columns and np.max(np.abs(m.columns[c])) > 10 * reach:
-            warnings.warn(f"{m.source or 'measurements'}: column {c} reaches {np.max(np.abs(m.columns[c])):.4g}, "
-                          f"more than ten times the mechanism's reach ({reach:.3g} m): is it in millimetres? "
-                          "(metres are required)", MeasurementWarning, stacklevel=3)
+        if c in m.columns and np.max(np.abs(m.columns[c])) > reach:
+            raise MeasurementError(f"{where}: column {c} reaches {np.max(np.abs(m.columns[c])):.4g}, beyond the "
+                                   f"mechanism's reach ({reach:.3g} m): is it in millimetres? (metres are required)")
+    angles = measurement_columns(problem)["angle"]
+    if not any(c in m.columns for c in angles) or problem.model.task is None:
+        return
+    rows = np.unique(np.linspace(0, len(m) - 1, min(len(m), CHECKED_ROWS)).astype(int))
+    expected = _path_angles(problem, np.clip(m.t[rows], 0.0, problem.path.duration))
+    if expected is None:
+        return
+    for i, c in enumerate(angles):
+        if c not in m.columns:
+            continue
+        v = m.columns[c][rows]
+        revolute = c.endswith("_rad")
+        d = np.abs(np.angle(np.exp(1j * (v - expected[:, i])))) if revolute else np.abs(v - expected[:, i])
+        k = int(np.argmax(d))
+        if d[k] > (ANGLE_TOL if revolute else reach):
+            hint = ("is it in degrees? (radians are required)" if revolute and np.max(np.abs(v)) > 2 * np.pi else
+                    "another zero, or another working mode?" if revolute else "is it in millimetres? (metres are "
+                    "required)")
+            raise MeasurementError(f"{where}: column {c} is {v[k]:.6g} at t = {m.t[rows][k]:.6g} s where the scene's "
+                                   f"actuator is at {expected[k, i]:.6g} along its path (allowed within "
+                                   f"{ANGLE_TOL if revolute else reach:.3g}): {hint}")
+
+
+def _path_angles(problem: Problem, t: np.ndarray) -> np.ndarray | None:
+    """The actuators' coordinates (N, n) of the scene along its path at the times t (None where
+    the mechanism does not assemble there: then the fit says so)."""
+    rows = np.array(trajectory_function(problem.path).map(len(t))(t[None, :])[0]).T
+    try:
+        q = problem.path_coordinates(rows[:, :3], rows[:, 3:6], rows[:, 6:9])
+    except (KinematicsError, SceneError):
+        return None
+    return np.array(problem.model.actuator_coordinates_function.map(len(t))(q.T)[0]).T
 
 
 def _reach(problem: Problem) -> float:

@@ -33,8 +33,16 @@ alpha for both, as in :mod:`rrr4.optimal.time_law`):
   an upper bound of the 2-norm condition number of J (at most 3 times it), smooth where
   the condition number's singular values are not (parallel singularities).
 
+The margins hold at the nodes and at INNER_POINTS instants between each two; the returned motion
+(constant accelerations between the nodes) is then checked along its whole length (see
+MIN_SAMPLES_PER_INTERVAL): where it fails (a thin singular set between two points, e.g. a pure
+turn through a parallel singularity) it is solved again with MAX_INNER_POINTS between each two
+nodes, and refused (InfeasibleError naming the instant and the value) if it still fails. The
+summary reports the extremes along the motion beside those at the nodes.
+
 Graph scenes keep the efforts' limits; their start and target are checked against the
-singularity margins, and the condition number along the motion is reported, not constrained.
+singularity margins, and the condition number along the motion (sampled the same way) is
+reported, not constrained.
 
 Objectives: 'time' (T free), or 'effort' at a given duration: the integral of tau^T W tau dt
 (W the preload weights), each interval the mean of its two ends. IPOPT on CasADi's Opti,
@@ -52,7 +60,7 @@ import numpy as np
 
 from ..checks import argument, describe, unknown_value
 from ..dynamics.family import EffortFamily
-from ..errors import InfeasibleError, KinematicsError, SceneError
+from ..errors import InfeasibleError, KinematicsError, SceneError, SolverError
 from ..mechanism.workspace import condition_number
 from ..preload.qp import qp_preload_function
 from ..problem import Problem
@@ -63,6 +71,10 @@ __all__ = ["OptimalMotion", "optimal_motion", "MOTION_OBJECTIVES"]
 
 MOTION_OBJECTIVES = ("time", "effort")
 MAX_NODES = 2000
+# the margins are held at INNER_POINTS instants between each two nodes (MAX_INNER_POINTS where the
+# check at the path's sample rate, at least MIN_SAMPLES_PER_INTERVAL instants per interval, fails)
+INNER_POINTS, MAX_INNER_POINTS, MIN_SAMPLES_PER_INTERVAL, MAX_ALONG_SAMPLES = 1, 16, 32, 100_000
+MARGIN_TOL = 1e-6  # relative tolerance of that check
 IPOPT_OPTIONS = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-9,
                  "ipopt.constr_viol_tol": 1e-9, "ipopt.max_iter": 1000, "ipopt.mu_strategy": "adaptive"}
 # per objective: for 'time' a limited-memory Hessian (the exact one through the mapped closed-form
@@ -115,8 +127,18 @@ class OptimalMotion:
     def summary(self) -> dict:
         """The motion's numbers as plain JSON types."""
         return {**optimum_summary(self), "nodes": len(self.t), "start": list(self.start), "target": list(self.target),
-                "max_condition_number": float(self.condition.max()),
-                "min_transmission": None if self.transmission is None else float(self.transmission.min())}
+                **_extremes(self)}
+
+
+def _extremes(motion: OptimalMotion) -> dict:
+    """The margins' extremes along the whole motion (statistics['along'], sampled between the
+    nodes) beside those at the nodes."""
+    along = motion.statistics.get("along", {})
+    nodes_tr = None if motion.transmission is None else float(motion.transmission.min())
+    return {"max_condition_number": along.get("max_condition_number", float(motion.condition.max())),
+            "min_transmission": along.get("min_transmission", nodes_tr),
+            "max_condition_number_at_nodes": float(motion.condition.max()), "min_transmission_at_nodes": nodes_tr,
+            "margins_checked_at": along.get("samples")}
 
 
 def _pose(key: str, v) -> np.ndarray:
@@ -184,6 +206,25 @@ def optimal_motion(scene, target, objective: str = "time", *, duration: float | 
     for key, pose in (("start", start), ("target", target)):
         formulation.check_pose(key, pose)
     signs = (sign,) if sign is not None else ((1, -1) if contact else (1,))
+    inner = INNER_POINTS
+    while True:
+        best = _best(problem, formulation, start, target, objective, duration, nodes, contact, null_space, signs,
+                     f_min, warm_start, inner)
+        along = formulation.along(best, problem.path.sample_rate)
+        along["inner_points"] = inner
+        best.statistics["along"] = along
+        if not along["violation"]:
+            return best
+        if inner >= MAX_INNER_POINTS:
+            raise InfeasibleError(f"optimal motion: {along['violation']} between the nodes, with the margins held "
+                                  f"at the {nodes + 1} nodes and {inner} points between each two (no motion found "
+                                  "that keeps them everywhere; try other --nodes or another target)")
+        inner = MAX_INNER_POINTS
+
+
+def _best(problem, formulation, start, target, objective, duration, nodes, contact, null_space, signs, f_min,
+          warm_start, inner) -> OptimalMotion:
+    """The better of the signs' motions (raises InfeasibleError when none is found)."""
     failures, results = {}, {}
     for sg in signs:
         where = formulation.at_rest(start, target, sg, f_min) if contact else ""
@@ -191,20 +232,51 @@ def optimal_motion(scene, target, objective: str = "time", *, duration: float | 
             failures[sg] = where
             continue
         results[sg] = _solve(problem, formulation, start, target, objective, duration, nodes, contact, null_space,
-                             sg, f_min, warm_start)
+                             sg, f_min, warm_start, inner)
     if not results:
         raise InfeasibleError(" ".join(failures[sg] for sg in signs))
     ok = [r for r in results.values() if r.statistics["success"]]
     if not ok:
         st = next(iter(results.values())).statistics
-        raise InfeasibleError(f"optimal motion: the solver stopped with {st['return_status']} (largest violation "
-                              f"{st['max_violation']:.3g}, {st['worst_constraint']})")
+        error = InfeasibleError if st["return_status"] == "Infeasible_Problem_Detected" else SolverError
+        raise error(f"optimal motion: the solver stopped with {st['return_status']} (largest violation "
+                    f"{st['max_violation']:.3g}, {st['worst_constraint']})")
     best = min(ok, key=lambda r: r.statistics["objective_value"])
     best.statistics["objective_by_sign"] = {f"{k:+d}": (r.statistics["objective_value"] if r.statistics["success"]
                                                         else None) for k, r in results.items()}
     best.statistics["objective_by_sign"].update({f"{k:+d}": None for k in failures})
     best.statistics["at_rest_infeasible"] = {f"{k:+d}": v for k, v in failures.items()}
     return best
+
+
+def along_motion(motion: OptimalMotion, rate: float, least: int = MIN_SAMPLES_PER_INTERVAL):
+    """t (K,), pose (K, 3): the motion between its nodes as transcribed (constant acceleration on
+    each interval), sampled at `rate` [Hz] (at most MAX_ALONG_SAMPLES in all) and at least
+    `least` instants per interval, the nodes included."""
+    N = len(motion.t) - 1
+    h = motion.duration / N
+    k = max(least, min(int(np.ceil(h * rate)), MAX_ALONG_SAMPLES // N))
+    u = np.arange(k) / k * h
+    pose = (motion.pose[:-1, None, :] + u[None, :, None] * motion.pose_d[:-1, None, :]
+            + 0.5 * u[None, :, None]**2 * motion.pose_dd[:-1, None, :]).reshape(-1, 3)
+    t = (motion.t[:-1, None] + u[None, :]).ravel()
+    return np.r_[t, motion.t[-1]], np.vstack([pose, motion.pose[-1]])
+
+
+def _margin_report(t, cond, cmax, sin_tr=None, tmin=None) -> dict:
+    """The extremes of the margins at the samples t and the first violation ('' if none)."""
+    out = {"samples": int(t.size), "max_condition_number": float(np.max(cond)),
+           "t_max_condition_s": float(t[int(np.argmax(cond))]), "violation": ""}
+    if sin_tr is not None:
+        low = np.min(sin_tr, axis=1)
+        out.update(min_transmission=float(np.min(low)), t_min_transmission_s=float(t[int(np.argmin(low))]))
+        if out["min_transmission"] < tmin * (1 - MARGIN_TOL):
+            out["violation"] = (f"a transmission |sin| of {out['min_transmission']:.3g} at t = "
+                                f"{out['t_min_transmission_s']:.4g} s (allowed >= path.min_transmission = {tmin:g})")
+    if not out["max_condition_number"] <= cmax * (1 + MARGIN_TOL):
+        out["violation"] = (f"a condition number of J of {out['max_condition_number']:.4g} at t = "
+                            f"{out['t_max_condition_s']:.4g} s (allowed <= path.max_condition_number = {cmax:g})")
+    return out
 
 
 # ---------------------------------------------------------------------------------- n-RRR
@@ -326,13 +398,30 @@ class _NRRR:
             alpha = ca.MX.zeros(self.m_all, N1)
         out = F(pose, pose_d, *sides, alpha)
         out = (out[:3], out[3:])
-        sin_tr, cos_arg, bound2 = self.geometry.map(N1)(pose)
+        self._margins(rows, pose, "node")
+        return [o[0] for o in out], [o[1] for o in out]
+
+    def between(self, rows, poses):
+        """The singularity margins at poses (3, K) between the nodes."""
+        self._margins(rows, poses, "point between nodes")
+
+    def _margins(self, rows, poses, where):
+        sin_tr, cos_arg, bound2 = self.geometry.map(poses.shape[1])(poses)
         p = self.path
         chains = [f"chain {i + 1}" for i in range(self.n)]
-        rows.add(ca.diag(ca.DM(self.sigma)) @ sin_tr, p.min_transmission, None, [f"transmission {c}" for c in chains])
-        rows.add(cos_arg, -1.0, 1.0, [f"workspace (IK) {c}" for c in chains])
-        rows.add(bound2 / p.max_condition_number**2, None, 1.0, ["condition number"])
-        return [o[0] for o in out], [o[1] for o in out]
+        rows.add(ca.diag(ca.DM(self.sigma)) @ sin_tr, p.min_transmission, None, [f"transmission {c}" for c in chains],
+                 where)
+        rows.add(cos_arg, -1.0, 1.0, [f"workspace (IK) {c}" for c in chains], where)
+        rows.add(bound2 / p.max_condition_number**2, None, 1.0, ["condition number"], where)
+
+    def along(self, motion, rate) -> dict:
+        """The margins' extremes along the motion (:func:`along_motion`) and the first violation."""
+        t, pose = along_motion(motion, rate)
+        K = len(t)
+        J = np.array(self.mech.jacobian_function.map(K)(pose.T)[0]).T.reshape(K, 3, self.n).transpose(0, 2, 1)
+        sin_tr = np.array(self.geometry.map(K)(pose.T)[0]).T
+        return _margin_report(t, condition_number(J), self.path.max_condition_number, self.sigma * sin_tr,
+                              self.path.min_transmission)
 
     def initial(self, opti, v, warm):
         if self.m:
@@ -409,6 +498,19 @@ class _Graph:
                                                                              for i in range(nq)])
         return [v["u0"], v["u1"]], [ca.MX(0, N1), ca.MX(0, N1)]
 
+    def between(self, rows, poses):
+        """Nothing: a graph's margins are checked at the ends and reported along the motion."""
+
+    def along(self, motion, rate) -> dict:
+        """The condition number's extreme along the motion (:func:`along_motion`), reported only."""
+        t, pose = along_motion(motion, rate)
+        try:
+            q = self.problem.path_coordinates(pose, np.zeros_like(pose), np.zeros_like(pose))
+            cond = condition_number(self.mech.path_jacobians(q))
+        except KinematicsError as e:
+            return {"samples": int(t.size), "violation": f"the mechanism does not assemble ({e})"}
+        return {**_margin_report(t, cond, np.inf), "reported_only": True}
+
     def initial(self, opti, v, warm):
         pose, pose_d = warm["pose"], warm["pose_d"]
         q = self.problem.path_coordinates(pose, pose_d, np.zeros_like(pose))
@@ -475,7 +577,7 @@ def _warm(problem, start, target, N, contact, null_space, sign, f_min, duration,
 
 
 def _solve(problem, form, start, target, objective, duration, N, contact, null_space, sign, f_min,
-           warm_start) -> OptimalMotion:
+           warm_start, inner) -> OptimalMotion:
     warm = _warm(problem, start, target, N, contact, null_space, sign, f_min, duration, warm_start)
     t0 = time.perf_counter()
     opti = ca.Opti()
@@ -501,6 +603,8 @@ def _solve(problem, form, start, target, objective, duration, N, contact, null_s
     sides = (ca.horzcat(U, U[:, -1]), ca.horzcat(U[:, 0], U))
     v = form.unknowns(opti, N)
     taus, axials = form.nodes(rows, v, pose, pose_d, sides)
+    form.between(rows, ca.horzcat(*(pose[:, :-1] + (h * u) * pose_d[:, :-1] + (h * u)**2 / 2 * U
+                                    for u in np.arange(1, inner + 1) / (inner + 1))))
     L = np.asarray(problem.torque_limit, float)
     for tau in taus:
         rows.add(ca.diag(ca.DM(1 / L)) @ tau, -1.0, 1.0, [f"limit of actuator {a}"
@@ -517,7 +621,8 @@ def _solve(problem, form, start, target, objective, duration, N, contact, null_s
     opti.set_initial(X, np.vstack([warm["pose"].T, warm["pose_d"].T]))
     opti.set_initial(U, warm["pose_dd"].T)
     form.initial(opti, v, warm)
-    opti.solver("ipopt", {**IPOPT_OPTIONS, "ipopt.hessian_approximation": HESSIAN[objective]})
+    opti.solver("ipopt", {"ipopt.max_wall_time": 60.0 + 0.1 * N, **IPOPT_OPTIONS,
+                          "ipopt.hessian_approximation": HESSIAN[objective]})
     build = time.perf_counter() - t0
     t1 = time.perf_counter()
     try:

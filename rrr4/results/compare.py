@@ -7,11 +7,12 @@ is listed first."""
 
 from __future__ import annotations
 
-import json
 import math
+import os
 from pathlib import Path
 
 from ..errors import Rrr4Error
+from ..files import read_json
 
 __all__ = ["RUN_SPECIFIC", "VERDICT", "compare_results", "flatten"]
 
@@ -34,12 +35,9 @@ def flatten(data, prefix: str = "") -> dict:
 
 def _summary(d: Path) -> dict:
     f = Path(d) / "summary.json"
-    if not f.is_file():
+    if not os.path.lexists(f):
         raise Rrr4Error(f"{d}: not a result directory of rrr4 run (no summary.json)")
-    try:
-        return flatten(json.loads(f.read_text(encoding="utf-8")))
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise Rrr4Error(f"{f}: not valid JSON ({e})") from None
+    return flatten(read_json(f, "result file"))
 
 
 def _differs(a, b, rtol: float, atol: float) -> bool:

@@ -6,12 +6,14 @@ from __future__ import annotations
 
 import csv
 import difflib
+import io
 import math
 from contextlib import contextmanager
 from pathlib import Path
 
 from ..checks import describe, unknown_value
 from ..errors import SceneError
+from ..files import read_text
 
 __all__ = ["Section", "MAX_MAGNITUDE", "BIG", "MAX_SAMPLES", "recording", "read_csv_rows"]
 
@@ -21,6 +23,7 @@ __all__ = ["Section", "MAX_MAGNITUDE", "BIG", "MAX_SAMPLES", "recording", "read_
 MAX_MAGNITUDE, BIG = 1e6, 1e15
 # most path samples / output frames a scene may ask for (each frame holds the full state)
 MAX_SAMPLES = 5_000_000
+MAX_CSV_BYTES = 256 * 2**20  # largest table file a scene names [bytes]
 
 
 
@@ -89,6 +92,8 @@ class Section:
                lo_open=False, hi_open=False, big=False):
         v = self.raw(k, default)
         key = self.key(k)
+        if (positive or nonneg) and lo is None and hi is not None:  # the range says the sign rule too
+            lo, lo_open = 0.0, positive
         _note(key, "number", rule=_rule(positive, nonneg, lo, hi, lo_open, hi_open))
         if v is None:
             raise self.missing(k, "a number")
@@ -199,24 +204,25 @@ def _with_dot(v: str) -> str:
 def read_csv_rows(path, key: str, columns: tuple[str, ...], max_rows: int) -> list[tuple[str, ...]]:
     """The cells of `columns` (text) of every row of the CSV file a scene key names (header
     row first; other columns are ignored), at most max_rows + 1 rows (the caller refuses
-    more); SceneError naming the key and the file when it is missing, unreadable or lacks a
-    column."""
+    more); SceneError naming the key and the file when it is missing, not a regular UTF-8 text
+    file (:func:`rrr4.files.read_text`; a byte-order mark is dropped), unreadable as CSV or
+    lacks a column."""
     p, wanted = Path(path), ",".join(columns)
-    if not p.is_file():
+    if not p.exists():
         raise SceneError(f"{key}: {p.name!r} is not allowed (no such file beside the scene; a CSV with columns "
                          f"{wanted})")
+    text = read_text(p, f"{key}: file", f"a CSV file beside the scene with columns {wanted}", MAX_CSV_BYTES)
     try:
-        with p.open(newline="", encoding="utf-8") as f:
-            reader = csv.DictReader(f)
-            missing = [c for c in columns if c not in (reader.fieldnames or ())]
-            if missing:
-                raise SceneError(f"{key}: {p.name!r} lacks the column(s) {', '.join(missing)} (a CSV with columns "
-                                 f"{wanted})")
-            rows = []
-            for row in reader:
-                rows.append(tuple(row[c] for c in columns))
-                if len(rows) > max_rows:
-                    break
-    except (UnicodeDecodeError, csv.Error, OSError) as e:
-        raise SceneError(f"{key}: {p.name!r} is not a readable CSV ({type(e).__name__})") from None
+        reader = csv.DictReader(io.StringIO(text, newline=""))
+        missing = [c for c in columns if c not in (reader.fieldnames or ())]
+        if missing:
+            raise SceneError(f"{key}: {p.name!r} lacks the column(s) {', '.join(missing)} (a CSV with columns "
+                             f"{wanted})")
+        rows = []
+        for row in reader:
+            rows.append(tuple(row[c] for c in columns))
+            if len(rows) > max_rows:
+                break
+    except csv.Error as e:
+        raise SceneError(f"{key}: {p.name!r} is not a readable CSV ({e})") from None
     return rows

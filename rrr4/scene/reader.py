@@ -16,6 +16,7 @@ import yaml
 
 from ..checks import describe, unknown_value
 from ..errors import SceneError
+from ..files import read_text, shown
 from .assembly import read_assembly
 from .data import with_data
 from .drivers import read_driver
@@ -44,6 +45,7 @@ from .schema import (
     Scene,
 )
 from .time_table import check_time_table, read_time_table
+from .unused import check_joint_override, check_unused
 from .vocabulary import (
     ACTUATION_MODES,
     CONTACT_LAW_KEYS,
@@ -170,6 +172,7 @@ def _joints(sec: Section, n_chains: int) -> tuple[JointSpec, ...]:
         mb = _material(s.raw("bearing_material"), s.key("bearing_material"))
         film = read_lubrication(s.raw("lubrication"), s.key("lubrication")) if s.has("lubrication") else None
         wear = read_wear(s.raw("wear"), s.key("wear")) if s.has("wear") else None
+        check_joint_override(key, name, film, wear, cl)
         s.done()
         out.append(JointSpec(name, name in cl, rj, c, mj, mb, lubrication=film, wear=wear))
     sec.done()
@@ -462,6 +465,9 @@ def _path(sec: Section, task: bool = True, base: Path = Path()) -> PathSpec:
                             "(no task body: the drivers set the motion; use 'none' with duration and sample_rate)"))
     law = sec.choice("time_law", TIME_LAWS, "quintic")
     table = ()
+    if law == "table" and not task:
+        raise SceneError(f"{sec.key('time_law')}: 'table' is not allowed in a driven scene (no task body follows "
+                         "the path: the drivers set the motion, and a time table has no path progress to time)")
     if law == "table":
         raw = sec.raw("time_table")
         if raw is None:
@@ -572,6 +578,7 @@ def parse_scene(data, name: str = "scene", source: str = "") -> Scene:
         source=source,
     )
     top.done()
+    check_unused(scene, top.data.get("actuation"))
     p = scene.path
     if p.duration * p.sample_rate > MAX_SAMPLES:
         raise SceneError(f"path.sample_rate: {p.sample_rate:g} Hz over {p.duration:g} s is not allowed (at most "
@@ -655,27 +662,9 @@ def read_yaml(path, what: str = "scene"):
     """The data of a YAML file (`what` names it in errors: 'scene', 'sweep spec'), with the
     file checks: it exists, is a regular UTF-8 text file, valid YAML, no key given twice, not
     empty. Raises :class:`SceneError`."""
-    p, path = Path(path), "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(path))  # shown in one line
-    if not p.exists():
-        raise SceneError(f"{what} file '{path}' does not exist")
-    if p.is_dir():
-        raise SceneError(f"{what} file '{path}' is a directory (a YAML {what} file is required)")
-    if not p.is_file():
-        raise SceneError(f"{what} file '{path}' is not a regular file (a YAML {what} file is required)")
-    try:
-        size = p.stat().st_size
-        if size > MAX_BYTES:
-            raise SceneError(f"{what} file '{path}' is too large ({size:,} bytes; at most {MAX_BYTES:,})")
-        raw = p.read_bytes()
-    except OSError as e:
-        raise SceneError(f"{what} file '{path}' cannot be read ({e.strerror})") from None
-    if b"\0" in raw:
-        raise SceneError(f"{what} file '{path}' is binary (a YAML text file is required)")
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as e:
-        raise SceneError(f"{what} file '{path}' is not UTF-8 text (invalid byte at offset {e.start})") from None
-    data = load_yaml(text, str(path))
+    text = read_text(path, f"{what} file", f"a YAML {what} file", MAX_BYTES)
+    path = shown(path)
+    data = load_yaml(text, path)
     if data is None:
         raise SceneError(f"{what} file '{path}' is empty (a {what} mapping is required"
                          + (": mechanism, path, ...)" if what == "scene" else ")"))

@@ -20,31 +20,39 @@ import math
 import time
 from dataclasses import replace
 
-from ..errors import InfeasibleError
+from ..checks import unknown_value
+from ..errors import InfeasibleError, SceneError, SolverError
 from ..optimal import optimal_motion, optimal_time_law
 from ..optimal.limits import limit_curves
 from ..problem import Problem
 from ..results.metrics import scalar_metrics
 from ..results.optimal import Optimization
+from ..scene.vocabulary import OBJECTIVES
 from ..simulation import simulate
 from .study import arm_scene, run_study, study_controller
 
-__all__ = ["optimize", "motion_scene", "HEADROOM_FACTORS"]
+__all__ = ["optimize", "motion_scene", "check_arguments", "at_duration", "HEADROOM_FACTORS", "DEFAULT_POINTS",
+           "DEFAULT_NODES"]
 
 HEADROOM_FACTORS = (1.25, 1.5, 2.0, 3.0, 5.0, 10.0)
+DEFAULT_POINTS, DEFAULT_NODES = 1000, 40  # grid intervals of a time law, intervals of a point-to-point motion
 
 
-def optimize(scene, objective: str = "time", *, points: int = 1000, duration: float | None = None,
-             effort_weight: float = 1.0, target=None, nodes: int = 40, replay: bool = True, progress: bool = False,
-             log=None) -> Optimization:
+def optimize(scene, objective: str = "time", *, points: int | None = None, duration: float | None = None,
+             effort_weight: float | None = None, target=None, nodes: int | None = None, replay: bool = True,
+             progress: bool = False, log=None) -> Optimization:
     """The optimal time law of `scene`'s path and its replay (see the module docstring).
 
     scene: a Scene, a Problem or a scene file's path; objective: 'time', 'effort' (at
-    `duration` [s]) or 'time+effort' (effort_weight); points: grid intervals; target: a task
-    pose [m, m, rad] to reach rest to rest from the path's start with the path free
-    (:func:`rrr4.optimal.optimal_motion`, `nodes` intervals) instead of following the path;
-    replay: run the study on the law; log: callable taking one line per stage."""
+    `duration` [s]) or 'time+effort' (effort_weight, default 1); points: grid intervals
+    (default 1000); target: a task pose [m, m, rad] to reach rest to rest from the path's start
+    with the path free (:func:`rrr4.optimal.optimal_motion`, `nodes` intervals, default 40)
+    instead of following the path; replay: run the study on the law; log: callable taking one
+    line per stage. An argument that would do nothing in the mode chosen (a duration with the
+    time objective, nodes without a target, points with one, an effort weight without
+    'time+effort') is refused in one line (:func:`check_arguments`)."""
     say = log or (lambda _msg: None)
+    points, nodes, effort_weight = check_arguments(objective, points, duration, effort_weight, target, nodes)
     problem = Problem.from_scene(scene)
     contact = problem.has_preload
     t0 = time.perf_counter()
@@ -52,8 +60,9 @@ def optimize(scene, objective: str = "time", *, points: int = 1000, duration: fl
         return _point_to_point(problem, objective, target, nodes, duration, contact, replay, progress, log, say, t0)
     what = "with the contact condition" if contact else "with the actuator limits"
     say(f"optimal time law ({objective}) {what}, {points} grid intervals")
-    law = optimal_time_law(problem, objective, points=points, contact=contact, duration=duration,
-                           effort_weight=effort_weight)
+    law = at_duration(lambda: optimal_time_law(problem, objective, points=points, contact=contact,
+                                               duration=duration, effort_weight=effort_weight),
+                      lambda: optimal_time_law(problem, points=points, contact=contact).duration, duration)
     free = None
     if contact:
         say("the same with the actuator limits only")
@@ -74,12 +83,58 @@ def optimize(scene, objective: str = "time", *, points: int = 1000, duration: fl
     return Optimization(problem, law, free, curves, study, headroom, stats)
 
 
+def check_arguments(objective, points, duration, effort_weight, target, nodes) -> tuple[int, int, float]:
+    """(points, nodes, effort_weight) with their defaults, or SceneError in one line naming the
+    argument (and its option) that would be ignored in this mode (their ranges are checked where
+    they are used)."""
+    if objective not in OBJECTIVES:
+        raise unknown_value("objective (--objective)", "objective", objective, OBJECTIVES)
+    ignored = [(duration is not None and objective == "time", "duration (--duration)",
+                "the time objective minimises the duration; give --objective effort or time+effort"),
+               (nodes is not None and target is None, "nodes (--nodes)",
+                "the intervals of a point-to-point motion; the path's time law has --points"),
+               (points is not None and target is not None, "points (--points)",
+                "the grid of a time law along the path; a point-to-point motion has --nodes"),
+               (effort_weight is not None and objective != "time+effort", "effort_weight",
+                "the weight of the effort in objective 'time+effort'")]
+    for bad, key, why in ignored:
+        if bad:
+            raise SceneError(f"{key}: not used with objective {objective!r}{'' if target is None else ' and a target'}"
+                             f" ({why})")
+    return (DEFAULT_POINTS if points is None else points, DEFAULT_NODES if nodes is None else nodes,
+            1.0 if effort_weight is None else effort_weight)
+
+
+def at_duration(solve, fastest, duration):
+    """solve() at a given `duration` [s] (None: the time objective, solve() as it is), whose
+    failure is named for what it is: a duration shorter than the fastest law's (fastest() [s],
+    the same problem with the time objective) has no law (SceneError naming the duration, before
+    solving); at a longer one (a slower motion, which the limits allow where the path holds at
+    rest), a solver that stops is a SolverError, not an infeasible problem."""
+    if duration is None:
+        return solve()
+    t_min = fastest()
+    if duration < t_min * (1 - 1e-6):
+        raise SceneError(f"duration (--duration): {duration:g} s is not allowed (shorter than the fastest motion, "
+                         f"{t_min:.6g} s with the time objective: no motion of that duration keeps the limits)")
+    try:
+        return solve()
+    except (InfeasibleError, SolverError) as e:
+        if "the solver stopped with" not in str(e):  # a refusal with its reason (a margin, a limit at rest) stands
+            raise
+        raise SolverError(f"{e}; {duration:g} s is no faster than the fastest motion ({t_min:.6g} s), so the solver "
+                          "most likely failed rather than the problem being infeasible: try a duration nearer the "
+                          "fastest, or fewer grid intervals") from None
+
+
 def _point_to_point(problem, objective, target, nodes, duration, contact, replay, progress, log, say, t0):
     """Part 2 of the loop: the optimal motion to `target`, with and without the contact
     condition, replayed along a clamped spline through its nodes (:func:`motion_scene`)."""
     what = "with the contact condition" if contact else "with the actuator limits"
     say(f"optimal motion ({objective}) to {list(target)} {what}, {nodes} intervals")
-    motion = optimal_motion(problem, target, objective, duration=duration, nodes=nodes, contact=contact)
+    motion = at_duration(lambda: optimal_motion(problem, target, objective, duration=duration, nodes=nodes,
+                                                contact=contact),
+                         lambda: optimal_motion(problem, target, nodes=nodes, contact=contact).duration, duration)
     free = None
     if contact:
         say("the same with the actuator limits only")
