@@ -162,9 +162,9 @@ class Ros2(FixedStepIntegrator):
         mat = w_matrix(system, second_order_split(system))
         extra = np.zeros(len(EXTRA) + mat.size)
         extra[EXTRA.index("renew")] = 1.0
-        _, last = out = self.roll(system, np.r_[x0, extra], u_frames, h, steps_per_frame, chunk, progress,
-                                  every=every, sink=sink)
+        states, last, stepping = self.roll(system, np.r_[x0, extra], u_frames, h, steps_per_frame, chunk, progress,
+                                           every=every, sink=sink)
         n_steps = steps_per_frame * u_frames.shape[0]
         jacobians = int(round(last[x0.size + EXTRA.index("jacobians")]))
-        return Run(out[0], {"hold": self.hold, "jacobians": jacobians,
-                            "jacobians_per_step": jacobians / max(n_steps, 1)})
+        return Run(states, {"hold": self.hold, "jacobians": jacobians,
+                            "jacobians_per_step": jacobians / max(n_steps, 1), "stepping": stepping})
