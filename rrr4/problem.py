@@ -144,7 +144,7 @@ class Problem:
     @functools.cached_property
     def effort_units(self) -> tuple[str, ...]:
         """The unit of each actuator's effort: 'N m' on a revolute joint, 'N' on a prismatic one."""
-        return tuple("N m" if self.joint(j).type == "revolute" else "N" for j in self.model.actuated_joints)
+        return tuple(self.model.effort_unit(j) for j in self.model.actuated_joints)
 
     @property
     def effort_unit(self) -> str:

@@ -103,7 +103,7 @@ def _about(problem: Problem, ks: tuple[Kernel, ...]) -> tuple[str, str]:
  * joints are ordered B1..B4, C1..C4. Working modes (acos branch per chain): {modes}."""
         return "controller functions of the planar 4-RRR", notes
     model = problem.model
-    actuators = ", ".join(f"{a} ({problem.joint(j).type}, {'N m' if problem.joint(j).type == 'revolute' else 'N'})"
+    actuators = ", ".join(f"{a} ({problem.joint(j).type}, {model.effort_unit(j)})"
                           for a, j in zip(model.actuator_names, model.actuated_joints, strict=True))
     task = (f"the body {model.task!r}" if model.task_point is None else
             f"the point {tuple(model.task_point)} [m] of the body {model.task!r} (x, y of the pose)")

@@ -47,6 +47,7 @@ from ..problem import Problem
 from ..scene import Scene
 from ..simulation import default_jit
 from ..simulation.initial import initial_state
+from ..simulation.run import controller_efforts
 from ..simulation.system import in_tree, loop_of, measured, system_of
 from ..trajectory import trajectory_function
 from .measurements import Measurements, measurement_columns
@@ -217,12 +218,8 @@ class DynamicData:
 
     def _efforts(self, t, q, qd) -> np.ndarray:
         """The controller's efforts at the states (q, qd) at the times t (for seated journals' loads)."""
-        out = []
-        for tk, qk, qdk in zip(t, q, qd, strict=True):
-            tau = self.loop.control(*trajectory_function(self.problem.path)(tk), *measured(self.problem.model, qk, qdk),
-                                    np.asarray(self.loop.settings, float))
-            out.append(np.array(tau[0] if isinstance(tau, (list, tuple)) else tau).ravel())
-        return np.array(out)
+        return controller_efforts(self.problem, self.loop, self.problem.model, np.asarray(t, float),
+                                  np.atleast_2d(q), np.atleast_2d(qd))
 
     def frame_inputs(self, a: int, b: int) -> np.ndarray:
         """(b - a, nu) inputs of frames a..b-1: [t_a, t_b] (and a held controller's path rows at t_a)."""

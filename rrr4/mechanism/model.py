@@ -180,6 +180,11 @@ class Model:
                                                                                                    j.axis[0]])
         return ca.vertcat(th2 - th1 - j.angle, ca.dot(n1, p2 - p1))
 
+    def effort_unit(self, joint: str) -> str:
+        """The unit of an effort along joint `joint`'s coordinate (an actuator's or a driver's):
+        'N m' on a revolute joint, 'N' on a prismatic one. The one place this rule is written."""
+        return "N m" if self.graph.joint(joint).type == "revolute" else "N"
+
     def joint_coordinate(self, q, name: str, geometry=None) -> ca.SX:
         """theta_2 - theta_1 [rad] (revolute) or the slide u_1 . (p_2 - p_1) [m] (prismatic)."""
         j = self.graph.joint(name)

@@ -65,7 +65,7 @@ from ..mechanism.workspace import condition_number
 from ..preload.qp import qp_preload_function
 from ..problem import Problem
 from ..trajectory import path_geometry_function
-from .time_law import BINDING_TOL, binding_counts, contact_directions, optimal_time_law, optimum_summary
+from .time_law import binding_counts, binding_labels, contact_directions, optimal_time_law, optimum_summary
 
 __all__ = ["OptimalMotion", "optimal_motion", "MOTION_OBJECTIVES"]
 
@@ -682,18 +682,11 @@ class _Rows:
 
 def _binding(problem, taus, axial, f_min, sin_tr, bound) -> tuple[str, ...]:
     """Per node the constraints whose relative slack is below BINDING_TOL, tightest first."""
-    L = np.asarray(problem.torque_limit, float)
-    slack = [1.0 - np.maximum(*(np.abs(t) for t in taus)) / L]
-    names = [f"actuator {n}" for n in problem.model.actuator_names]
-    if axial is not None:
-        slack.append(axial / f_min - 1.0)
-        names += [f"contact {j}" for j in problem.model.preload_joints]
-    p = problem.path
+    p, more = problem.path, []
     if sin_tr is not None:
-        slack.append(sin_tr / p.min_transmission - 1.0)
-        names += [f"transmission chain {i + 1}" for i in range(sin_tr.shape[1])]
+        chains = [f"transmission chain {i + 1}" for i in range(sin_tr.shape[1])]
+        more.append((sin_tr / p.min_transmission - 1.0, chains))
     if bound is not None:
-        slack.append((1.0 - bound / p.max_condition_number)[:, None])
-        names.append("condition number")
-    S = np.concatenate(slack, axis=1)
-    return tuple(", ".join(names[i] for i in np.argsort(row) if row[i] < BINDING_TOL) for row in S)
+        more.append(((1.0 - bound / p.max_condition_number)[:, None], ["condition number"]))
+    return binding_labels(taus, problem.torque_limit, problem.model.actuator_names,
+                          None if axial is None else (axial,), f_min, problem.model.preload_joints, more)

@@ -55,9 +55,8 @@ from ..trajectory import PathSamples
 from .family import PathFamily, path_family
 from .reachability import X_CAP, point_rows, project_out, recover_alpha, time_optimal_speeds
 
-__all__ = ["OptimalTimeLaw", "optimal_time_law", "binding_counts", "optimum_summary", "OBJECTIVES", "MAX_POINTS",
-           "contact_directions", "SOLVERS",
-           "time_law_functions"]
+__all__ = ["OptimalTimeLaw", "optimal_time_law", "binding_counts", "binding_labels", "optimum_summary", "OBJECTIVES",
+           "MAX_POINTS", "contact_directions", "SOLVERS", "time_law_functions"]
 
 MAX_POINTS = 100_000
 SOLVERS = ("reachability", "convex")   # of the time law: TOPP-RA, the convex program (IPOPT)
@@ -134,6 +133,26 @@ class OptimalTimeLaw:
     def summary(self) -> dict:
         """The law's numbers as plain JSON types."""
         return {**optimum_summary(self), "points": len(self.s), "null_space": self.null_space}
+
+
+def binding_labels(taus, limits, actuators, axials=None, f_min=None, joints=(), more=()) -> tuple[str, ...]:
+    """Per point (or node) the constraints whose relative slack is below BINDING_TOL, tightest
+    first, joined by ', ' ('' where none binds): each actuator's limit at the larger |effort|
+    of `taus` (its values on either side of a point), each passive joint's contact condition at
+    the smaller of `axials` (None: no contact condition), then `more`, pairs (slack (N, k),
+    k names). The one place an optimal law's or motion's binding constraints are named."""
+    slack = [1.0 - np.maximum.reduce([np.abs(t) for t in taus]) / np.asarray(limits, float)]
+    names = [f"actuator {n}" for n in actuators]
+    if axials is not None:
+        slack.append(np.minimum.reduce(list(axials)) / f_min - 1.0)
+        names += [f"contact {j}" for j in joints]
+    for s, n in more:
+        slack.append(s)
+        names += list(n)
+    S = np.concatenate(slack, axis=1)
+    order = np.argsort(S, axis=1, kind="stable")
+    count = (S < BINDING_TOL).sum(axis=1)
+    return tuple(", ".join(names[i] for i in row[:n]) for row, n in zip(order.tolist(), count.tolist(), strict=True))
 
 
 def binding_counts(binding) -> dict[str, int]:
@@ -609,26 +628,15 @@ class _Setup:
     def _binding(self, taus, axials, b, accs) -> tuple[str, ...]:
         """Per point the constraints whose relative slack (on either side of the point) is
         below BINDING_TOL, tightest first, joined by ', ' ('' where none binds)."""
-        slack = [1.0 - np.maximum(*(np.abs(t) for t in taus)) / self.limits]
-        names = [f"actuator {n}" for n in self.names]
-        if self.contact:
-            slack.append(np.minimum(*axials) / self.f_min - 1.0)
-            names += [f"contact {j}" for j in self.joints]
-        fam, k2 = self.fam, 2  # the task point's x, y
+        fam, k2, more = self.fam, 2, []  # the task point's x, y
         if self.bounds["max_speed"] is not None:
-            slack.append((1.0 - b / self.bounds["max_speed"] ** 2)[:, None])
-            names.append("speed")
+            more.append(((1.0 - b / self.bounds["max_speed"] ** 2)[:, None], ["speed"]))
         if self.bounds["max_task_speed"] is not None:
             v = np.sqrt(np.sum(fam.pose_s[:, :k2] ** 2, axis=1) * b)
-            slack.append((1.0 - v / self.bounds["max_task_speed"])[:, None])
-            names.append("task speed")
+            more.append(((1.0 - v / self.bounds["max_task_speed"])[:, None], ["task speed"]))
         if self.bounds["max_task_acceleration"] is not None:
             acc = np.maximum(*(np.linalg.norm(fam.pose_s[:, :k2] * a[:, None] + fam.pose_ss[:, :k2] * b[:, None],
                                               axis=1) for a in accs))
-            slack.append((1.0 - acc / self.bounds["max_task_acceleration"])[:, None])
-            names.append("task acceleration")
-        S = np.concatenate(slack, axis=1)
-        order = np.argsort(S, axis=1, kind="stable")
-        count = (S < BINDING_TOL).sum(axis=1)
-        return tuple(", ".join(names[i] for i in row[:n])
-                     for row, n in zip(order.tolist(), count.tolist(), strict=True))
+            more.append(((1.0 - acc / self.bounds["max_task_acceleration"])[:, None], ["task acceleration"]))
+        return binding_labels(taus, self.limits, self.names, axials if self.contact else None, self.f_min,
+                              self.joints, more)

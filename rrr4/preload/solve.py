@@ -159,7 +159,7 @@ def solve_preload(scene: Scene | Problem, method: str | None = None, *, qp_solve
     feasible = (method_ok & ~solver_failed & finite & (singular == "") & force_ok.all(axis=1) & torque_ok.all(axis=1))
 
     names = model.preload_joints
-    units = ["N m" if scene.graph.joint(j).type == "revolute" else "N" for j in model.actuated_joints]
+    units = problem.effort_units
     issues: list[Infeasibility] = []
     for k in np.flatnonzero(~feasible):
         tk = float(samples.t[k])

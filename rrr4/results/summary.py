@@ -314,7 +314,7 @@ def preload_lines(sol: PreloadSolution, problem: Problem) -> list[str]:
     head = f"preload along the path: {sol.method}, f_min = {sol.f_min:g} N, {len(sol.t)} samples: "
     if sol.all_feasible:
         k, i = np.unravel_index(int(np.argmax(np.abs(sol.tau))), sol.tau.shape)
-        unit = "N m" if problem.joint(problem.model.actuated_joints[i]).type == "revolute" else "N"
+        unit = problem.effort_units[i]
         return [head + f"holds at every sample; peak effort {abs(sol.tau[k, i]):.4g} {unit} at actuator "
                 f"{problem.model.actuator_names[i]}, t = {sol.t[k]:.4g} s (limit {sol.torque_limit[i]:g} {unit})"]
     lines = [head + f"CANNOT HOLD at {int(np.sum(~sol.feasible))} of {len(sol.t)} samples"]

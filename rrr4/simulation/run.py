@@ -48,7 +48,7 @@ from .outputs import Outputs
 from .result import Simulation
 from .system import REFERENCES, Loop, in_tree, loop_of, measured, system_of
 
-__all__ = ["simulate", "OVERRIDES", "default_jit", "frame_times", "run_end"]
+__all__ = ["simulate", "OVERRIDES", "default_jit", "frame_times", "controller_efforts", "run_end"]
 
 OVERRIDES = ("step", "output_rate", "preload", "v_min", "baumgarte", "jit", "progress", "references", "controller",
              "model", "inputs", "wear")
@@ -253,7 +253,7 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
         return tuple(refs_at(t)[key] for key in ("th", "thd", "ff")) if refs_at is not None else None
 
     def efforts(t, q, qd):  # what the controller commands at the states (q, qd) at the times t
-        return _controller_efforts(ctrl, loop, model, t, q, qd, tabulated_at(t))
+        return controller_efforts(ctrl, loop, model, t, q, qd, tabulated_at(t))
 
     tree = in_tree(problem, eqs)
     system = system_of(problem, eqs, loop, refs, tree, overrides.get("inputs") or "contact")
@@ -351,8 +351,8 @@ def _failure_message(failure: dict, method: str, eqs, outputs: Outputs) -> str:
             "larger integrator.max_newton)")
 
 
-def _controller_efforts(ctrl: Problem, loop: Loop, model, t: np.ndarray, q: np.ndarray, qd: np.ndarray,
-                        refs: tuple | None) -> np.ndarray:
+def controller_efforts(ctrl: Problem, loop: Loop, model, t: np.ndarray, q: np.ndarray, qd: np.ndarray,
+                       refs: tuple | None = None) -> np.ndarray:
     """(N, n) efforts the controller commands at the states (q, qd) (N, nq) at times t (N,):
     what it held over the control period starting there, or what it applied there. refs:
     a tabulated controller's (theta_ref, theta_d_ref, tau_ff) (N, n each) at t, as the loop

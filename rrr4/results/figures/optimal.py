@@ -23,10 +23,9 @@ def optimal_figures(opt, out: Path) -> list[Path]:
     kind = "law" if curves is not None else "motion"
 
     fig, ax = plt.subplots(figsize=(8, 4.5))
-    units = opt.problem.scene.graph
-    unit = {a.name: "N m" if units.joint(a.joint).type == "revolute" else "N" for a in units.actuators}
+    units = dict(zip(opt.problem.model.actuator_names, opt.problem.effort_units, strict=True))
     for i, name in enumerate(law.actuator_names):
-        line, = ax.plot(law.t, law.efforts[:, i], lw=1.3, label=f"{name} [{unit[name]}]")
+        line, = ax.plot(law.t, law.efforts[:, i], lw=1.3, label=f"{name} [{units[name]}]")
         ax.axhline(law.torque_limit[i], color=line.get_color(), ls=":", lw=0.8)
         ax.axhline(-law.torque_limit[i], color=line.get_color(), ls=":", lw=0.8)
     ax.plot([], [], color="0.4", ls=":", label="limits (+-)")

@@ -247,7 +247,7 @@ def driver_efforts(study: Study, path: Path) -> Path | None:
         return None
     fig, axes = _grid(len(drivers), 6.0, 3.0)
     for k, d in enumerate(drivers):
-        unit = "N m" if study.scene.graph.joint(d.joint).type == "revolute" else "N"
+        unit = study.problem.model.effort_unit(d.joint)
         for arm_name, arm in study.arms.items():
             sim = arm.simulation
             axes[k].plot(sim.t, sim.driver_effort[:, k], lw=0.5 if arm_name != "ideal" else 1.2, **STYLE[arm_name])
