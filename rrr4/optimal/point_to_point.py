@@ -67,7 +67,7 @@ from ..problem import Problem
 from ..trajectory import path_geometry_function
 from .time_law import binding_counts, binding_labels, contact_directions, optimal_time_law, optimum_summary
 
-__all__ = ["OptimalMotion", "optimal_motion", "MOTION_OBJECTIVES"]
+__all__ = ["checked_pose", "OptimalMotion", "optimal_motion", "MOTION_OBJECTIVES"]
 
 MOTION_OBJECTIVES = ("time", "effort")
 MAX_NODES = 2000
@@ -141,7 +141,8 @@ def _extremes(motion: OptimalMotion) -> dict:
             "margins_checked_at": along.get("samples")}
 
 
-def _pose(key: str, v) -> np.ndarray:
+def checked_pose(key: str, v) -> np.ndarray:
+    """`v` as a task pose [x, y, theta] (3 finite numbers), or a one-line SceneError naming `key`."""
     try:
         x = np.asarray(v, float).ravel()
     except (TypeError, ValueError):
@@ -197,9 +198,9 @@ def optimal_motion(scene, target, objective: str = "time", *, duration: float | 
         raise SceneError("null_space: False is not allowed for a redundant graph scene in a point-to-point motion")
     if sign is not None and sign not in (1, -1):
         raise SceneError(f"sign: {sign!r} is not allowed (+1 or -1)")
-    target = _pose("target", target)
+    target = checked_pose("target", target)
     start = (np.array(path_geometry_function(problem.path)(0.0)[0]).ravel() if start is None
-             else _pose("start", start))
+             else checked_pose("start", start))
     if np.allclose(start, target, rtol=0.0, atol=1e-12):
         raise SceneError(f"target: {np.round(target, 6).tolist()} is not allowed (the same pose as the start)")
     formulation = _NRRR(problem, start, null_space) if problem.closed_form else _Graph(problem)

@@ -24,6 +24,7 @@ from ..checks import unknown_value
 from ..errors import InfeasibleError, SceneError, SolverError
 from ..optimal import optimal_motion, optimal_time_law
 from ..optimal.limits import limit_curves
+from ..optimal.point_to_point import checked_pose
 from ..problem import Problem
 from ..results.metrics import scalar_metrics
 from ..results.optimal import Optimization
@@ -131,7 +132,8 @@ def _point_to_point(problem, objective, target, nodes, duration, contact, replay
     """Part 2 of the loop: the optimal motion to `target`, with and without the contact
     condition, replayed along a clamped spline through its nodes (:func:`motion_scene`)."""
     what = "with the contact condition" if contact else "with the actuator limits"
-    say(f"optimal motion ({objective}) to {list(target)} {what}, {nodes} intervals")
+    target = checked_pose("target", target)
+    say(f"optimal motion ({objective}) to {target.tolist()} {what}, {nodes} intervals")
     motion = at_duration(lambda: optimal_motion(problem, target, objective, duration=duration, nodes=nodes,
                                                 contact=contact),
                          lambda: optimal_motion(problem, target, nodes=nodes, contact=contact).duration, duration)
