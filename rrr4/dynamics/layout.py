@@ -106,14 +106,18 @@ class ParameterLayout:
         """The number of contact numbers (``Problem.contact_parameters``), before the forces'."""
         return self.slice("forces").start
 
-    def vector(self, values: dict) -> np.ndarray:
-        """The vector with `values` (name -> number) at their entries: every name of the layout
-        exactly once (ValueError naming what is missing or not an entry)."""
-        missing = [n for n in self.names if n not in values]
-        unknown = [n for n in values if n not in self._at]
+    def vector(self, values: dict, groups: tuple = GROUPS) -> np.ndarray:
+        """The entries of `groups` (leading groups of :data:`GROUPS`, e.g. :data:`CONTACT_GROUPS`)
+        with `values` (name -> number) at their places: every name of those groups exactly once
+        (ValueError naming what is missing or not an entry)."""
+        if tuple(groups) != GROUPS[:len(groups)]:
+            raise ValueError(f"parameters: groups {groups} are not leading groups of {GROUPS}")
+        names = [n for n in self.names if n.split(".")[0] in groups]
+        missing = [n for n in names if n not in values]
+        unknown = [n for n in values if n not in names]
         if missing or unknown:
             raise ValueError(f"parameters: missing {missing[:3]}, not entries {unknown[:3]}")
-        return np.array([values[n] for n in self.names], float)
+        return np.array([values[n] for n in names], float)
 
 
 def parameter_layout(model: Model, effects: Effects, forces: tuple = (), geometry: int = 0) -> ParameterLayout:
