@@ -9,7 +9,8 @@ energy to ``potential``, its powers to ``power_damping``, ``power_friction`` or
 tree-coordinate equations give too). At a clearance joint a term may reshape the gap first
 (:meth:`Term.shape`: wear deepens it), then add its forces (:meth:`Term.at_joint`); its
 :meth:`Term.finish` runs once all joints have been visited. The builder runs its term list
-(``rrr4.dynamics.builder.TERMS``) through these phases in order.
+(``rrr4.dynamics.builder.TERMS``, one instance of each per build, so a term may keep what
+it gathers over the joints) through these phases in order.
 """
 
 from __future__ import annotations

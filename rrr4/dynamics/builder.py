@@ -6,7 +6,10 @@ Flores & Ambrosio 2004 for the clearance joints)
     M qdd + Phi_q^T lambda = Q_g + B tau + Q_contact(q, qd),
     Phi_q qdd = gamma - 2 omega_b Phi_dot - omega_b^2 Phi          (Baumgarte 1972)
 
-with exactly the effects the scene asks for:
+with exactly the effects the scene asks for, each a term of :data:`TERMS` (contact with its
+friction, :mod:`.contact_term`; oil film, :mod:`.film_term`; wear, :mod:`.wear_term`; force
+elements, :mod:`.elements`), added over one :class:`rrr4.dynamics.assembly.Assembly`, then the
+constraints (:mod:`.constraints`) and the tree coordinates (:mod:`.tree_equations`):
 
 - Phi holds every joint without clearance (actuated or passive, ``Model.constraints``), one
   row per driver s_d(q) - (initial + speed t) = 0, and in the prescribed mode the driving
@@ -71,9 +74,10 @@ lambda = J^T (Q - M Jdot pd), with the rows of the loop-closing ideal joints, th
 the driving constraints, Baumgarte-stabilised as above; ``tree_state``: p, pd -> q, qd;
 ``tree_coordinates``: q, qd -> p, pd.
 
-Every Function has a last input ``parameters``: the numbers of :func:`equation_parameters`
-(the contact numbers; with ``inputs='geometry'`` also masses, inertias and joint points),
-so that compiled code built on the equations serves every scene of the same structure.
+Every Function has a last input ``parameters``: the numbers of ``Problem.equation_parameters``
+(the contact numbers, the force elements'; with ``inputs='geometry'`` also masses, inertias
+and joint points), each named in ``Equations.layout`` (:mod:`rrr4.dynamics.layout`), so that
+compiled code built on the equations serves every scene of the same structure.
 
 Reaction convention: reaction[:, j] is the force the joint's first (inboard) body exerts on
 its second, global frame (= -lambda); contact_force[:, j] is the force on the journal body,
