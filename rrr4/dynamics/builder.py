@@ -102,23 +102,12 @@ from .constraints import Actuation, constraints, solved
 from .contact_term import CONTACT_OUTPUTS, ContactTerm, clearance_joint, contact_update
 from .elements import ForceElementTerm
 from .film_term import FilmTerm
-from .layout import (
-    EFFECT_PARAMETERS,
-    JOINT_PARAMETERS,
-    LUBRICATION_PARAMETERS,
-    WEAR_PARAMETERS,
-    ParameterLayout,
-    lubricated_joints,
-    parameter_layout,
-    worn_joints,
-    worn_surfaces,
-)
+from .layout import ParameterLayout, lubricated_joints, parameter_layout, worn_joints, worn_surfaces
 from .tree_equations import tree_functions
 from .wear_term import WearTerm
 
 __all__ = ["Equations", "build_equations", "parametric_equations", "with_parameters", "with_profiles", "profiles_of",
-           "INPUTS", "lubricated_joints", "worn_joints", "worn_surfaces", "BAUMGARTE_OMEGA", "JOINT_PARAMETERS",
-           "EFFECT_PARAMETERS", "LUBRICATION_PARAMETERS", "WEAR_PARAMETERS"]
+           "INPUTS", "lubricated_joints", "worn_joints", "worn_surfaces", "BAUMGARTE_OMEGA", "TERMS"]
 
 INPUTS = ("contact", "geometry")  # build_equations(inputs=...): the numbers the parametric equations take
 
