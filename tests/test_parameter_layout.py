@@ -110,3 +110,54 @@ def test_a_writer_that_misses_or_invents_a_name_is_refused():
         layout.vector(values | {"contact.viscosity": 1.0}, CONTACT_GROUPS)
     with pytest.raises(KeyError, match="joints.X9.stiffness"):
         layout.index("joints.X9.stiffness")
+
+
+def test_a_new_effect_is_one_more_term(monkeypatch):
+    """The extension point of docs/architecture.md: a viscous damper at each clearance joint,
+    torque -c (w_j - w_b), added as one term, changes the dynamics residual by exactly its
+    generalised force and power_damping by exactly c (w_j - w_b)^2 (evaluated here from qd)."""
+    import casadi as ca
+
+    from rrr4.dynamics import builder
+    from rrr4.dynamics.assembly import Term
+
+    c = 0.7  # [N m s/rad]
+
+    class JointDamping(Term):
+        def at_joint(self, a, joint):
+            torque = -c * (joint.w_j - joint.w_b)
+            dQ = ca.SX.zeros(a.model.nq)
+            if joint.i_j is not None:
+                dQ[joint.i_j] += torque
+            if joint.i_b is not None:
+                dQ[joint.i_b] -= torque
+            a.Q = a.Q + dQ
+            a.power_damping += -torque * (joint.w_j - joint.w_b)
+
+    problem = _problem(ROOT / "problems" / "flores_slider_crank.yaml")
+    model, effects, p = problem.model, problem.scene.effects, problem.equation_parameters()
+    plain = builder.parametric_equations(model, effects, "torque")
+    monkeypatch.setattr(builder, "TERMS", (*builder.TERMS, JointDamping))
+    damped = builder.parametric_equations(model, effects, "torque")
+    assert damped.layout == plain.layout
+    rng = np.random.default_rng(3)
+    q = problem.start_coordinates  # journals centred: no contact force to drown the damper's
+    qd, qdd = (rng.normal(size=model.nq) for _ in range(2))
+    nc, n = len(model.clearance_joints), model.n_actuators
+    refs = [np.zeros(n)] * 4 + [np.full(nc, 0.05), np.zeros(nc), 0.0]
+    lam = np.zeros(plain.n_constraints)
+    expected_dQ, expected_power = np.zeros(model.nq), 0.0
+    for name in model.clearance_joints:
+        spec = model.graph.joint(name)
+        i_j, i_b = model.rotation_index(spec.journal_body), model.rotation_index(spec.bearing_body)
+        w = (qd[i_j] if i_j is not None else 0.0) - (qd[i_b] if i_b is not None else 0.0)
+        for i, sign in ((i_j, 1.0), (i_b, -1.0)):
+            if i is not None:
+                expected_dQ[i] += -sign * c * w
+        expected_power += c * w**2
+    r0, r1 = (np.array(e.residual(q, qd, qdd, lam, *refs, p)[0]).ravel() for e in (plain, damped))
+    assert np.allclose(r1 - r0, -expected_dQ, rtol=1e-12, atol=1e-9)
+    a0, a1 = (e.acceleration(q, qd, *refs, p) for e in (plain, damped))
+    k = plain.acceleration.name_out().index("power_damping")
+    assert float(a1[k] - a0[k]) == pytest.approx(expected_power, rel=1e-9, abs=1e-12)
+    assert expected_power > 0
