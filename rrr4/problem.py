@@ -37,20 +37,19 @@ import numpy as np
 
 from .checks import argument, describe, unknown_value
 from .contact import V_MIN, joint_stiffness
-from .dynamics.builder import (
-    BAUMGARTE_OMEGA,
-    EFFECT_PARAMETERS,
-    INPUTS,
-    Equations,
-    lubricated_joints,
-    parametric_equations,
-    with_parameters,
-    worn_joints,
-    worn_surfaces,
-)
+from .dynamics.builder import BAUMGARTE_OMEGA, INPUTS, Equations, parametric_equations, with_parameters
 from .dynamics.elements import element_coordinate, element_forces_function
 from .dynamics.family import EffortFamily, graph_family
 from .dynamics.inverse import inverse_dynamics_function
+from .dynamics.layout import (
+    CONTACT_GROUPS,
+    LUBRICATION_PARAMETERS,
+    WEAR_PARAMETERS,
+    ParameterLayout,
+    lubricated_joints,
+    parameter_layout,
+    worn_joints,
+)
 from .errors import SceneError
 from .mechanism import Mechanism, Model, geometry_parameters, load_scene
 from .scene import JointSpec, Scene
@@ -159,28 +158,39 @@ class Problem:
         return joint_stiffness(self.joint(name), self.scene.effects.contact.stiffness)
 
     @functools.cached_property
+    def parameter_layout(self) -> ParameterLayout:
+        """The names of the equations' input ``parameters`` (:mod:`rrr4.dynamics.layout`): the
+        layout the equations are built with (``Problem.equations().layout``, without geometry)."""
+        return parameter_layout(self.model, self.scene.effects, self.scene.forces)
+
+    @functools.cached_property
     def contact_parameters(self) -> np.ndarray:
-        """The contact numbers the equations take as inputs: per clearance joint (graph order)
-        stiffness [N/m^n], journal and bearing radius [m], then restitution, damping and the
-        friction law's coefficients (:data:`rrr4.dynamics.builder.EFFECT_PARAMETERS`), then per
-        lubricated joint viscosity [Pa s], bearing length [m] and threshold (none without
-        lubrication), then per worn joint its wear coefficient, hardness [Pa] and bearing length [m],
-        then the wear profiles' node depths [m] (zeros: unworn; :func:`rrr4.dynamics.builder.worn_surfaces`);
-        empty without a clearance joint (no contact)."""
-        per = [(self.joint_stiffness(j), self.joint(j).journal_radius, self.joint(j).bearing_radius)
-               for j in self.clearance_joints]
-        if not per:
-            return np.zeros(0)
-        ce, fe = self.scene.effects.contact, self.scene.effects.friction
-        values = dict(restitution=ce.restitution, damping=ce.damping, friction_coefficient=fe.coefficient,
-                      static_coefficient=fe.static_coefficient, v0=fe.v0, v1=fe.v1,
-                      stribeck_velocity=fe.stribeck_velocity)
-        films = [(f.viscosity, f.length, f.threshold) for _, f in lubricated_joints(self.model, self.scene.effects)]
-        worn = [(w.coefficient, w.hardness, w.length) for _, w in worn_joints(self.model, self.scene.effects)]
-        nodes = sum(m for *_, m in worn_surfaces(self.model, self.scene.effects))
-        return np.array([*(v for row in per for v in row), *(values[k] for k in EFFECT_PARAMETERS),
-                         *(v for row in films for v in row), *(v for row in worn for v in row), *np.zeros(nodes)],
-                        float)
+        """The contact numbers the equations take as inputs, written by name into the groups
+        ``joints``, ``contact``, ``lubrication``, ``wear`` and ``profiles`` of
+        :attr:`parameter_layout`: per clearance joint (graph order) stiffness [N/m^n], journal
+        and bearing radius [m], then restitution, damping and the friction law's coefficients,
+        then per lubricated joint viscosity [Pa s], bearing length [m] and threshold, then per
+        worn joint its wear coefficient, hardness [Pa] and bearing length [m], then the wear
+        profiles' node depths [m] (zeros: unworn); empty without a clearance joint (no contact)."""
+        effects = self.scene.effects
+        ce, fe = effects.contact, effects.friction
+        values = {}
+        for j in self.clearance_joints:
+            joint = self.joint(j)
+            values |= {f"joints.{j}.stiffness": self.joint_stiffness(j),
+                       f"joints.{j}.journal_radius": joint.journal_radius,
+                       f"joints.{j}.bearing_radius": joint.bearing_radius}
+        if self.clearance_joints:
+            values |= {"contact.restitution": ce.restitution, "contact.damping": ce.damping,
+                       "contact.friction_coefficient": fe.coefficient,
+                       "contact.static_coefficient": fe.static_coefficient, "contact.v0": fe.v0,
+                       "contact.v1": fe.v1, "contact.stribeck_velocity": fe.stribeck_velocity}
+        for j, film in lubricated_joints(self.model, effects):
+            values |= {f"lubrication.{j}.{k}": getattr(film, k) for k in LUBRICATION_PARAMETERS}
+        for j, wear in worn_joints(self.model, effects):
+            values |= {f"wear.{j}.{k}": getattr(wear, k) for k in WEAR_PARAMETERS}
+        values |= {n: 0.0 for n in self.parameter_layout.names if n.startswith("profiles.")}  # unworn
+        return self.parameter_layout.vector(values, CONTACT_GROUPS)
 
     @functools.cached_property
     def start_coordinates(self) -> np.ndarray:

@@ -35,8 +35,8 @@ import casadi as ca
 import numpy as np
 
 from ..contact import friction_force, seat_gap
-from ..dynamics.builder import JOINT_PARAMETERS
 from ..dynamics.inverse import joint_reactions_function
+from ..dynamics.layout import JOINT_PARAMETERS
 from ..mechanism import kinematics as kin
 from ..problem import Problem
 from ..scene import FrictionEffect
@@ -51,9 +51,11 @@ def contact_numbers(problem: Problem, contact) -> tuple[dict, FrictionEffect]:
     """({clearance joint: (K [N/m^n], journal radius, bearing radius [m])}, the friction law
     with its coefficients) read from `contact`, a vector like ``Problem.contact_parameters``
     (numbers or symbols)."""
-    k, clear = len(JOINT_PARAMETERS), problem.clearance_joints
-    per = {name: tuple(contact[k * j + i] for i in range(k)) for j, name in enumerate(clear)}
-    mu, mu_s, v0, v1, v_s = (contact[k * len(clear) + 2 + i] for i in range(5))
+    at = problem.parameter_layout.index
+    per = {name: tuple(contact[at(f"joints.{name}.{key}")] for key in JOINT_PARAMETERS)
+           for name in problem.clearance_joints}
+    mu, mu_s, v0, v1, v_s = (contact[at(f"contact.{key}")] for key in ("friction_coefficient", "static_coefficient",
+                                                                       "v0", "v1", "stribeck_velocity"))
     fe = replace(problem.scene.effects.friction, coefficient=mu, static_coefficient=mu_s, v0=v0, v1=v1,
                  stribeck_velocity=v_s)
     return per, fe

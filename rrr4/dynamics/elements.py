@@ -34,9 +34,10 @@ import numpy as np
 from ..mechanism.model import Model, rotation
 from ..scene.forces import FORCE_PARAMETERS, ForceElement
 from ..scene.vocabulary import FORCE_ELEMENTS, registry
+from .assembly import Assembly, Term
 
 __all__ = ["ForceTerms", "force_terms", "element_coordinate", "element_forces_function", "N_PARAMETERS", "EPS",
-           "ELEMENT_TERMS"]
+           "ELEMENT_TERMS", "ForceElementTerm"]
 
 N_PARAMETERS = len(FORCE_PARAMETERS["spring_damper"])  # per element (every type has as many)
 EPS = 1e-9        # [m] guard of a spring's length
@@ -103,6 +104,25 @@ def force_terms(model: Model, forces: tuple[ForceElement, ...], q, qd, t, parame
         dQ, dV, dpd, dpl = ELEMENT_TERMS[e.type](model, e, q, qd, t, p)
         Q, V, pd, pl = Q + dQ, V + dV, pd + dpd, pl + dpl
     return ForceTerms(Q, V, pd, pl)
+
+
+class ForceElementTerm(Term):
+    """The scene's force elements as a term of the equations: their generalised forces join Q,
+    their springs' energy the potential, their dampers' power ``power_damping`` and their
+    loads' power ``power_load``; their numbers are ``forces.<element>.*`` of the layout."""
+
+    def start(self, a: Assembly) -> None:
+        if a.forces:
+            a.labels.append("force elements " + " ".join(f"{e.name} ({e.type})" for e in a.forces))
+
+    def finish(self, a: Assembly) -> None:
+        if not a.forces:
+            return
+        elements = force_terms(a.model, a.forces, a.q, a.qd, a.t, a.numbers("forces"))
+        a.Q = a.Q + elements.Q
+        a.potential += elements.potential
+        a.power_damping += elements.power_damping
+        a.power_load = elements.power_load
 
 
 def element_forces_function(model: Model, forces: tuple[ForceElement, ...], parameters) -> ca.Function:

@@ -38,7 +38,6 @@ import numpy as np
 
 from ..contact import joint_stiffness
 from ..control import path_rows
-from ..dynamics.builder import EFFECT_PARAMETERS, JOINT_PARAMETERS
 from ..errors import MeasurementError, SceneError, SimulationError
 from ..integrators import METHODS, FixedStepIntegrator
 from ..integrators.compiled import compiled
@@ -174,21 +173,22 @@ class DynamicData:
     # ------------------------------------------------------------------ the runs
 
     def contact_numbers(self, p) -> np.ndarray:
-        """The equations' parameters (contact numbers) at the parameter values p."""
-        pb, v = self.problem, self.problem.equation_parameters().copy()
-        k, clear = len(JOINT_PARAMETERS), list(self.eqs.clearance_joints)
+        """The equations' parameters (contact numbers) at the parameter values p, each written
+        by its name in the equations' layout (:mod:`rrr4.dynamics.layout`)."""
+        pb, v, at = self.problem, self.problem.equation_parameters().copy(), self.eqs.layout.index
+        clear = self.eqs.clearance_joints
         auto = pb.scene.effects.contact.stiffness is None and not any(q.kind == "stiffness" for q in self.params)
         for q, value in zip(self.params, p, strict=True):
             if q.kind == "clearance":
                 for j in q.joints:
                     joint = replace(pb.joint(j), radial_clearance=float(value))
-                    v[k * clear.index(j) + 2] = joint.bearing_radius
+                    v[at(f"joints.{j}.bearing_radius")] = joint.bearing_radius
                     if auto:  # the stiffness follows from the radii
-                        v[k * clear.index(j)] = joint_stiffness(joint)
+                        v[at(f"joints.{j}.stiffness")] = joint_stiffness(joint)
             elif q.kind == "stiffness":
-                v[0:k * len(clear):k] = value
+                v[[at(f"joints.{j}.stiffness") for j in clear]] = value
             else:
-                v[k * len(clear) + EFFECT_PARAMETERS.index("friction_coefficient")] = value
+                v[at("contact.friction_coefficient")] = value
         return v
 
     def _derivatives(self) -> np.ndarray:

@@ -29,7 +29,6 @@ import numpy as np
 
 from ..control.compensation import friction_feed_forward, nrrr_slip, seats
 from ..control.references import path_rows, tabulated
-from ..dynamics.builder import JOINT_PARAMETERS
 from ..errors import MeasurementError, SceneError
 from ..problem import Problem
 from .measurements import Measurements, measurement_columns
@@ -68,7 +67,7 @@ def _build(problem: Problem, params: list[Parameter]) -> ca.Function:
     mech = problem.mechanism
     data, n = mech.data, mech.n
     names, clear = problem.model.preload_joints, problem.clearance_joints
-    k = len(JOINT_PARAMETERS)
+    at = problem.parameter_layout.index
     p = ca.SX.sym("p", len(params))
     pose_ref, pose_d = ca.SX.sym("pose_ref", 3), ca.SX.sym("pose_d", 3)
     theta, r = ca.SX.sym("theta", n), ca.SX.sym("r", 2, len(names))
@@ -79,12 +78,12 @@ def _build(problem: Problem, params: list[Parameter]) -> ca.Function:
     for i, q in enumerate(params):
         if q.kind == "clearance":
             for j in q.joints:
-                contact[k * clear.index(j) + 2] = contact[k * clear.index(j) + 1] + p[i]
+                contact[at(f"joints.{j}.bearing_radius")] = contact[at(f"joints.{j}.journal_radius")] + p[i]
         elif q.kind == "stiffness":
-            for jj in range(len(clear)):
-                contact[k * jj] = p[i]
+            for j in clear:
+                contact[at(f"joints.{j}.stiffness")] = p[i]
         elif q.kind == "friction":
-            contact[k * len(clear) + 2] = p[i]
+            contact[at("contact.friction_coefficient")] = p[i]
         elif q.kind == "base":
             base[q.chain][q.axis] = p[i]
         else:
