@@ -122,7 +122,7 @@ class System:
     # closing); None: all of z. The rest (e.g. constant parameters) never changes.
     n_events: int | None = None
     peaks: ca.Function | None = None
-    layout: object = None  # the named parts of y and z (rrr4.simulation.layout.Layout); opaque to the integrators
+    layout: object = None  # the named parts of y and z (simulation.state_layout.StateLayout); opaque here
     # (method, settings, h, steps per frame, frames per output) -> the built (and compiled)
     # unit of work; (that key, units per call, entries kept) -> the call that rolls it; the
     # implicit methods' Newton solvers; and "update" (see :meth:`update`): the system owns

@@ -14,7 +14,7 @@ from ..dynamics.builder import Equations, profiles_of
 from ..dynamics.family import graph_family
 from ..problem import Problem
 from ..trajectory import trajectory_function
-from .layout import Layout
+from .state_layout import StateLayout
 
 __all__ = ["initial_state", "seated_offsets"]
 
@@ -81,7 +81,7 @@ def initial_state(problem: Problem, eqs: Equations, efforts, tree: bool, setting
         q0 = problem.seated_coordinates(target, offsets, guess=q0)
         seated = np.any(offsets != 0, axis=1).astype(float)
     y0 = np.r_[q0, qd0] if not tree else np.hstack([np.array(v).ravel() for v in eqs.tree_coordinates(q0, qd0)])
-    L = Layout(nq=len(y0) // 2, n_wear=sum(m for *_, m in eqs.worn), nc=nc, n_parameters=len(eqs.parameters),
+    L = StateLayout(nq=len(y0) // 2, n_wear=sum(m for *_, m in eqs.worn), nc=nc, n_parameters=len(eqs.parameters),
                n_settings=len(settings))  # without the peaks: System.started appends them
     x0 = np.zeros(1 + L.ny + L.nz)  # t, the energy and wear quadratures and the losses start at 0
     x0[L.in_x("motion")], x0[L.in_x("delta_dot0")], x0[L.in_x("in_contact")] = y0, eqs.v_min, seated

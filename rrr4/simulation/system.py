@@ -32,7 +32,7 @@ from ..mechanism import Model
 from ..problem import Problem
 from ..scene import PathSpec
 from ..trajectory import trajectory_function
-from .layout import Layout
+from .state_layout import StateLayout
 
 __all__ = ["Loop", "loop_of", "system_of", "state_layout", "problem_system", "measured", "in_tree", "extremes",
            "REFERENCES"]
@@ -176,12 +176,12 @@ def _build_system(eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bo
                   peaks=peak_values if L.n_peaks else None, layout=L)
 
 
-def state_layout(eqs: Equations, loop: Loop, tree: bool) -> Layout:
-    """The :class:`~rrr4.simulation.layout.Layout` of the System these equations, loop and
+def state_layout(eqs: Equations, loop: Loop, tree: bool) -> StateLayout:
+    """The :class:`~rrr4.simulation.state_layout.StateLayout` of the System these equations, loop and
     coordinates build (see :func:`system_of`)."""
     nc, n = len(eqs.clearance_joints), eqs.n_actuators
     nq = eqs.parametric.tree_acceleration.size1_in(0) if tree else eqs.nq  # the coordinates stepped
-    return Layout(nq=nq, n_wear=sum(m for *_, m in eqs.worn), nc=nc, n_parameters=len(eqs.parameters),
+    return StateLayout(nq=nq, n_wear=sum(m for *_, m in eqs.worn), nc=nc, n_parameters=len(eqs.parameters),
                   n_settings=len(loop.settings), n_peaks=3 * nc + (n if eqs.mode == "torque" else 0))
 
 

@@ -9,7 +9,7 @@ A simulation steps x = [t, y, z] (:class:`rrr4.integrators.System`):
   in-contact flag and the contact-loss count (the events), then the constant numbers (the
   equations' parameters, the controller's settings), then the running maxima of the peaks.
 
-:class:`Layout` names each part as a slice, of y, of z, or of x; the System is built with it
+:class:`StateLayout` names each part as a slice, of y, of z, or of x; the System is built with it
 (:func:`rrr4.simulation.system.system_of`) and every reader and writer of these vectors (the
 initial state, the outputs, identification's shooting) goes through it, so a new state adds
 its slice here once.
@@ -19,13 +19,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["Layout", "ENERGY"]
+__all__ = ["StateLayout", "ENERGY"]
 
 ENERGY = ("work_in", "damping", "friction")  # the energy quadratures, in this order, after the rates
 
 
 @dataclass(frozen=True)
-class Layout:
+class StateLayout:
     """nq: the stepped coordinates; n_wear: the wear quadratures; nc: the clearance joints;
     n_parameters: the equations' parameters; n_settings: the controller's; n_peaks: the
     running maxima."""
