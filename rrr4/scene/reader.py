@@ -8,7 +8,6 @@ are in degrees).
 
 from __future__ import annotations
 
-import difflib
 import math
 from pathlib import Path
 
@@ -17,17 +16,16 @@ import yaml
 from ..checks import describe, unknown_value
 from ..errors import SceneError
 from ..files import read_text, shown
-from .assembly import read_assembly
+from .bearing import read_fit, read_material
 from .data import with_data
-from .drivers import read_driver
 from .fields import MAX_SAMPLES, Section
 from .forces import read_forces
+from .graph import read_graph
 from .lubrication import read_lubrication
+from .names import read_name
 from .nrrr import expand_nrrr
 from .schema import (
     Actuation,
-    ActuatorSpec,
-    Body,
     Chain,
     ContactEffect,
     Effects,
@@ -37,7 +35,6 @@ from .schema import (
     IntegratorSettings,
     JointSpec,
     Link,
-    Material,
     NRRRSpec,
     PathSpec,
     Platform,
@@ -50,10 +47,7 @@ from .vocabulary import (
     ACTUATION_MODES,
     CONTACT_LAW_KEYS,
     FRICTION_LAW_KEYS,
-    GROUND,
-    JOINT_TYPES,
     JOURNAL_STARTS,
-    MATERIALS,
     MECHANISM_KINDS,
     PATH_TYPES,
     TIME_LAWS,
@@ -113,22 +107,6 @@ def _mechanism(sec: Section) -> NRRRSpec:
     return NRRRSpec(platform, tuple(chains))
 
 
-def _material(v, key) -> Material:
-    if isinstance(v, str):
-        name = v.lower()
-        if name not in MATERIALS:
-            near = difflib.get_close_matches(name, list(MATERIALS), n=1)
-            hint = f"; did you mean '{near[0]}'?" if near else ""
-            raise SceneError(f"{key}: unknown material {describe(v)} "
-                             f"(choose one of: {', '.join(MATERIALS)}, or give youngs_modulus and poisson_ratio){hint}")
-        return Material(name, *MATERIALS[name])
-    s = Section(v, key)
-    m = Material(s.string("name", "custom"), s.number("youngs_modulus", positive=True, big=True),
-                 s.number("poisson_ratio", lo=0.0, hi=0.5, hi_open=True))
-    s.done()
-    return m
-
-
 def _joints(sec: Section, n_chains: int) -> tuple[JointSpec, ...]:
     names = tuple(f"B{i}" for i in range(1, n_chains + 1)) + tuple(f"C{i}" for i in range(1, n_chains + 1))
     cl = sec.raw("clearance", [])
@@ -163,13 +141,9 @@ def _joints(sec: Section, n_chains: int) -> tuple[JointSpec, ...]:
         merged.update(per.get(name) or {})
         key = sec.key(f"per_joint.{name}") if has_own else sec.path
         s = Section(merged, key)
-        rj = s.number("journal_radius", positive=True)
-        c = s.number("radial_clearance", positive=True)
-        if c >= rj:
-            raise SceneError(f"{s.key('radial_clearance')}: {c:g} m is not allowed "
-                             f"(must be smaller than the journal radius {rj:g} m)")
-        mj = _material(s.raw("journal_material"), s.key("journal_material"))
-        mb = _material(s.raw("bearing_material"), s.key("bearing_material"))
+        rj, c = read_fit(s)
+        mj = read_material(s.raw("journal_material"), s.key("journal_material"))
+        mb = read_material(s.raw("bearing_material"), s.key("bearing_material"))
         film = read_lubrication(s.raw("lubrication"), s.key("lubrication")) if s.has("lubrication") else None
         wear = read_wear(s.raw("wear"), s.key("wear")) if s.has("wear") else None
         check_joint_override(key, name, film, wear, cl)
@@ -177,192 +151,6 @@ def _joints(sec: Section, n_chains: int) -> tuple[JointSpec, ...]:
         out.append(JointSpec(name, name in cl, rj, c, mj, mb, lubrication=film, wear=wear))
     sec.done()
     return tuple(out)
-
-
-def _name(sec: Section, k: str = "name", default=None) -> str:
-    v = sec.raw(k, default)
-    if not isinstance(v, str) or not v.strip() or not all(ch.isalnum() or ch in "_-" for ch in v):
-        raise SceneError(f"{sec.key(k)}: {describe(v)} is not allowed (a name of letters, digits, '_' and '-')")
-    return v
-
-
-def _points(sec: Section, k: str) -> tuple[tuple[str, tuple[float, float]], ...]:
-    raw = sec.raw(k, {}) or {}
-    if not isinstance(raw, dict):
-        raise SceneError(f"{sec.key(k)}: expected a mapping of point name to [x, y] in m, got {describe(raw)}")
-    ps = Section(raw, sec.key(k))
-    return tuple((str(name), ps.vector(name, 2)) for name in raw)
-
-
-def _clearance(v, key: str, bodies: tuple[str, str]) -> dict:
-    s = Section(v, key)
-    journal = s.raw("journal", bodies[1])
-    if journal not in bodies or journal == GROUND:
-        raise unknown_value(s.key("journal"), "body", journal, [b for b in bodies if b != GROUND])
-    rj = s.number("journal_radius", positive=True)
-    c = s.number("radial_clearance", positive=True)
-    if c >= rj:
-        raise SceneError(f"{s.key('radial_clearance')}: {c:g} m is not allowed "
-                         f"(must be smaller than the journal radius {rj:g} m)")
-    out = {"clearance": True, "journal_radius": rj, "radial_clearance": c, "journal": bodies.index(journal),
-           "journal_material": _material(s.raw("journal_material", "steel"), s.key("journal_material")),
-           "bearing_material": _material(s.raw("bearing_material", "steel"), s.key("bearing_material"))}
-    if s.has("lubrication"):
-        out["lubrication"] = read_lubrication(s.raw("lubrication"), s.key("lubrication"))
-    if s.has("wear"):
-        out["wear"] = read_wear(s.raw("wear"), s.key("wear"))
-    s.done()
-    return out
-
-
-def _graph(sec: Section, base: Path = Path()) -> Graph:
-    ground = dict(_points(sec.section("ground"), "points"))
-    sec.section("ground").done(["points"])
-    raw_bodies = sec.raw("bodies")
-    if not isinstance(raw_bodies, list) or not raw_bodies:
-        raise SceneError(f"{sec.key('bodies')}: {describe(raw_bodies)} is not allowed (a list of bodies is required)")
-    bodies, points = [], {GROUND: ground}
-    for i, raw in enumerate(raw_bodies):
-        b = Section(raw, f"{sec.key('bodies')}[{i}]")
-        name = _name(b)
-        if name in points:
-            raise SceneError(f"{b.key('name')}: {name!r} is not allowed (names a body twice, or the ground)")
-        pts = _points(b, "points")
-        bodies.append(Body(name, b.number("mass", positive=True), b.number("inertia", positive=True), pts,
-                           b.vector("pose", 3, [0.0, 0.0, 0.0])))
-        points[name] = dict(pts)
-        b.done()
-    names = [GROUND] + [b.name for b in bodies]
-
-    raw_joints = sec.raw("joints")
-    if not isinstance(raw_joints, list) or not raw_joints:
-        raise SceneError(f"{sec.key('joints')}: {describe(raw_joints)} is not allowed (a list of joints is required)")
-    joints, used = [], set()
-    for i, raw in enumerate(raw_joints):
-        j = Section(raw, f"{sec.key('joints')}[{i}]")
-        name = _name(j)
-        if any(x.name == name for x in joints):
-            raise SceneError(f"{j.key('name')}: {name!r} names a joint twice")
-        kind = j.choice("type", JOINT_TYPES, "revolute")
-        pair = j.raw("bodies")
-        if not isinstance(pair, list) or len(pair) != 2:
-            raise SceneError(f"{j.key('bodies')}: {describe(pair)} is not allowed (a list of two body names)")
-        for b in pair:
-            if b not in names:
-                raise unknown_value(j.key("bodies"), "body", b, names)
-        if pair[0] == pair[1]:
-            raise SceneError(f"{j.key('bodies')}: {describe(pair)} is not allowed (two different bodies)")
-        raw_pts = j.raw("points", [[0.0, 0.0], [0.0, 0.0]])
-        if not isinstance(raw_pts, list) or len(raw_pts) != 2:
-            raise SceneError(f"{j.key('points')}: {describe(raw_pts)} is not allowed "
-                             "(two points, one per body: a point name or [x, y] in m)")
-        pts = []
-        for k, (b, pt) in enumerate(zip(pair, raw_pts, strict=True)):
-            if isinstance(pt, str):
-                if pt not in points[b]:
-                    raise unknown_value(f"{j.key('points')}[{k}]", f"point of {b}", pt, list(points[b]) or ["(none)"])
-                pts.append(points[b][pt])
-            else:
-                pts.append(Section({"p": pt}, f"{j.key('points')}[{k}]").vector("p", 2))
-        extra = {}
-        if kind == "prismatic":
-            axis = j.vector("axis", 2, [1.0, 0.0])
-            norm = math.hypot(*axis)
-            if not norm > 1e-12:
-                raise SceneError(f"{j.key('axis')}: {list(axis)} is not allowed (a direction of non-zero length)")
-            extra = {"axis": (axis[0] / norm, axis[1] / norm), "angle": math.radians(j.number("angle_deg", 0.0))}
-            if j.has("clearance"):
-                raise SceneError(f"{j.key('clearance')}: not allowed on a prismatic joint (revolute clearance only)")
-        cl = {"clearance": False, "journal_radius": 0.005, "radial_clearance": 1e-4,
-              "journal_material": Material("steel", *MATERIALS["steel"]),
-              "bearing_material": Material("steel", *MATERIALS["steel"])}
-        if kind == "revolute" and j.raw("clearance") is not None:
-            cl.update(_clearance(j.raw("clearance"), j.key("clearance"), tuple(pair)))
-        j.done()
-        joints.append(JointSpec(name, type=kind, bodies=tuple(pair), points=tuple(pts), **cl, **extra))
-        used.update(pair)
-    for b in bodies:
-        if b.name not in used:
-            raise SceneError(f"{sec.key('bodies')}: body {b.name!r} is not allowed (it has no joint: "
-                             "every body must be connected)")
-    jnames = [x.name for x in joints]
-
-    def refs(k: str, what: str):
-        raw = sec.raw(k, []) or []
-        if not isinstance(raw, list):
-            raise SceneError(f"{sec.key(k)}: {describe(raw)} is not allowed (a list of {what})")
-        for i, r in enumerate(raw):
-            e = Section(r, f"{sec.key(k)}[{i}]")
-            joint = e.raw("joint")
-            if joint not in jnames:
-                raise unknown_value(e.key("joint"), "joint", joint, jnames)
-            yield e, joint
-
-    actuators = []
-    for e, joint in refs("actuators", "actuators"):
-        actuators.append(ActuatorSpec(_name(e, default=joint), joint, e.number("limit", positive=True)))
-        e.done()
-    drivers = []
-    for e, joint in refs("drivers", "drivers"):  # their motion laws: .drivers
-        revolute = joints[jnames.index(joint)].type == "revolute"
-        drivers.append(read_driver(e, _name(e, default=joint), joint, revolute, base))
-    seen: dict[str, str] = {}
-    for key, items in (("actuators", actuators), ("drivers", drivers)):
-        for i, x in enumerate(items):
-            if x.name in seen:
-                raise SceneError(f"{sec.key(key)}[{i}].name: {x.name!r} is not allowed (already the name of "
-                                 f"{seen[x.name]}; actuator and driver names must be unique)")
-            seen[x.name] = f"{sec.key(key)}[{i}]"
-    busy = [a.joint for a in actuators] + [d.joint for d in drivers]
-    for j in joints:
-        if busy.count(j.name) > 1:
-            raise SceneError(f"{sec.key('actuators')}: joint {j.name!r} is not allowed to carry more than one "
-                             "actuator or driver")
-        if j.clearance and j.name in busy:
-            raise SceneError(f"{sec.key('joints')}: joint {j.name!r} has clearance and an actuator or driver "
-                             "(clearance is allowed on passive joints only)")
-    task, task_point = sec.raw("task"), None
-    if isinstance(task, dict):  # a point of a body: {body: name, point: name or [x, y]}
-        t = Section(task, sec.key("task"))
-        body, pt = t.raw("body"), t.raw("point")
-        if body not in names[1:]:
-            raise unknown_value(t.key("body"), "body", body, names[1:])
-        if isinstance(pt, str):
-            if pt not in points[body]:
-                raise unknown_value(t.key("point"), f"point of {body}", pt, list(points[body]) or ["(none)"])
-            task_point = points[body][pt]
-        else:
-            task_point = t.vector("point", 2)
-        t.done()
-        task = body
-    elif task in (None, "none"):
-        task = None
-    elif task not in names[1:]:
-        raise unknown_value(sec.key("task"), "body", task, names[1:] + ["none"])
-    floating = _floating_bodies([b.name for b in bodies], joints, task)
-    if floating:
-        raise SceneError(f"{sec.key('joints')}: bodies {', '.join(map(repr, floating))} are not allowed to float "
-                         "(their joints connect them only to each other, neither to the ground nor to the task "
-                         "body, so nothing fixes where they are: join one of them to the ground or to a connected "
-                         "body)")
-    assembly = read_assembly(sec, joints, points)
-    sec.done()
-    return Graph(tuple(bodies), tuple(joints), tuple(actuators), tuple(drivers), task, task_point, assembly)
-
-
-def _floating_bodies(bodies: list[str], joints, task: str | None) -> list[str]:
-    """The bodies that no chain of joints reaches from the ground or the task body (whose pose
-    the path sets): a floating sub-mechanism, whose rigid motion nothing fixes."""
-    reached, todo = {GROUND, task} - {None}, [GROUND] + ([task] if task else [])
-    while todo:
-        here = todo.pop()
-        for j in joints:
-            if here in j.bodies:
-                for b in j.bodies:
-                    if b not in reached:
-                        reached.add(b)
-                        todo.append(b)
-    return [b for b in bodies if b not in reached]
 
 
 def _only_law_keys(sec: Section, law: str, keys_of: dict) -> None:
@@ -559,13 +347,13 @@ def parse_scene(data, name: str = "scene", source: str = "") -> Scene:
         actuation, limits = _actuation(top.section("actuation"), mech.n_chains)
         graph = expand_nrrr(mech, joints, limits)
     else:
-        mech, graph = None, _graph(msec, Path(source).parent if source else Path())
+        mech, graph = None, read_graph(msec, Path(source).parent if source else Path())
         if top.has("joints"):
             raise SceneError("joints: not allowed with mechanism.kind 'graph' (give each joint's clearance in "
                              "mechanism.joints)")
         actuation, _ = _actuation(top.section("actuation"), len(graph.actuators), graph)
     scene = Scene(
-        name=_name(top, "name", name),
+        name=read_name(top, "name", name),
         description=top.string("description", ""),
         mechanism=mech,
         graph=graph,
