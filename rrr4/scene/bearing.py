@@ -8,8 +8,9 @@ import difflib
 
 from ..checks import describe
 from ..errors import SceneError
+from .field_specs import read_fields
 from .fields import Section
-from .schema import Material
+from .schema import JointSpec, Material
 from .vocabulary import MATERIALS
 
 __all__ = ["read_fit", "read_material", "STEEL"]
@@ -19,8 +20,7 @@ STEEL = Material("steel", *MATERIALS["steel"])  # the material of a journal or b
 
 def read_fit(s: Section) -> tuple[float, float]:
     """(journal_radius, radial_clearance) [m] of `s`, the clearance smaller than the radius."""
-    rj = s.number("journal_radius", positive=True)
-    c = s.number("radial_clearance", positive=True)
+    rj, c = read_fields(s, JointSpec, ("journal_radius", "radial_clearance")).values()
     if c >= rj:
         raise SceneError(f"{s.key('radial_clearance')}: {c:g} m is not allowed "
                          f"(must be smaller than the journal radius {rj:g} m)")
@@ -38,7 +38,6 @@ def read_material(v, key: str) -> Material:
                              f"(choose one of: {', '.join(MATERIALS)}, or give youngs_modulus and poisson_ratio){hint}")
         return Material(name, *MATERIALS[name])
     s = Section(v, key)
-    m = Material(s.string("name", "custom"), s.number("youngs_modulus", positive=True, big=True),
-                 s.number("poisson_ratio", lo=0.0, hi=0.5, hi_open=True))
+    m = Material(**read_fields(s, Material))
     s.done()
     return m

@@ -18,6 +18,7 @@ from ..errors import SceneError
 from ..files import read_text, shown
 from .bearing import read_fit, read_material
 from .data import with_data
+from .field_specs import read_fields
 from .fields import MAX_SAMPLES, Section
 from .forces import read_forces
 from .graph import read_graph
@@ -47,7 +48,6 @@ from .vocabulary import (
     ACTUATION_MODES,
     CONTACT_LAW_KEYS,
     FRICTION_LAW_KEYS,
-    JOURNAL_STARTS,
     MECHANISM_KINDS,
     PATH_TYPES,
     TIME_LAWS,
@@ -76,7 +76,7 @@ def _link(sec: Section, defaults: dict | None, defaults_path: str) -> Link:
 
 def _mechanism(sec: Section) -> NRRRSpec:
     psec = sec.section("platform")
-    platform = Platform(psec.number("mass", positive=True), psec.number("inertia", positive=True))
+    platform = Platform(**read_fields(psec, Platform))
     psec.done()
     defaults = sec.raw("chain_defaults", {}) or {}
     if not isinstance(defaults, dict):
@@ -164,40 +164,43 @@ def _only_law_keys(sec: Section, law: str, keys_of: dict) -> None:
                              "remove it or choose a law that uses it")
 
 
-def _effects(sec: Section) -> Effects:
-    c = sec.section("contact")
-    law = c.choice("law", choices("contact law"), "lankarani-nikravesh")
+def _contact(c: Section) -> ContactEffect:
+    law = read_fields(c, ContactEffect, ("law",))["law"]
     _only_law_keys(c, law, CONTACT_LAW_KEYS)
-    cr = c.number("restitution", 0.9, lo=0.0, hi=1.0, lo_open=True)
-    exponent = c.number("exponent", 1.0 if law == "kelvin-voigt" else 1.5, positive=True)
+    got = read_fields(c, ContactEffect, ("restitution", "exponent"),
+                      {"exponent": 1.0} if law == "kelvin-voigt" else None)
     k = c.raw("stiffness", "auto")
-    if k == "auto" or k is None:
-        stiffness = None
-    else:
-        stiffness = c.number("stiffness", positive=True, big=True)
-    damping = c.number("damping", 0.0, nonneg=True)
-    if stiffness is None and exponent != 1.5:
-        raise SceneError(f"{c.key('stiffness')}: 'auto' is not allowed with exponent {exponent:g} (auto is the Hertz "
-                         "line-contact stiffness from the radii and materials, in N/m^1.5, for exponent 1.5 only: "
-                         f"give stiffness in N/m^{exponent:g}, or exponent 1.5)")
+    auto = k == "auto" or k is None  # the Hertz stiffness from the radii and materials
+    got.update(read_fields(c, ContactEffect, ("damping",) if auto else ("stiffness", "damping")))
+    if auto and got["exponent"] != 1.5:
+        raise SceneError(f"{c.key('stiffness')}: 'auto' is not allowed with exponent {got['exponent']:g} (auto is the "
+                         "Hertz line-contact stiffness from the radii and materials, in N/m^1.5, for exponent 1.5 "
+                         f"only: give stiffness in N/m^{got['exponent']:g}, or exponent 1.5)")
     c.done()
-    f = sec.section("friction")
-    flaw = f.choice("law", choices("friction law"), "none")
-    _only_law_keys(f, flaw, FRICTION_LAW_KEYS)
-    mu = f.number("coefficient", 0.0 if flaw == "none" else None, nonneg=True)
-    mus = f.number("static_coefficient", mu, nonneg=True)
-    v0 = f.number("v0", 1e-4, positive=True)
-    v1 = f.number("v1", 2e-4, positive=True)
-    if v1 <= v0:
-        raise SceneError(f"{f.key('v1')}: {v1:g} m/s is not allowed (must be greater than v0 = {v0:g} m/s)")
-    vs = f.number("stribeck_velocity", 1e-3, positive=True)
+    return ContactEffect(law, stiffness=got.pop("stiffness", None), **got)
+
+
+def _friction(f: Section) -> FrictionEffect:
+    law = read_fields(f, FrictionEffect, ("law",))["law"]
+    _only_law_keys(f, law, FRICTION_LAW_KEYS)
+    got = read_fields(f, FrictionEffect, ("coefficient",), {"coefficient": 0.0} if law == "none" else None)
+    got.update(read_fields(f, FrictionEffect, ("static_coefficient", "v0", "v1"),
+                           {"static_coefficient": got["coefficient"]}))
+    if got["v1"] <= got["v0"]:
+        raise SceneError(f"{f.key('v1')}: {got['v1']:g} m/s is not allowed (must be greater than v0 = "
+                         f"{got['v0']:g} m/s)")
+    got.update(read_fields(f, FrictionEffect, ("stribeck_velocity",)))
     f.done()
+    return FrictionEffect(law, **got)
+
+
+def _effects(sec: Section) -> Effects:
+    contact, friction = _contact(sec.section("contact")), _friction(sec.section("friction"))
     g = sec.vector("gravity", 2, [0.0, 0.0])
     film = read_lubrication(sec.raw("lubrication"), sec.key("lubrication"))
     wear = read_wear(sec.raw("wear"), sec.key("wear"))
     sec.done()
-    return Effects(ContactEffect(law, cr, exponent, stiffness, damping),
-                   FrictionEffect(flaw, mu, mus, v0, v1, vs), g, film, wear)
+    return Effects(contact, friction, g, film, wear)
 
 
 def _actuation(sec: Section, n: int, graph: Graph | None = None) -> tuple[Actuation, tuple[float, ...]]:
@@ -223,26 +226,23 @@ def _actuation(sec: Section, n: int, graph: Graph | None = None) -> tuple[Actuat
                              "choose 'free')")
         limits = tuple(a.limit for a in graph.actuators)
     p = sec.section("preload")
-    method = p.choice("method", choices("preload method"), "exact")
-    fmin = p.number("min_force", nonneg=True, default=5.0)
+    got = read_fields(p, PreloadSettings, ("method", "min_force"))
     weights = p.vector("weights", n, 1.0, scalar_ok=True)
     for i, v in enumerate(weights):
         if v <= 0:
             raise SceneError(f"{p.key('weights')}[{i}]: {v:g} is not allowed (must be > 0)")
-    qp = p.choice("qp_solver", choices("qp solver"), "qrqp")
-    smooth = p.number("smoothness_weight", 1e-4, nonneg=True)
-    turn = p.number("max_turn_rate", 50.0, positive=True)
+    got.update(read_fields(p, PreloadSettings, ("qp_solver", "smoothness_weight", "max_turn_rate")))
     p.done()
     gains = sec.section("gains")
-    kp = gains.number("kp", 200.0, nonneg=True)
-    kd = gains.number("kd", 5.0, nonneg=True)
+    control = read_fields(gains, Actuation, ("kp", "kd"))
     gains.done()
-    rate = sec.number("control_rate", positive=True) if sec.raw("control_rate") is not None else None
-    compensation = sec.choice("compensation", choices("compensation"), "none")
-    seat_model = sec.choice("seat_model", choices("seat model"), "quasi_static")  # where references are compensated
+    # seat_model: where references are compensated
+    control.update(read_fields(sec, Actuation, ("control_rate", "compensation", "seat_model")))
     sec.done()
-    return Actuation(mode, PreloadSettings(method, fmin, weights, qp, smooth, turn), kp, kd, rate,
-                     compensation, seat_model), limits
+    return Actuation(mode, PreloadSettings(weights=weights, **got), **control), limits
+
+
+CIRCLE = ("center", "radius", "start_angle", "revolutions", "orientation")  # a circle's keys, read in this order
 
 
 def _path(sec: Section, task: bool = True, base: Path = Path()) -> PathSpec:
@@ -279,19 +279,15 @@ def _path(sec: Section, task: bool = True, base: Path = Path()) -> PathSpec:
         duration=duration,
         time_law=law,
         time_table=table,
-        sample_rate=sec.number("sample_rate", 1000.0, positive=True),
-        max_condition_number=sec.number("max_condition_number", 1e3, lo=1.0, lo_open=True),
-        min_transmission=sec.number("min_transmission", 0.05, lo=0.0, hi=1.0, hi_open=True),
+        **read_fields(sec, PathSpec, ("sample_rate", "max_condition_number", "min_transmission")),
     )
     if common["duration"] * common["sample_rate"] < 2:
         raise SceneError(f"{sec.key('sample_rate')}: {common['sample_rate']:g} Hz is too low "
                          f"(need at least 2 samples over duration {common['duration']:g} s)")
     if kind == "circle":
-        spec = PathSpec(**common, center=sec.vector("center", 2), radius=sec.number("radius", positive=True),
-                        start_angle=sec.number("start_angle", 0.0), revolutions=sec.number("revolutions", 1.0),
-                        orientation=sec.number("orientation", 0.0))
+        spec = PathSpec(**common, **read_fields(sec, PathSpec, CIRCLE))
     elif kind == "line":
-        spec = PathSpec(**common, start=sec.vector("start", 3), end=sec.vector("end", 3))
+        spec = PathSpec(**common, **read_fields(sec, PathSpec, ("start", "end")))
     elif kind == "none":
         spec = PathSpec(**common)
     else:
@@ -306,20 +302,7 @@ def _path(sec: Section, task: bool = True, base: Path = Path()) -> PathSpec:
 
 
 def _integrator(sec: Section) -> IntegratorSettings:
-    s = IntegratorSettings(
-        method=sec.choice("method", choices("integrator"), "bathe"),
-        step=sec.number("step", 1e-5, positive=True),
-        rtol=sec.number("rtol", 1e-8, positive=True),
-        atol=sec.number("atol", 1e-10, positive=True),
-        gamma=sec.number("gamma", 0.5, lo=0.0, hi=1.0, lo_open=True, hi_open=True),
-        rho_inf=sec.number("rho_inf", 0.0, lo=0.0, hi=1.0),
-        newton_tol=sec.number("newton_tol", 1e-10, positive=True),
-        max_newton=sec.integer("max_newton", 20, positive=True),
-        refine=sec.integer("refine", 1, positive=True),
-        newton=sec.choice("newton", choices("newton"), "simplified"),
-        tolerance=sec.number("tolerance", positive=True) if sec.raw("tolerance") is not None else None,
-        coordinates=sec.choice("coordinates", choices("coordinates"), "auto"),
-    )
+    s = IntegratorSettings(**read_fields(sec, IntegratorSettings))
     if s.tolerance is not None and s.method not in choices("error control"):
         raise SceneError(f"{sec.key('tolerance')}: {s.tolerance:g} is not allowed with method '{s.method}' (error "
                          f"control is for {', '.join(choices('error control'))}; the adaptive methods take rtol, atol)")
@@ -328,7 +311,7 @@ def _integrator(sec: Section) -> IntegratorSettings:
 
 
 def _initial(sec: Section) -> Initial:
-    v = Initial(sec.vector("platform_velocity", 3, [0.0, 0.0, 0.0]), sec.choice("journals", JOURNAL_STARTS, "centred"))
+    v = Initial(**read_fields(sec, Initial))
     sec.done()
     return v
 

@@ -10,6 +10,7 @@ from pathlib import Path
 from ...checks import describe, unknown_value
 from ...errors import SceneError
 from ..drivers import read_driver
+from ..field_specs import read_fields
 from ..fields import Section
 from ..names import read_name
 from ..schema import ActuatorSpec, DriverSpec, JointSpec
@@ -23,7 +24,7 @@ def read_actuators_and_drivers(sec: Section, joints: list[JointSpec], base: Path
     jnames = [x.name for x in joints]
     actuators = []
     for e, joint in _entries(sec, "actuators", jnames):
-        actuators.append(ActuatorSpec(read_name(e, default=joint), joint, e.number("limit", positive=True)))
+        actuators.append(ActuatorSpec(read_name(e, default=joint), joint, **read_fields(e, ActuatorSpec, ("limit",))))
         e.done()
     drivers = []
     for e, joint in _entries(sec, "drivers", jnames):  # their motion laws: ..drivers

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from ...checks import describe
 from ...errors import SceneError
+from ..field_specs import read_fields
 from ..fields import Section
 from ..names import read_name
 from ..schema import Body
@@ -36,8 +37,7 @@ def read_bodies(sec: Section) -> tuple[list[Body], dict[str, dict]]:
         if name in points:
             raise SceneError(f"{b.key('name')}: {name!r} is not allowed (names a body twice, or the ground)")
         pts = read_points(b, "points")
-        bodies.append(Body(name, b.number("mass", positive=True), b.number("inertia", positive=True), pts,
-                           b.vector("pose", 3, [0.0, 0.0, 0.0])))
+        bodies.append(Body(name, points=pts, **read_fields(b, Body, ("mass", "inertia", "pose"))))
         points[name] = dict(pts)
         b.done()
     return bodies, points
