@@ -49,8 +49,6 @@ from .vocabulary import (
     CONTACT_LAW_KEYS,
     FRICTION_LAW_KEYS,
     MECHANISM_KINDS,
-    PATH_TYPES,
-    TIME_LAWS,
     choices,
 )
 from .wear import read_wear
@@ -196,7 +194,7 @@ def _friction(f: Section) -> FrictionEffect:
 
 def _effects(sec: Section) -> Effects:
     contact, friction = _contact(sec.section("contact")), _friction(sec.section("friction"))
-    g = sec.vector("gravity", 2, [0.0, 0.0])
+    g = read_fields(sec, Effects, ("gravity",))["gravity"]
     film = read_lubrication(sec.raw("lubrication"), sec.key("lubrication"))
     wear = read_wear(sec.raw("wear"), sec.key("wear"))
     sec.done()
@@ -245,32 +243,38 @@ def _actuation(sec: Section, n: int, graph: Graph | None = None) -> tuple[Actuat
 CIRCLE = ("center", "radius", "start_angle", "revolutions", "orientation")  # a circle's keys, read in this order
 
 
+def _time_table(sec: Section, law: str, task: bool, base: Path) -> tuple:
+    """path.time_table: the rows (t, s, s_dot) of time_law 'table' (a CSV file beside the
+    scene or the rows themselves), () with any other law."""
+    if law == "table" and not task:
+        raise SceneError(f"{sec.key('time_law')}: 'table' is not allowed in a driven scene (no task body follows "
+                         "the path: the drivers set the motion, and a time table has no path progress to time)")
+    if law != "table":
+        if sec.raw("time_table") is not None:
+            raise SceneError(f"{sec.key('time_table')}: not allowed with time_law {law!r} (only with time_law: "
+                             "table)")
+        return ()
+    raw = sec.raw("time_table")
+    if raw is None:
+        raise SceneError(f"{sec.key('time_table')}: missing (time_law 'table' reads a CSV file with columns "
+                         "t,s,s_dot, relative to the scene file, or a list of [t, s, s_dot] rows)")
+    if isinstance(raw, list):  # the rows themselves (a sweep's cases carry their table so)
+        return check_time_table(raw, sec.key("time_table"))
+    return read_time_table(base / sec.string("time_table"), sec.key("time_table"))
+
+
 def _path(sec: Section, task: bool = True, base: Path = Path()) -> PathSpec:
-    kind = sec.choice("type", PATH_TYPES, None if task else "none")
+    kind = read_fields(sec, PathSpec, ("type",), None if task else {"type": "none"})["type"]
     if (kind == "none") == task:
         raise SceneError(f"{sec.key('type')}: {kind!r} is not allowed "
                          + ("(the task body follows a path: circle, line or waypoints)" if task else
                             "(no task body: the drivers set the motion; use 'none' with duration and sample_rate)"))
-    law = sec.choice("time_law", TIME_LAWS, "quintic")
-    table = ()
-    if law == "table" and not task:
-        raise SceneError(f"{sec.key('time_law')}: 'table' is not allowed in a driven scene (no task body follows "
-                         "the path: the drivers set the motion, and a time table has no path progress to time)")
-    if law == "table":
-        raw = sec.raw("time_table")
-        if raw is None:
-            raise SceneError(f"{sec.key('time_table')}: missing (time_law 'table' reads a CSV file with columns "
-                             "t,s,s_dot, relative to the scene file, or a list of [t, s, s_dot] rows)")
-        if isinstance(raw, list):  # the rows themselves (a sweep's cases carry their table so)
-            table = check_time_table(raw, sec.key("time_table"))
-        else:
-            table = read_time_table(base / sec.string("time_table"), sec.key("time_table"))
-    elif sec.raw("time_table") is not None:
-        raise SceneError(f"{sec.key('time_table')}: not allowed with time_law {law!r} (only with time_law: table)")
+    law = read_fields(sec, PathSpec, ("time_law",))["time_law"]
+    table = _time_table(sec, law, task, base)
     if table and sec.raw("duration") is None:
         duration = table[-1][0]
     else:
-        duration = sec.number("duration", positive=True)
+        duration = read_fields(sec, PathSpec, ("duration",))["duration"]
         if table and abs(duration - table[-1][0]) > 1e-9 * duration:
             raise SceneError(f"{sec.key('duration')}: {duration:g} s is not allowed (the time table ends at "
                              f"{table[-1][0]:.9g} s; leave duration out or give that)")
@@ -337,7 +341,7 @@ def parse_scene(data, name: str = "scene", source: str = "") -> Scene:
         actuation, _ = _actuation(top.section("actuation"), len(graph.actuators), graph)
     scene = Scene(
         name=read_name(top, "name", name),
-        description=top.string("description", ""),
+        **read_fields(top, Scene, ("description",)),
         mechanism=mech,
         graph=graph,
         effects=_effects(top.section("effects")),

@@ -13,7 +13,7 @@ from .data import data_describes, set_values, values_changed
 from .field_specs import choice, integer, number, text, vector
 from .forces import ForceElement
 from .time_table import check_time_table
-from .vocabulary import GROUND, JOURNAL_STARTS
+from .vocabulary import GROUND, JOURNAL_STARTS, PATH_TYPES, TIME_LAWS
 
 __all__ = ["Link", "Chain", "Platform", "NRRRSpec", "Material", "JointSpec", "Body", "AssemblyMode", "ActuatorSpec",
            "DriverSpec", "Graph", "ContactEffect", "FrictionEffect", "LubricationEffect", "WearEffect", "Effects",
@@ -243,7 +243,7 @@ class FrictionEffect:
 class Effects:
     contact: ContactEffect
     friction: FrictionEffect
-    gravity: tuple[float, float]
+    gravity: tuple[float, float] = vector(2, [0.0, 0.0])
     lubrication: LubricationEffect = LubricationEffect()  # every clearance joint's, unless the joint says
     wear: WearEffect = WearEffect()  # every clearance joint's, unless the joint says
 
@@ -287,9 +287,9 @@ class Actuation:
 @dataclass(frozen=True)
 class PathSpec:
     """Platform path; geometry in m/rad, duration [s], sample_rate [Hz]."""
-    type: str
-    duration: float
-    time_law: str
+    type: str = choice(PATH_TYPES)  # 'none' with no task body: the reader's
+    duration: float = number(positive=True)  # the time table's end when it has one: the reader's
+    time_law: str = choice(TIME_LAWS, "quintic")
     sample_rate: float = number(1000.0, positive=True)
     orientation: float = number(0.0, init=0.0)
     center: tuple[float, float] = vector(2, init=(0.0, 0.0))  # circle; required there
@@ -340,7 +340,7 @@ class Scene:
     """A validated scene. mechanism: the compact n-RRR form (None for a graph scene);
     graph: the body/joint graph every scene has (an n-RRR expands into it)."""
     name: str
-    description: str
+    description: str = text("")
     mechanism: NRRRSpec | None
     graph: Graph
     effects: Effects
