@@ -63,7 +63,7 @@ def _link(sec: Section, defaults: dict | None, defaults_path: str) -> Link:
 
     def get(k, default=None):
         src = sec if sec.has(k) else dsec
-        return src.number(k, default, positive=True)
+        return read_fields(src, Link, (k,), {k: default})[k]
 
     length, mass = get("length"), get("mass")
     inertia = get("inertia", mass * length**2 / 12.0)
@@ -89,10 +89,10 @@ def _mechanism(sec: Section) -> NRRRSpec:
     for i, raw in enumerate(raw_chains):
         c = Section(raw, f"{sec.key('chains')}[{i}]")
         name = str(i + 1)
-        base = c.vector("base", 2)
+        base = read_fields(c, Chain, ("base",))["base"]
         links = [_link(c.section(k), defaults.get(k), dsec.key(k)) for k in ("driving_link", "following_link")]
         radius_default = defaults.get("attachment_radius")
-        r = c.number("attachment_radius", radius_default, positive=True)
+        r = read_fields(c, Chain, ("attachment_radius",), {"attachment_radius": radius_default})["attachment_radius"]
         ang = math.radians(c.number("attachment_angle_deg"))
         mode_raw = c.raw("working_mode", defaults.get("working_mode", "+"))
         if mode_raw not in ("+", "-", "+acos", "-acos", 1, -1):

@@ -22,9 +22,9 @@ __all__ = ["Link", "Chain", "Platform", "NRRRSpec", "Material", "JointSpec", "Bo
 @dataclass(frozen=True)
 class Link:
     """A slender link; centre of mass at mid-length. length [m], mass [kg], inertia [kg m^2] about the CoM."""
-    length: float
-    mass: float
-    inertia: float
+    length: float = number(positive=True)
+    mass: float = number(positive=True)
+    inertia: float = number(positive=True)  # mass length^2 / 12 unless given: the reader's
 
 
 @dataclass(frozen=True)
@@ -36,10 +36,10 @@ class Chain:
     working_mode: +1 for the "+acos" branch, -1 for "-acos".
     """
     name: str
-    base: tuple[float, float]
+    base: tuple[float, float] = vector(2)
     driving: Link
     following: Link
-    attachment_radius: float
+    attachment_radius: float = number(positive=True)  # or chain_defaults': the reader's
     attachment_angle: float
     working_mode: int
 
