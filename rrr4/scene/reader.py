@@ -8,7 +8,6 @@ are in degrees).
 
 from __future__ import annotations
 
-import difflib
 import math
 from pathlib import Path
 
@@ -17,17 +16,17 @@ import yaml
 from ..checks import describe, unknown_value
 from ..errors import SceneError
 from ..files import read_text, shown
-from .assembly import read_assembly
+from .bearing import read_fit, read_material
 from .data import with_data
-from .drivers import read_driver
+from .field_specs import read_fields
 from .fields import MAX_SAMPLES, Section
 from .forces import read_forces
+from .graph import read_graph
 from .lubrication import read_lubrication
+from .names import read_name
 from .nrrr import expand_nrrr
 from .schema import (
     Actuation,
-    ActuatorSpec,
-    Body,
     Chain,
     ContactEffect,
     Effects,
@@ -37,7 +36,6 @@ from .schema import (
     IntegratorSettings,
     JointSpec,
     Link,
-    Material,
     NRRRSpec,
     PathSpec,
     Platform,
@@ -50,13 +48,7 @@ from .vocabulary import (
     ACTUATION_MODES,
     CONTACT_LAW_KEYS,
     FRICTION_LAW_KEYS,
-    GROUND,
-    JOINT_TYPES,
-    JOURNAL_STARTS,
-    MATERIALS,
     MECHANISM_KINDS,
-    PATH_TYPES,
-    TIME_LAWS,
     choices,
 )
 from .wear import read_wear
@@ -71,7 +63,7 @@ def _link(sec: Section, defaults: dict | None, defaults_path: str) -> Link:
 
     def get(k, default=None):
         src = sec if sec.has(k) else dsec
-        return src.number(k, default, positive=True)
+        return read_fields(src, Link, (k,), {k: default})[k]
 
     length, mass = get("length"), get("mass")
     inertia = get("inertia", mass * length**2 / 12.0)
@@ -82,7 +74,7 @@ def _link(sec: Section, defaults: dict | None, defaults_path: str) -> Link:
 
 def _mechanism(sec: Section) -> NRRRSpec:
     psec = sec.section("platform")
-    platform = Platform(psec.number("mass", positive=True), psec.number("inertia", positive=True))
+    platform = Platform(**read_fields(psec, Platform))
     psec.done()
     defaults = sec.raw("chain_defaults", {}) or {}
     if not isinstance(defaults, dict):
@@ -97,10 +89,10 @@ def _mechanism(sec: Section) -> NRRRSpec:
     for i, raw in enumerate(raw_chains):
         c = Section(raw, f"{sec.key('chains')}[{i}]")
         name = str(i + 1)
-        base = c.vector("base", 2)
+        base = read_fields(c, Chain, ("base",))["base"]
         links = [_link(c.section(k), defaults.get(k), dsec.key(k)) for k in ("driving_link", "following_link")]
         radius_default = defaults.get("attachment_radius")
-        r = c.number("attachment_radius", radius_default, positive=True)
+        r = read_fields(c, Chain, ("attachment_radius",), {"attachment_radius": radius_default})["attachment_radius"]
         ang = math.radians(c.number("attachment_angle_deg"))
         mode_raw = c.raw("working_mode", defaults.get("working_mode", "+"))
         if mode_raw not in ("+", "-", "+acos", "-acos", 1, -1):
@@ -111,22 +103,6 @@ def _mechanism(sec: Section) -> NRRRSpec:
         chains.append(Chain(name, base, *links, r, ang, mode))
     sec.done(["kind"])
     return NRRRSpec(platform, tuple(chains))
-
-
-def _material(v, key) -> Material:
-    if isinstance(v, str):
-        name = v.lower()
-        if name not in MATERIALS:
-            near = difflib.get_close_matches(name, list(MATERIALS), n=1)
-            hint = f"; did you mean '{near[0]}'?" if near else ""
-            raise SceneError(f"{key}: unknown material {describe(v)} "
-                             f"(choose one of: {', '.join(MATERIALS)}, or give youngs_modulus and poisson_ratio){hint}")
-        return Material(name, *MATERIALS[name])
-    s = Section(v, key)
-    m = Material(s.string("name", "custom"), s.number("youngs_modulus", positive=True, big=True),
-                 s.number("poisson_ratio", lo=0.0, hi=0.5, hi_open=True))
-    s.done()
-    return m
 
 
 def _joints(sec: Section, n_chains: int) -> tuple[JointSpec, ...]:
@@ -163,13 +139,9 @@ def _joints(sec: Section, n_chains: int) -> tuple[JointSpec, ...]:
         merged.update(per.get(name) or {})
         key = sec.key(f"per_joint.{name}") if has_own else sec.path
         s = Section(merged, key)
-        rj = s.number("journal_radius", positive=True)
-        c = s.number("radial_clearance", positive=True)
-        if c >= rj:
-            raise SceneError(f"{s.key('radial_clearance')}: {c:g} m is not allowed "
-                             f"(must be smaller than the journal radius {rj:g} m)")
-        mj = _material(s.raw("journal_material"), s.key("journal_material"))
-        mb = _material(s.raw("bearing_material"), s.key("bearing_material"))
+        rj, c = read_fit(s)
+        mj = read_material(s.raw("journal_material"), s.key("journal_material"))
+        mb = read_material(s.raw("bearing_material"), s.key("bearing_material"))
         film = read_lubrication(s.raw("lubrication"), s.key("lubrication")) if s.has("lubrication") else None
         wear = read_wear(s.raw("wear"), s.key("wear")) if s.has("wear") else None
         check_joint_override(key, name, film, wear, cl)
@@ -177,192 +149,6 @@ def _joints(sec: Section, n_chains: int) -> tuple[JointSpec, ...]:
         out.append(JointSpec(name, name in cl, rj, c, mj, mb, lubrication=film, wear=wear))
     sec.done()
     return tuple(out)
-
-
-def _name(sec: Section, k: str = "name", default=None) -> str:
-    v = sec.raw(k, default)
-    if not isinstance(v, str) or not v.strip() or not all(ch.isalnum() or ch in "_-" for ch in v):
-        raise SceneError(f"{sec.key(k)}: {describe(v)} is not allowed (a name of letters, digits, '_' and '-')")
-    return v
-
-
-def _points(sec: Section, k: str) -> tuple[tuple[str, tuple[float, float]], ...]:
-    raw = sec.raw(k, {}) or {}
-    if not isinstance(raw, dict):
-        raise SceneError(f"{sec.key(k)}: expected a mapping of point name to [x, y] in m, got {describe(raw)}")
-    ps = Section(raw, sec.key(k))
-    return tuple((str(name), ps.vector(name, 2)) for name in raw)
-
-
-def _clearance(v, key: str, bodies: tuple[str, str]) -> dict:
-    s = Section(v, key)
-    journal = s.raw("journal", bodies[1])
-    if journal not in bodies or journal == GROUND:
-        raise unknown_value(s.key("journal"), "body", journal, [b for b in bodies if b != GROUND])
-    rj = s.number("journal_radius", positive=True)
-    c = s.number("radial_clearance", positive=True)
-    if c >= rj:
-        raise SceneError(f"{s.key('radial_clearance')}: {c:g} m is not allowed "
-                         f"(must be smaller than the journal radius {rj:g} m)")
-    out = {"clearance": True, "journal_radius": rj, "radial_clearance": c, "journal": bodies.index(journal),
-           "journal_material": _material(s.raw("journal_material", "steel"), s.key("journal_material")),
-           "bearing_material": _material(s.raw("bearing_material", "steel"), s.key("bearing_material"))}
-    if s.has("lubrication"):
-        out["lubrication"] = read_lubrication(s.raw("lubrication"), s.key("lubrication"))
-    if s.has("wear"):
-        out["wear"] = read_wear(s.raw("wear"), s.key("wear"))
-    s.done()
-    return out
-
-
-def _graph(sec: Section, base: Path = Path()) -> Graph:
-    ground = dict(_points(sec.section("ground"), "points"))
-    sec.section("ground").done(["points"])
-    raw_bodies = sec.raw("bodies")
-    if not isinstance(raw_bodies, list) or not raw_bodies:
-        raise SceneError(f"{sec.key('bodies')}: {describe(raw_bodies)} is not allowed (a list of bodies is required)")
-    bodies, points = [], {GROUND: ground}
-    for i, raw in enumerate(raw_bodies):
-        b = Section(raw, f"{sec.key('bodies')}[{i}]")
-        name = _name(b)
-        if name in points:
-            raise SceneError(f"{b.key('name')}: {name!r} is not allowed (names a body twice, or the ground)")
-        pts = _points(b, "points")
-        bodies.append(Body(name, b.number("mass", positive=True), b.number("inertia", positive=True), pts,
-                           b.vector("pose", 3, [0.0, 0.0, 0.0])))
-        points[name] = dict(pts)
-        b.done()
-    names = [GROUND] + [b.name for b in bodies]
-
-    raw_joints = sec.raw("joints")
-    if not isinstance(raw_joints, list) or not raw_joints:
-        raise SceneError(f"{sec.key('joints')}: {describe(raw_joints)} is not allowed (a list of joints is required)")
-    joints, used = [], set()
-    for i, raw in enumerate(raw_joints):
-        j = Section(raw, f"{sec.key('joints')}[{i}]")
-        name = _name(j)
-        if any(x.name == name for x in joints):
-            raise SceneError(f"{j.key('name')}: {name!r} names a joint twice")
-        kind = j.choice("type", JOINT_TYPES, "revolute")
-        pair = j.raw("bodies")
-        if not isinstance(pair, list) or len(pair) != 2:
-            raise SceneError(f"{j.key('bodies')}: {describe(pair)} is not allowed (a list of two body names)")
-        for b in pair:
-            if b not in names:
-                raise unknown_value(j.key("bodies"), "body", b, names)
-        if pair[0] == pair[1]:
-            raise SceneError(f"{j.key('bodies')}: {describe(pair)} is not allowed (two different bodies)")
-        raw_pts = j.raw("points", [[0.0, 0.0], [0.0, 0.0]])
-        if not isinstance(raw_pts, list) or len(raw_pts) != 2:
-            raise SceneError(f"{j.key('points')}: {describe(raw_pts)} is not allowed "
-                             "(two points, one per body: a point name or [x, y] in m)")
-        pts = []
-        for k, (b, pt) in enumerate(zip(pair, raw_pts, strict=True)):
-            if isinstance(pt, str):
-                if pt not in points[b]:
-                    raise unknown_value(f"{j.key('points')}[{k}]", f"point of {b}", pt, list(points[b]) or ["(none)"])
-                pts.append(points[b][pt])
-            else:
-                pts.append(Section({"p": pt}, f"{j.key('points')}[{k}]").vector("p", 2))
-        extra = {}
-        if kind == "prismatic":
-            axis = j.vector("axis", 2, [1.0, 0.0])
-            norm = math.hypot(*axis)
-            if not norm > 1e-12:
-                raise SceneError(f"{j.key('axis')}: {list(axis)} is not allowed (a direction of non-zero length)")
-            extra = {"axis": (axis[0] / norm, axis[1] / norm), "angle": math.radians(j.number("angle_deg", 0.0))}
-            if j.has("clearance"):
-                raise SceneError(f"{j.key('clearance')}: not allowed on a prismatic joint (revolute clearance only)")
-        cl = {"clearance": False, "journal_radius": 0.005, "radial_clearance": 1e-4,
-              "journal_material": Material("steel", *MATERIALS["steel"]),
-              "bearing_material": Material("steel", *MATERIALS["steel"])}
-        if kind == "revolute" and j.raw("clearance") is not None:
-            cl.update(_clearance(j.raw("clearance"), j.key("clearance"), tuple(pair)))
-        j.done()
-        joints.append(JointSpec(name, type=kind, bodies=tuple(pair), points=tuple(pts), **cl, **extra))
-        used.update(pair)
-    for b in bodies:
-        if b.name not in used:
-            raise SceneError(f"{sec.key('bodies')}: body {b.name!r} is not allowed (it has no joint: "
-                             "every body must be connected)")
-    jnames = [x.name for x in joints]
-
-    def refs(k: str, what: str):
-        raw = sec.raw(k, []) or []
-        if not isinstance(raw, list):
-            raise SceneError(f"{sec.key(k)}: {describe(raw)} is not allowed (a list of {what})")
-        for i, r in enumerate(raw):
-            e = Section(r, f"{sec.key(k)}[{i}]")
-            joint = e.raw("joint")
-            if joint not in jnames:
-                raise unknown_value(e.key("joint"), "joint", joint, jnames)
-            yield e, joint
-
-    actuators = []
-    for e, joint in refs("actuators", "actuators"):
-        actuators.append(ActuatorSpec(_name(e, default=joint), joint, e.number("limit", positive=True)))
-        e.done()
-    drivers = []
-    for e, joint in refs("drivers", "drivers"):  # their motion laws: .drivers
-        revolute = joints[jnames.index(joint)].type == "revolute"
-        drivers.append(read_driver(e, _name(e, default=joint), joint, revolute, base))
-    seen: dict[str, str] = {}
-    for key, items in (("actuators", actuators), ("drivers", drivers)):
-        for i, x in enumerate(items):
-            if x.name in seen:
-                raise SceneError(f"{sec.key(key)}[{i}].name: {x.name!r} is not allowed (already the name of "
-                                 f"{seen[x.name]}; actuator and driver names must be unique)")
-            seen[x.name] = f"{sec.key(key)}[{i}]"
-    busy = [a.joint for a in actuators] + [d.joint for d in drivers]
-    for j in joints:
-        if busy.count(j.name) > 1:
-            raise SceneError(f"{sec.key('actuators')}: joint {j.name!r} is not allowed to carry more than one "
-                             "actuator or driver")
-        if j.clearance and j.name in busy:
-            raise SceneError(f"{sec.key('joints')}: joint {j.name!r} has clearance and an actuator or driver "
-                             "(clearance is allowed on passive joints only)")
-    task, task_point = sec.raw("task"), None
-    if isinstance(task, dict):  # a point of a body: {body: name, point: name or [x, y]}
-        t = Section(task, sec.key("task"))
-        body, pt = t.raw("body"), t.raw("point")
-        if body not in names[1:]:
-            raise unknown_value(t.key("body"), "body", body, names[1:])
-        if isinstance(pt, str):
-            if pt not in points[body]:
-                raise unknown_value(t.key("point"), f"point of {body}", pt, list(points[body]) or ["(none)"])
-            task_point = points[body][pt]
-        else:
-            task_point = t.vector("point", 2)
-        t.done()
-        task = body
-    elif task in (None, "none"):
-        task = None
-    elif task not in names[1:]:
-        raise unknown_value(sec.key("task"), "body", task, names[1:] + ["none"])
-    floating = _floating_bodies([b.name for b in bodies], joints, task)
-    if floating:
-        raise SceneError(f"{sec.key('joints')}: bodies {', '.join(map(repr, floating))} are not allowed to float "
-                         "(their joints connect them only to each other, neither to the ground nor to the task "
-                         "body, so nothing fixes where they are: join one of them to the ground or to a connected "
-                         "body)")
-    assembly = read_assembly(sec, joints, points)
-    sec.done()
-    return Graph(tuple(bodies), tuple(joints), tuple(actuators), tuple(drivers), task, task_point, assembly)
-
-
-def _floating_bodies(bodies: list[str], joints, task: str | None) -> list[str]:
-    """The bodies that no chain of joints reaches from the ground or the task body (whose pose
-    the path sets): a floating sub-mechanism, whose rigid motion nothing fixes."""
-    reached, todo = {GROUND, task} - {None}, [GROUND] + ([task] if task else [])
-    while todo:
-        here = todo.pop()
-        for j in joints:
-            if here in j.bodies:
-                for b in j.bodies:
-                    if b not in reached:
-                        reached.add(b)
-                        todo.append(b)
-    return [b for b in bodies if b not in reached]
 
 
 def _only_law_keys(sec: Section, law: str, keys_of: dict) -> None:
@@ -376,40 +162,43 @@ def _only_law_keys(sec: Section, law: str, keys_of: dict) -> None:
                              "remove it or choose a law that uses it")
 
 
-def _effects(sec: Section) -> Effects:
-    c = sec.section("contact")
-    law = c.choice("law", choices("contact law"), "lankarani-nikravesh")
+def _contact(c: Section) -> ContactEffect:
+    law = read_fields(c, ContactEffect, ("law",))["law"]
     _only_law_keys(c, law, CONTACT_LAW_KEYS)
-    cr = c.number("restitution", 0.9, lo=0.0, hi=1.0, lo_open=True)
-    exponent = c.number("exponent", 1.0 if law == "kelvin-voigt" else 1.5, positive=True)
+    got = read_fields(c, ContactEffect, ("restitution", "exponent"),
+                      {"exponent": 1.0} if law == "kelvin-voigt" else None)
     k = c.raw("stiffness", "auto")
-    if k == "auto" or k is None:
-        stiffness = None
-    else:
-        stiffness = c.number("stiffness", positive=True, big=True)
-    damping = c.number("damping", 0.0, nonneg=True)
-    if stiffness is None and exponent != 1.5:
-        raise SceneError(f"{c.key('stiffness')}: 'auto' is not allowed with exponent {exponent:g} (auto is the Hertz "
-                         "line-contact stiffness from the radii and materials, in N/m^1.5, for exponent 1.5 only: "
-                         f"give stiffness in N/m^{exponent:g}, or exponent 1.5)")
+    auto = k == "auto" or k is None  # the Hertz stiffness from the radii and materials
+    got.update(read_fields(c, ContactEffect, ("damping",) if auto else ("stiffness", "damping")))
+    if auto and got["exponent"] != 1.5:
+        raise SceneError(f"{c.key('stiffness')}: 'auto' is not allowed with exponent {got['exponent']:g} (auto is the "
+                         "Hertz line-contact stiffness from the radii and materials, in N/m^1.5, for exponent 1.5 "
+                         f"only: give stiffness in N/m^{got['exponent']:g}, or exponent 1.5)")
     c.done()
-    f = sec.section("friction")
-    flaw = f.choice("law", choices("friction law"), "none")
-    _only_law_keys(f, flaw, FRICTION_LAW_KEYS)
-    mu = f.number("coefficient", 0.0 if flaw == "none" else None, nonneg=True)
-    mus = f.number("static_coefficient", mu, nonneg=True)
-    v0 = f.number("v0", 1e-4, positive=True)
-    v1 = f.number("v1", 2e-4, positive=True)
-    if v1 <= v0:
-        raise SceneError(f"{f.key('v1')}: {v1:g} m/s is not allowed (must be greater than v0 = {v0:g} m/s)")
-    vs = f.number("stribeck_velocity", 1e-3, positive=True)
+    return ContactEffect(law, stiffness=got.pop("stiffness", None), **got)
+
+
+def _friction(f: Section) -> FrictionEffect:
+    law = read_fields(f, FrictionEffect, ("law",))["law"]
+    _only_law_keys(f, law, FRICTION_LAW_KEYS)
+    got = read_fields(f, FrictionEffect, ("coefficient",), {"coefficient": 0.0} if law == "none" else None)
+    got.update(read_fields(f, FrictionEffect, ("static_coefficient", "v0", "v1"),
+                           {"static_coefficient": got["coefficient"]}))
+    if got["v1"] <= got["v0"]:
+        raise SceneError(f"{f.key('v1')}: {got['v1']:g} m/s is not allowed (must be greater than v0 = "
+                         f"{got['v0']:g} m/s)")
+    got.update(read_fields(f, FrictionEffect, ("stribeck_velocity",)))
     f.done()
-    g = sec.vector("gravity", 2, [0.0, 0.0])
+    return FrictionEffect(law, **got)
+
+
+def _effects(sec: Section) -> Effects:
+    contact, friction = _contact(sec.section("contact")), _friction(sec.section("friction"))
+    g = read_fields(sec, Effects, ("gravity",))["gravity"]
     film = read_lubrication(sec.raw("lubrication"), sec.key("lubrication"))
     wear = read_wear(sec.raw("wear"), sec.key("wear"))
     sec.done()
-    return Effects(ContactEffect(law, cr, exponent, stiffness, damping),
-                   FrictionEffect(flaw, mu, mus, v0, v1, vs), g, film, wear)
+    return Effects(contact, friction, g, film, wear)
 
 
 def _actuation(sec: Section, n: int, graph: Graph | None = None) -> tuple[Actuation, tuple[float, ...]]:
@@ -435,54 +224,57 @@ def _actuation(sec: Section, n: int, graph: Graph | None = None) -> tuple[Actuat
                              "choose 'free')")
         limits = tuple(a.limit for a in graph.actuators)
     p = sec.section("preload")
-    method = p.choice("method", choices("preload method"), "exact")
-    fmin = p.number("min_force", nonneg=True, default=5.0)
+    got = read_fields(p, PreloadSettings, ("method", "min_force"))
     weights = p.vector("weights", n, 1.0, scalar_ok=True)
     for i, v in enumerate(weights):
         if v <= 0:
             raise SceneError(f"{p.key('weights')}[{i}]: {v:g} is not allowed (must be > 0)")
-    qp = p.choice("qp_solver", choices("qp solver"), "qrqp")
-    smooth = p.number("smoothness_weight", 1e-4, nonneg=True)
-    turn = p.number("max_turn_rate", 50.0, positive=True)
+    got.update(read_fields(p, PreloadSettings, ("qp_solver", "smoothness_weight", "max_turn_rate")))
     p.done()
     gains = sec.section("gains")
-    kp = gains.number("kp", 200.0, nonneg=True)
-    kd = gains.number("kd", 5.0, nonneg=True)
+    control = read_fields(gains, Actuation, ("kp", "kd"))
     gains.done()
-    rate = sec.number("control_rate", positive=True) if sec.raw("control_rate") is not None else None
-    compensation = sec.choice("compensation", choices("compensation"), "none")
-    seat_model = sec.choice("seat_model", choices("seat model"), "quasi_static")  # where references are compensated
+    # seat_model: where references are compensated
+    control.update(read_fields(sec, Actuation, ("control_rate", "compensation", "seat_model")))
     sec.done()
-    return Actuation(mode, PreloadSettings(method, fmin, weights, qp, smooth, turn), kp, kd, rate,
-                     compensation, seat_model), limits
+    return Actuation(mode, PreloadSettings(weights=weights, **got), **control), limits
+
+
+CIRCLE = ("center", "radius", "start_angle", "revolutions", "orientation")  # a circle's keys, read in this order
+
+
+def _time_table(sec: Section, law: str, task: bool, base: Path) -> tuple:
+    """path.time_table: the rows (t, s, s_dot) of time_law 'table' (a CSV file beside the
+    scene or the rows themselves), () with any other law."""
+    if law == "table" and not task:
+        raise SceneError(f"{sec.key('time_law')}: 'table' is not allowed in a driven scene (no task body follows "
+                         "the path: the drivers set the motion, and a time table has no path progress to time)")
+    if law != "table":
+        if sec.raw("time_table") is not None:
+            raise SceneError(f"{sec.key('time_table')}: not allowed with time_law {law!r} (only with time_law: "
+                             "table)")
+        return ()
+    raw = sec.raw("time_table")
+    if raw is None:
+        raise SceneError(f"{sec.key('time_table')}: missing (time_law 'table' reads a CSV file with columns "
+                         "t,s,s_dot, relative to the scene file, or a list of [t, s, s_dot] rows)")
+    if isinstance(raw, list):  # the rows themselves (a sweep's cases carry their table so)
+        return check_time_table(raw, sec.key("time_table"))
+    return read_time_table(base / sec.string("time_table"), sec.key("time_table"))
 
 
 def _path(sec: Section, task: bool = True, base: Path = Path()) -> PathSpec:
-    kind = sec.choice("type", PATH_TYPES, None if task else "none")
+    kind = read_fields(sec, PathSpec, ("type",), None if task else {"type": "none"})["type"]
     if (kind == "none") == task:
         raise SceneError(f"{sec.key('type')}: {kind!r} is not allowed "
                          + ("(the task body follows a path: circle, line or waypoints)" if task else
                             "(no task body: the drivers set the motion; use 'none' with duration and sample_rate)"))
-    law = sec.choice("time_law", TIME_LAWS, "quintic")
-    table = ()
-    if law == "table" and not task:
-        raise SceneError(f"{sec.key('time_law')}: 'table' is not allowed in a driven scene (no task body follows "
-                         "the path: the drivers set the motion, and a time table has no path progress to time)")
-    if law == "table":
-        raw = sec.raw("time_table")
-        if raw is None:
-            raise SceneError(f"{sec.key('time_table')}: missing (time_law 'table' reads a CSV file with columns "
-                             "t,s,s_dot, relative to the scene file, or a list of [t, s, s_dot] rows)")
-        if isinstance(raw, list):  # the rows themselves (a sweep's cases carry their table so)
-            table = check_time_table(raw, sec.key("time_table"))
-        else:
-            table = read_time_table(base / sec.string("time_table"), sec.key("time_table"))
-    elif sec.raw("time_table") is not None:
-        raise SceneError(f"{sec.key('time_table')}: not allowed with time_law {law!r} (only with time_law: table)")
+    law = read_fields(sec, PathSpec, ("time_law",))["time_law"]
+    table = _time_table(sec, law, task, base)
     if table and sec.raw("duration") is None:
         duration = table[-1][0]
     else:
-        duration = sec.number("duration", positive=True)
+        duration = read_fields(sec, PathSpec, ("duration",))["duration"]
         if table and abs(duration - table[-1][0]) > 1e-9 * duration:
             raise SceneError(f"{sec.key('duration')}: {duration:g} s is not allowed (the time table ends at "
                              f"{table[-1][0]:.9g} s; leave duration out or give that)")
@@ -491,19 +283,15 @@ def _path(sec: Section, task: bool = True, base: Path = Path()) -> PathSpec:
         duration=duration,
         time_law=law,
         time_table=table,
-        sample_rate=sec.number("sample_rate", 1000.0, positive=True),
-        max_condition_number=sec.number("max_condition_number", 1e3, lo=1.0, lo_open=True),
-        min_transmission=sec.number("min_transmission", 0.05, lo=0.0, hi=1.0, hi_open=True),
+        **read_fields(sec, PathSpec, ("sample_rate", "max_condition_number", "min_transmission")),
     )
     if common["duration"] * common["sample_rate"] < 2:
         raise SceneError(f"{sec.key('sample_rate')}: {common['sample_rate']:g} Hz is too low "
                          f"(need at least 2 samples over duration {common['duration']:g} s)")
     if kind == "circle":
-        spec = PathSpec(**common, center=sec.vector("center", 2), radius=sec.number("radius", positive=True),
-                        start_angle=sec.number("start_angle", 0.0), revolutions=sec.number("revolutions", 1.0),
-                        orientation=sec.number("orientation", 0.0))
+        spec = PathSpec(**common, **read_fields(sec, PathSpec, CIRCLE))
     elif kind == "line":
-        spec = PathSpec(**common, start=sec.vector("start", 3), end=sec.vector("end", 3))
+        spec = PathSpec(**common, **read_fields(sec, PathSpec, ("start", "end")))
     elif kind == "none":
         spec = PathSpec(**common)
     else:
@@ -518,20 +306,7 @@ def _path(sec: Section, task: bool = True, base: Path = Path()) -> PathSpec:
 
 
 def _integrator(sec: Section) -> IntegratorSettings:
-    s = IntegratorSettings(
-        method=sec.choice("method", choices("integrator"), "bathe"),
-        step=sec.number("step", 1e-5, positive=True),
-        rtol=sec.number("rtol", 1e-8, positive=True),
-        atol=sec.number("atol", 1e-10, positive=True),
-        gamma=sec.number("gamma", 0.5, lo=0.0, hi=1.0, lo_open=True, hi_open=True),
-        rho_inf=sec.number("rho_inf", 0.0, lo=0.0, hi=1.0),
-        newton_tol=sec.number("newton_tol", 1e-10, positive=True),
-        max_newton=sec.integer("max_newton", 20, positive=True),
-        refine=sec.integer("refine", 1, positive=True),
-        newton=sec.choice("newton", choices("newton"), "simplified"),
-        tolerance=sec.number("tolerance", positive=True) if sec.raw("tolerance") is not None else None,
-        coordinates=sec.choice("coordinates", choices("coordinates"), "auto"),
-    )
+    s = IntegratorSettings(**read_fields(sec, IntegratorSettings))
     if s.tolerance is not None and s.method not in choices("error control"):
         raise SceneError(f"{sec.key('tolerance')}: {s.tolerance:g} is not allowed with method '{s.method}' (error "
                          f"control is for {', '.join(choices('error control'))}; the adaptive methods take rtol, atol)")
@@ -540,7 +315,7 @@ def _integrator(sec: Section) -> IntegratorSettings:
 
 
 def _initial(sec: Section) -> Initial:
-    v = Initial(sec.vector("platform_velocity", 3, [0.0, 0.0, 0.0]), sec.choice("journals", JOURNAL_STARTS, "centred"))
+    v = Initial(**read_fields(sec, Initial))
     sec.done()
     return v
 
@@ -559,14 +334,14 @@ def parse_scene(data, name: str = "scene", source: str = "") -> Scene:
         actuation, limits = _actuation(top.section("actuation"), mech.n_chains)
         graph = expand_nrrr(mech, joints, limits)
     else:
-        mech, graph = None, _graph(msec, Path(source).parent if source else Path())
+        mech, graph = None, read_graph(msec, Path(source).parent if source else Path())
         if top.has("joints"):
             raise SceneError("joints: not allowed with mechanism.kind 'graph' (give each joint's clearance in "
                              "mechanism.joints)")
         actuation, _ = _actuation(top.section("actuation"), len(graph.actuators), graph)
     scene = Scene(
-        name=_name(top, "name", name),
-        description=top.string("description", ""),
+        name=read_name(top, "name", name),
+        **read_fields(top, Scene, ("description",)),
         mechanism=mech,
         graph=graph,
         effects=_effects(top.section("effects")),

@@ -10,9 +10,10 @@ from dataclasses import dataclass, field, replace
 from ..checks import argument, describe
 from ..errors import SceneError
 from .data import data_describes, set_values, values_changed
+from .field_specs import choice, integer, number, text, vector
 from .forces import ForceElement
 from .time_table import check_time_table
-from .vocabulary import GROUND
+from .vocabulary import GROUND, JOURNAL_STARTS, PATH_TYPES, TIME_LAWS
 
 __all__ = ["Link", "Chain", "Platform", "NRRRSpec", "Material", "JointSpec", "Body", "AssemblyMode", "ActuatorSpec",
            "DriverSpec", "Graph", "ContactEffect", "FrictionEffect", "LubricationEffect", "WearEffect", "Effects",
@@ -21,9 +22,9 @@ __all__ = ["Link", "Chain", "Platform", "NRRRSpec", "Material", "JointSpec", "Bo
 @dataclass(frozen=True)
 class Link:
     """A slender link; centre of mass at mid-length. length [m], mass [kg], inertia [kg m^2] about the CoM."""
-    length: float
-    mass: float
-    inertia: float
+    length: float = number(positive=True)
+    mass: float = number(positive=True)
+    inertia: float = number(positive=True)  # mass length^2 / 12 unless given: the reader's
 
 
 @dataclass(frozen=True)
@@ -35,18 +36,18 @@ class Chain:
     working_mode: +1 for the "+acos" branch, -1 for "-acos".
     """
     name: str
-    base: tuple[float, float]
+    base: tuple[float, float] = vector(2)
     driving: Link
     following: Link
-    attachment_radius: float
+    attachment_radius: float = number(positive=True)  # or chain_defaults': the reader's
     attachment_angle: float
     working_mode: int
 
 
 @dataclass(frozen=True)
 class Platform:
-    mass: float
-    inertia: float
+    mass: float = number(positive=True)
+    inertia: float = number(positive=True)
 
 
 @dataclass(frozen=True)
@@ -62,9 +63,9 @@ class NRRRSpec:
 
 @dataclass(frozen=True)
 class Material:
-    name: str
-    youngs_modulus: float
-    poisson_ratio: float
+    name: str = text("custom")
+    youngs_modulus: float = number(positive=True, big=True)
+    poisson_ratio: float = number(lo=0.0, hi=0.5, hi_open=True)
 
 
 @dataclass(frozen=True)
@@ -109,8 +110,8 @@ class JointSpec:
     """
     name: str
     clearance: bool
-    journal_radius: float
-    radial_clearance: float
+    journal_radius: float = number(positive=True)
+    radial_clearance: float = number(positive=True)  # smaller than journal_radius: bearing.read_fit
     journal_material: Material
     bearing_material: Material
     type: str = "revolute"
@@ -141,10 +142,10 @@ class Body:
     (x, y) [m] in the body frame (origin at the centre of mass), and a pose guess
     [x, y, theta] [m, m, rad] for assembling the mechanism."""
     name: str
-    mass: float
-    inertia: float
+    mass: float = number(positive=True)
+    inertia: float = number(positive=True)
     points: tuple[tuple[str, tuple[float, float]], ...] = ()
-    pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    pose: tuple[float, float, float] = vector(3, [0.0, 0.0, 0.0], init=(0.0, 0.0, 0.0))
 
 
 @dataclass(frozen=True)
@@ -166,7 +167,7 @@ class ActuatorSpec:
     limited to +-limit."""
     name: str
     joint: str
-    limit: float
+    limit: float = number(positive=True)
 
 
 @dataclass(frozen=True)
@@ -221,28 +222,28 @@ class ContactEffect:
     stiffness None means computed from materials and radii (Lankarani-Nikravesh / Flores).
     damping is the Kelvin-Voigt coefficient [N s/m] (only used by that law).
     """
-    law: str
-    restitution: float
-    exponent: float
-    stiffness: float | None
-    damping: float
+    law: str = choice("contact law", "lankarani-nikravesh")
+    restitution: float = number(0.9, lo=0.0, hi=1.0, lo_open=True)
+    exponent: float = number(1.5, positive=True)  # 1.0 with law kelvin-voigt
+    stiffness: float | None = number(positive=True, big=True)  # or 'auto' (None): the reader's
+    damping: float = number(0.0, nonneg=True)
 
 
 @dataclass(frozen=True)
 class FrictionEffect:
-    law: str
-    coefficient: float
-    static_coefficient: float
-    v0: float
-    v1: float
-    stribeck_velocity: float
+    law: str = choice("friction law", "none")
+    coefficient: float = number(nonneg=True)  # 0 with law 'none'
+    static_coefficient: float = number(nonneg=True)  # the coefficient unless given
+    v0: float = number(1e-4, positive=True)
+    v1: float = number(2e-4, positive=True)  # greater than v0
+    stribeck_velocity: float = number(1e-3, positive=True)
 
 
 @dataclass(frozen=True)
 class Effects:
     contact: ContactEffect
     friction: FrictionEffect
-    gravity: tuple[float, float]
+    gravity: tuple[float, float] = vector(2, [0.0, 0.0])
     lubrication: LubricationEffect = LubricationEffect()  # every clearance joint's, unless the joint says
     wear: WearEffect = WearEffect()  # every clearance joint's, unless the joint says
 
@@ -258,12 +259,12 @@ class Effects:
 @dataclass(frozen=True)
 class PreloadSettings:
     """min_force [N] at every passive joint; weights of the torque norm; NLP terms."""
-    method: str
-    min_force: float
-    weights: tuple[float, ...]
-    qp_solver: str
-    smoothness_weight: float
-    max_turn_rate: float  # [rad/s] of the contact-force direction in each bearing
+    method: str = choice("preload method", "exact")
+    min_force: float = number(5.0, nonneg=True)
+    weights: tuple[float, ...]  # one per actuator, each > 0: the reader's
+    qp_solver: str = choice("qp solver", "qrqp")
+    smoothness_weight: float = number(1e-4, nonneg=True)
+    max_turn_rate: float = number(50.0, positive=True)  # [rad/s] of the contact-force direction in each bearing
 
 
 @dataclass(frozen=True)
@@ -272,32 +273,34 @@ class Actuation:
     the graph's, :attr:`Scene.torque_limit`)."""
     mode: str
     preload: PreloadSettings
-    kp: float  # [N m/rad]
-    kd: float  # [N m s/rad]
-    control_rate: float | None = None  # [Hz] sampled controller (zero-order hold); None: continuous
-    compensation: str = "none"         # 'clearance': references closed around the predicted journal seats
+    kp: float = number(200.0, nonneg=True)  # [N m/rad]
+    kd: float = number(5.0, nonneg=True)  # [N m s/rad]
+    # [Hz] sampled controller (zero-order hold); None: continuous
+    control_rate: float | None = number(positive=True, optional=True, init=None)
+    # 'clearance': references closed around the predicted journal seats
+    compensation: str = choice("compensation", "none", init="none")
     # how those seats follow friction: 'quasi_static' (the friction angle of the planned slip
     # velocity) or 'rolling' (the journals roll between friction angles as the slip reverses)
-    seat_model: str = "quasi_static"
+    seat_model: str = choice("seat model", "quasi_static", init="quasi_static")
 
 
 @dataclass(frozen=True)
 class PathSpec:
     """Platform path; geometry in m/rad, duration [s], sample_rate [Hz]."""
-    type: str
-    duration: float
-    time_law: str
-    sample_rate: float
-    orientation: float = 0.0
-    center: tuple[float, float] = (0.0, 0.0)
-    radius: float = 0.0
-    start_angle: float = 0.0
-    revolutions: float = 1.0
-    start: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    end: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    type: str = choice(PATH_TYPES)  # 'none' with no task body: the reader's
+    duration: float = number(positive=True)  # the time table's end when it has one: the reader's
+    time_law: str = choice(TIME_LAWS, "quintic")
+    sample_rate: float = number(1000.0, positive=True)
+    orientation: float = number(0.0, init=0.0)
+    center: tuple[float, float] = vector(2, init=(0.0, 0.0))  # circle; required there
+    radius: float = number(positive=True, init=0.0)  # circle; required there
+    start_angle: float = number(0.0, init=0.0)
+    revolutions: float = number(1.0, init=1.0)
+    start: tuple[float, float, float] = vector(3, init=(0.0, 0.0, 0.0))  # line; required there
+    end: tuple[float, float, float] = vector(3, init=(0.0, 0.0, 0.0))  # line; required there
     points: tuple[tuple[float, float, float], ...] = ()
-    max_condition_number: float = 1.0e3
-    min_transmission: float = 0.05
+    max_condition_number: float = number(1e3, lo=1.0, lo_open=True, init=1.0e3)
+    min_transmission: float = number(0.05, lo=0.0, hi=1.0, hi_open=True, init=0.05)
     # time_law 'table': rows (t [s], s [-], s_dot [1/s]) of rrr4.scene.time_table; () otherwise
     time_table: tuple[tuple[float, float, float], ...] = ()
 
@@ -308,24 +311,28 @@ class Initial:
     velocity. journals: 'centred' starts every journal at its bearing centre; 'seated'
     starts each clearance journal pressed against its bearing wall under the joint's
     initial load (direction and Hertzian penetration from the ideal reaction at t = 0)."""
-    platform_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    journals: str = "centred"
+    platform_velocity: tuple[float, float, float] = vector(3, [0.0, 0.0, 0.0], init=(0.0, 0.0, 0.0))
+    journals: str = choice(JOURNAL_STARTS, "centred", init="centred")
 
 
 @dataclass(frozen=True)
 class IntegratorSettings:
-    method: str
-    step: float  # [s] fixed step, or initial step of adaptive methods
-    rtol: float
-    atol: float
-    gamma: float
-    rho_inf: float
-    newton_tol: float
-    max_newton: int
-    refine: int = 1  # sub-steps that re-take a fixed step across a contact onset or loss (1: off)
-    newton: str = "simplified"  # implicit methods: reuse the iteration matrix's factors, or 'full'
-    tolerance: float | None = None  # [m] implicit methods: local position error per step (adaptive); None: fixed step
-    coordinates: str = "auto"  # what the integrator steps: tree coordinates ('auto': wherever a tree exists) or not
+    method: str = choice("integrator", "bathe")
+    step: float = number(1e-5, positive=True)  # [s] fixed step, or initial step of adaptive methods
+    rtol: float = number(1e-8, positive=True)
+    atol: float = number(1e-10, positive=True)
+    gamma: float = number(0.5, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
+    rho_inf: float = number(0.0, lo=0.0, hi=1.0)
+    newton_tol: float = number(1e-10, positive=True)
+    max_newton: int = integer(20, positive=True)
+    # sub-steps that re-take a fixed step across a contact onset or loss (1: off)
+    refine: int = integer(1, positive=True, init=1)
+    # implicit methods: reuse the iteration matrix's factors, or 'full'
+    newton: str = choice("newton", "simplified", init="simplified")
+    # [m] implicit methods: local position error per step (adaptive); None: fixed step
+    tolerance: float | None = number(positive=True, optional=True, init=None)
+    # what the integrator steps: tree coordinates ('auto': wherever a tree exists) or not
+    coordinates: str = choice("coordinates", "auto", init="auto")
 
 
 @dataclass(frozen=True)
@@ -333,7 +340,7 @@ class Scene:
     """A validated scene. mechanism: the compact n-RRR form (None for a graph scene);
     graph: the body/joint graph every scene has (an n-RRR expands into it)."""
     name: str
-    description: str
+    description: str = text("")
     mechanism: NRRRSpec | None
     graph: Graph
     effects: Effects
