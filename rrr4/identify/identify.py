@@ -170,6 +170,37 @@ def _measurements(problem: Problem, measurements, arm, noise) -> Measurements:
     return m
 
 
+def _fit(fun, u, lower, upper, sigma: dict, given: dict, first: dict, residuals, npar: int):
+    """Levenberg-Marquardt from u, re-estimating the noise levels not `given` from the
+    residuals (at most four rounds, until they settle within 1 %): (u, sigma, iterations,
+    converged). fun(u, jacobian, sigma): the weighted residuals and their Jacobian at the noise
+    levels sigma; residuals(u, sigma): the raw residuals by column."""
+    iterations, converged = 0, True
+    for _ in range(4):
+        u, _, _, it, ok = levenberg_marquardt(lambda v, jacobian, s=sigma: fun(v, jacobian, s), u, lower, upper)
+        iterations, converged = iterations + it, ok
+        if len(given) == len(sigma):
+            break
+        new = noise_from_residuals(residuals(u, sigma), npar)
+        new = {**{c: max(v, 1e-6 * first[c]) for c, v in new.items()}, **given}  # a floor for exact data
+        change = max(abs(new[c] / sigma[c] - 1) for c in sigma)
+        sigma = new
+        if change < 0.01:
+            u, _, _, it, ok = levenberg_marquardt(lambda v, jacobian, s=sigma: fun(v, jacobian, s), u, lower, upper)
+            iterations, converged = iterations + it, ok
+            break
+    return u, sigma, iterations, converged
+
+
+def _verdict(J, params, relative_se) -> dict:
+    """The identifiability verdict of the scaled sensitivities J, with the parameters whose
+    standard error in their fitted coordinate exceeds POOR named poorly determined."""
+    keys = [q.key for q in params]
+    verdict = identifiability(J, keys, _excite(dict(zip(keys, params, strict=True))))
+    poor = [k for k, s_u in zip(keys, relative_se, strict=True) if not s_u <= POOR]
+    return {**verdict, "poorly_determined": poor, "identifiable": verdict["identifiable"] and not poor}
+
+
 def identify(scene, measurements, parameters=None, method: str = "seated", noise: dict | None = None,
              arm: str | None = None, effort_lag="controller", windows: int = 1) -> Identification:
     """Identify `parameters` of `scene` (the nominal model: a Scene, a scene file or a
@@ -227,29 +258,18 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
     def derivative(u):
         return np.r_[[q.derivative(v) for q, v in zip(params, u[:npar], strict=True)], scale_s]
 
-    def fun(u, jacobian):
+    def fun(u, jacobian, sigma):
         res = data.residuals(values(u), sigma, jacobian=jacobian)
         if not jacobian:
             return res["r"], None
         return res["r"], res["J"] * derivative(u)
 
-    u, iterations, converged = np.zeros(npar + start.size), 0, True
+    u = np.zeros(npar + start.size)
     chaos_nominal = None
     if method == "dynamic":  # a run too chaotic to shoot is refused before fitting, and again at the end
         chaos_nominal = data.check_sensitivities(values(u), sigma, data.residuals(values(u), sigma)["J"])
-    for _ in range(4):
-        u, r, J, it, ok = levenberg_marquardt(fun, u, lower, upper)
-        iterations, converged = iterations + it, ok
-        if len(given) == len(sigma):
-            break
-        new = noise_from_residuals(data.residuals(values(u), sigma, jacobian=False), len(params))
-        new = {**{c: max(v, 1e-6 * first[c]) for c, v in new.items()}, **given}  # a floor for exact data
-        change = max(abs(new[c] / sigma[c] - 1) for c in sigma)
-        sigma = new
-        if change < 0.01:
-            u, r, J, it, ok = levenberg_marquardt(fun, u, lower, upper)
-            iterations, converged = iterations + it, ok
-            break
+    u, sigma, iterations, converged = _fit(fun, u, lower, upper, sigma, given, first,
+                                           lambda u, sigma: data.residuals(values(u), sigma, jacobian=False), npar)
     w = values(u)
     res = data.residuals(w, sigma)
     if method == "dynamic":
@@ -272,10 +292,8 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
     friction = [q.key for q in params if q.kind == "friction"]
     explained = check_friction_explained(data, res, friction[0]) if method == "seated" and friction else None
     se = cov["standard_error"]
-    keys = [q.key for q in params]
-    verdict = identifiability(J, keys, _excite(dict(zip(keys, params, strict=True))))
-    poor = [k for k, s_u in zip(keys, se / scale, strict=True) if not s_u <= POOR]
-    verdict = {**verdict, "poorly_determined": poor, "identifiable": verdict["identifiable"] and not poor}
+    verdict = _verdict(J, params, se / scale)
+    poor = verdict["poorly_determined"]
     at_bound = tuple(q.key for q, v in zip(params, p, strict=True)
                      if min(v - q.lower, q.upper - v) <= 1e-9 * (q.upper - q.lower))
     # a barely determined parameter keeps its nominal value in the identified scene

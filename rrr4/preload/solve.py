@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import time
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -39,14 +40,76 @@ from .solution import Infeasibility, PreloadSolution, effort_excess
 
 __all__ = ["solve_preload", "PreloadWarning", "PreloadInfeasibleError", "FEASIBILITY_TOL"]
 
-# the methods and the largest degree of redundancy each handles (None: any)
-# the largest degree of redundancy each method handles (None: any), by the scene's vocabulary
-_REDUNDANCY = {"exact": 1, "qp": None, "nlp": None}
-PRELOAD_METHODS = registry(PRELOAD_METHOD_NAMES, _REDUNDANCY)
 # relative tolerance of the final check (f_min and torque limits); the QP marks its own result with the same
 FEASIBILITY_TOL = QP_FEASIBILITY_TOL
 # relative f_min increase for the NLP on a grid coarser than the samples
 COARSE_GRID_MARGIN = 0.02
+
+
+@dataclass(frozen=True)
+class _Options:
+    """What a method takes besides the problem, the effort family and the samples."""
+    solver: str
+    signs: object
+    branch: int | str
+    nlp_rate: float | None
+    f_min: float
+    limits: np.ndarray
+
+
+def _exact(problem: Problem, fam, samples, o: _Options):
+    """The closed form at every sample, on `branch` (0: the global optimum; 'auto': the branch
+    feasible at more samples)."""
+    raw, branch = fam.raw, o.branch
+    if branch == "auto":
+        branch, alpha, feas = choose_signs(problem, raw, o.solver, exact=True)
+        branch = int(branch)
+    else:
+        f = exact_preload_function(problem, branch=branch).map(len(samples.t))
+        alpha, _, feas, _ = (np.array(v) for v in f(*raw))
+    return alpha.T, feas.ravel() > 0.5, {"solver": "closed form", "branch": branch}
+
+
+def _qp(problem: Problem, fam, samples, o: _Options):
+    """The conic QP at every sample with fixed axial-force signs (default: the uniform sign
+    feasible at more samples)."""
+    if o.signs is None:
+        used, alpha, feas = choose_signs(problem, fam.raw, o.solver)
+    else:
+        used = o.signs
+        alpha, _, feas, _ = qp_preloads(problem, o.solver, o.signs, fam.raw)
+    return alpha.T, feas.ravel() > 0.5, {"solver": o.solver, "signs": used}
+
+
+def _nlp(problem: Problem, fam, samples, o: _Options):
+    """The horizon NLP from the QP's law, on the samples or a coarser grid (alpha interpolated between its points)."""
+    scene, pre = problem.scene, problem.scene.actuation.preload
+    N, m = len(samples.t), problem.model.redundancy
+    used, alpha0, _ = choose_signs(problem, fam.raw, o.solver)
+    grid = np.arange(N)
+    if o.nlp_rate is not None:
+        step = max(1, int(round((N - 1) / max(scene.path.duration * o.nlp_rate, 1))))
+        grid = np.unique(np.r_[np.arange(0, N, step), N - 1])
+    a0 = np.nan_to_num(alpha0.T[grid])
+    # on a coarser grid, aim a little above f_min so the interpolated samples keep it
+    f_grid = o.f_min * (1.0 + COARSE_GRID_MARGIN) if len(grid) < N else o.f_min
+    a_grid, nstats = solve_trajectory_nlp(
+        samples.t[grid], fam.tau_p[grid], fam.tau_n[grid], fam.r_p[grid], fam.r_n[grid], f_min=f_grid,
+        weights=pre.weights, limits=o.limits, smoothness_weight=pre.smoothness_weight,
+        max_turn_rate=pre.max_turn_rate, alpha0=a0)
+    alpha = np.column_stack([np.interp(samples.t, samples.t[grid], a_grid[:, k]) for k in range(m)])
+    return alpha, np.full(N, bool(nstats["success"])), {**nstats, "initial_guess": f"qp ({o.solver}, sign {used:+g})"}
+
+
+@dataclass(frozen=True)
+class _Method:
+    redundancy: int | None  # the largest degree of redundancy it handles (None: any)
+    along: object           # (problem, family, samples, options) -> (alpha (N, m), ok (N,), statistics)
+
+
+# one entry per method of the scene's vocabulary (a method without an entry fails the house-rule test)
+PRELOAD_METHODS = registry(PRELOAD_METHOD_NAMES, {"exact": _Method(1, _exact), "qp": _Method(None, _qp),
+                                                  "nlp": _Method(None, _nlp)})
 
 
 class PreloadWarning(UserWarning):
@@ -94,50 +157,19 @@ def solve_preload(scene: Scene | Problem, method: str | None = None, *, qp_solve
     if m < 1:
         raise SceneError(f"mechanism: redundancy {m} is not allowed for a preload (needs more actuators than "
                          f"the task's {model.task_dof} degrees of freedom)")
-    if PRELOAD_METHODS[method] is not None and m > PRELOAD_METHODS[method]:
-        raise SceneError(f"method: {method!r} handles redundancy <= {PRELOAD_METHODS[method]}, the scene has {m} "
-                         f"(choose one of: {', '.join(k for k, v in PRELOAD_METHODS.items() if v is None or v >= m)})")
+    most = PRELOAD_METHODS[method].redundancy
+    if most is not None and m > most:
+        raise SceneError(f"method: {method!r} handles redundancy <= {most}, the scene has {m} (choose one of: "
+                         f"{', '.join(k for k, v in PRELOAD_METHODS.items() if (v.redundancy or m) >= m)})")
     samples = sample_path(scene.path, sample_rate)
     N = len(samples.t)
     f_min, limits = pre.min_force, np.asarray(problem.torque_limit, float)
     t_start = time.perf_counter()
     fam = problem.effort_family(samples.pose, samples.pose_d, samples.pose_dd)
-    raw, tau_p, tau_n, r_p, r_n = fam.raw, fam.tau_p, fam.tau_n, fam.r_p, fam.r_n
-    stats: dict = {"method": method, "points": N}
-    method_ok = np.ones(N, bool)
-    used_signs = None
-
-    if method == "exact":
-        if branch == "auto":
-            branch, alpha, feas = choose_signs(problem, raw, solver, exact=True)
-            branch = int(branch)
-        else:
-            alpha, _, feas, _ = (np.array(v) for v in exact_preload_function(problem, branch=branch).map(N)(*raw))
-        alpha, method_ok = alpha.T, feas.ravel() > 0.5
-        stats.update(solver="closed form", branch=branch)
-    elif method == "qp":
-        if signs is None:
-            used_signs, alpha, feas = choose_signs(problem, raw, solver)
-        else:
-            used_signs = signs
-            alpha, _, feas, _ = qp_preloads(problem, solver, signs, raw)
-        alpha, method_ok = alpha.T, feas.ravel() > 0.5
-        stats.update(solver=solver, signs=used_signs)
-    else:
-        used_signs, alpha0, _ = choose_signs(problem, raw, solver)
-        grid = np.arange(N)
-        if nlp_rate is not None:
-            step = max(1, int(round((N - 1) / max(scene.path.duration * nlp_rate, 1))))
-            grid = np.unique(np.r_[np.arange(0, N, step), N - 1])
-        a0 = np.nan_to_num(alpha0.T[grid])
-        # on a coarser grid, aim a little above f_min so the interpolated samples keep it
-        f_grid = f_min * (1.0 + COARSE_GRID_MARGIN) if len(grid) < N else f_min
-        a_grid, nstats = solve_trajectory_nlp(
-            samples.t[grid], tau_p[grid], tau_n[grid], r_p[grid], r_n[grid], f_min=f_grid, weights=pre.weights,
-            limits=limits, smoothness_weight=pre.smoothness_weight, max_turn_rate=pre.max_turn_rate, alpha0=a0)
-        alpha = np.column_stack([np.interp(samples.t, samples.t[grid], a_grid[:, k]) for k in range(m)])
-        method_ok[:] = nstats["success"]
-        stats.update(nstats, initial_guess=f"qp ({solver}, sign {used_signs:+g})")
+    tau_p, tau_n, r_p, r_n = fam.tau_p, fam.tau_n, fam.r_p, fam.r_n
+    alpha, method_ok, stats = PRELOAD_METHODS[method].along(
+        problem, fam, samples, _Options(solver, signs, branch, nlp_rate, f_min, limits))
+    stats = {"method": method, "points": N, **stats}
     stats["wall_time"] = time.perf_counter() - t_start
     stats["time_per_point"] = stats["wall_time"] / N
 

@@ -24,6 +24,7 @@ the actuators carry no effort. A graph without a task body moves by its drivers
 from __future__ import annotations
 
 import functools
+import inspect
 import math
 import os
 import time
@@ -50,8 +51,6 @@ from .system import REFERENCES, Loop, in_tree, loop_of, measured, system_of
 
 __all__ = ["simulate", "OVERRIDES", "default_jit", "frame_times", "controller_efforts", "run_end"]
 
-OVERRIDES = ("step", "output_rate", "preload", "v_min", "baumgarte", "jit", "progress", "references", "controller",
-             "model", "inputs", "wear")
 MAX_STEPS = 1e10  # integrator steps one simulate call may take
 
 
@@ -156,7 +155,10 @@ def _frames(ctrl: Problem, t_end: float, rate: float, held: bool) -> tuple[int, 
     return n, m
 
 
-def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None, **overrides) -> Simulation:
+def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None, *, step: float | None = None,
+             output_rate: float | None = None, controller: str | None = None, preload=None, model=None,
+             v_min: float | None = None, baumgarte: float | None = None, jit=None, progress: bool = False,
+             references: str | None = None, inputs: str | None = None, wear=None, **unknown) -> Simulation:
     """Simulate `scene` from the path's start pose; journals centred, or seated under
     their initial load when the scene says ``initial.journals: seated``.
 
@@ -166,75 +168,67 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
     actuator coordinates; continuously, or sampled at ``actuation.control_rate`` with a
     zero-order hold.
 
-    integrator: None (the scene's integrator.method), a name from
-    :data:`rrr4.integrators.METHODS`, or an integrator instance. t_end [s] defaults to the
-    path duration, rounded up to whole control periods with a sampled controller
-    (:func:`run_end`). overrides: step [s] (rounded so a whole number of steps fits one output
-    interval or control period), output_rate [Hz] (default: path.sample_rate; with a sampled
-    controller, at most its rate), controller: 'python' (default; the controller step in
-    CasADi) or 'generated' (the C that :func:`rrr4.codegen` writes, compiled with the C
-    compiler and called through ``casadi.external``: a graph's table step too; needs a control
-    rate), preload (object
-    with t, tau, e.g. a PreloadSolution: the feed-forward efforts instead of the controller's
-    own), model (a Scene: the controller's model of the simulated mechanism, default the scene
-    itself; e.g. nominal parameters against a mechanism built with tolerances), v_min [m/s],
-    baumgarte [rad/s], jit (True: compile the stepping, then step in C; False: CasADi's
-    virtual machine; 'background': the library if cached, else the virtual machine while a
-    process of its own compiles it, moving to it once ready; default :func:`default_jit`:
-    'background' where a C compiler exists, RRR4_JIT=1 or 0 forcing either way; ``stats``
-    records how the run stepped under 'stepping'), progress (bar),
-    references: 'exact' (default; an n-RRR controller runs its closed form inside every
-    right-hand side, or at every control instant when sampled) or 'sampled' (its references,
-    feed-forward included, evaluated once per path sample and interpolated, cubic Hermite:
-    only the feedback law is compiled; what a graph scene with a task always does), inputs:
-    which of the scene's numbers the compiled stepping takes as inputs rather than constants
-    (see :func:`rrr4.dynamics.builder.build_equations`; the controller's gains, limits and
-    preload numbers always are): 'contact' (default) or 'geometry' (with references='sampled',
-    scenes that differ in masses and geometry then share one compiled library), wear: the
-    wear profiles to start from at the joints that wear (joint -> surface -> node depths [m],
-    as :attr:`Simulation.wear` gives them; see :mod:`rrr4.contact.wear`): contact then uses the
-    worn clearance, and the run's wear is what it adds.
+    Parameters
+    ----------
+    scene : Scene, Problem or a scene file's path
+    integrator : None (the scene's ``integrator.method``), a name from
+        :data:`rrr4.integrators.METHODS`, or an integrator instance.
+    t_end : [s], default the path duration, rounded up to whole control periods with a
+        sampled controller (:func:`run_end`).
+    step : [s], default the scene's; rounded so a whole number of steps fits one output
+        interval or control period.
+    output_rate : [Hz], default ``path.sample_rate``; with a sampled controller at most its rate.
+    controller : 'python' (default: the controller step in CasADi) or 'generated' (the C that
+        :func:`rrr4.codegen` writes, compiled and called through ``casadi.external``; a graph's
+        table step too; needs a control rate).
+    preload : an object with t (N,) [s] and tau (N, n), e.g. a PreloadSolution: the
+        feed-forward efforts instead of the controller's own.
+    model : a Scene (or Problem) of the same mechanism: the controller's model of the
+        simulated one (default the scene itself; e.g. nominal parameters against a mechanism
+        built with tolerances).
+    v_min : [m/s], the approach-velocity floor of the contact laws; baumgarte : [rad/s].
+    jit : True (compile the stepping, then step in C), False (CasADi's virtual machine),
+        'background' (the library if cached, else the virtual machine while a process of its
+        own compiles it, moving to it once ready); default :func:`default_jit`: 'background'
+        where a C compiler exists, RRR4_JIT=1 or 0 forcing either way. ``stats['stepping']``
+        records how the run stepped.
+    progress : show a progress bar.
+    references : 'exact' (default; an n-RRR controller runs its closed form inside every
+        right-hand side, or at every control instant when sampled) or 'sampled' (its
+        references, feed-forward included, evaluated once per path sample and interpolated,
+        cubic Hermite: only the feedback law is compiled; what a graph scene with a task
+        always does).
+    inputs : which of the scene's numbers the compiled stepping takes as inputs rather than
+        constants (:func:`rrr4.dynamics.builder.build_equations`; the controller's gains,
+        limits and preload numbers always are): 'contact' (default) or 'geometry' (with
+        references='sampled', scenes that differ in masses and geometry then share one
+        compiled library).
+    wear : the wear profiles to start from at the joints that wear (joint -> surface -> node
+        depths [m], as :attr:`Simulation.wear` gives them; see :mod:`rrr4.contact.wear`):
+        contact then uses the worn clearance, and the run's wear is what it adds.
+
+    Any other keyword is refused in one line naming the nearest of :data:`OVERRIDES`.
     """
+    if unknown:
+        bad = sorted(unknown)[0]
+        raise unknown_value(bad, "override", bad, OVERRIDES)
     problem = Problem.from_scene(scene)
     scene = problem.scene
-    bad = sorted(set(overrides) - set(OVERRIDES))
-    if bad:
-        raise unknown_value(bad[0], "override", bad[0], OVERRIDES)
     t_end = run_end(scene)[0] if t_end is None else argument("t_end", t_end)
-    rate = scene.path.sample_rate if overrides.get("output_rate") is None else argument("output_rate",
-                                                                                          overrides["output_rate"])
-    h_req = scene.integrator.step if overrides.get("step") is None else argument("step", overrides["step"])
+    rate = scene.path.sample_rate if output_rate is None else argument("output_rate", output_rate)
+    h_req = scene.integrator.step if step is None else argument("step", step)
     if t_end * rate > MAX_SAMPLES or t_end / h_req > MAX_STEPS:
         raise SceneError(f"t_end: {t_end:g} s is not allowed at output rate {rate:g} Hz and step {h_req:g} s "
                          f"(at most {MAX_SAMPLES:g} output frames and {MAX_STEPS:g} steps)")
-    given = overrides.get("preload")
-    if given is not None and not (hasattr(given, "t") and hasattr(given, "tau")):
-        raise SceneError(f"preload: {describe(given)} is not allowed (a PreloadSolution from rrr4.solve_preload, or "
-                         "an object with t (N,) [s] and tau (N, n))")
-    controller = overrides.get("controller") or "python"
-    if controller not in CONTROLLERS:
-        raise unknown_value("controller", "value", controller, CONTROLLERS)
-    mode = overrides.get("references") or "exact"
-    if mode not in REFERENCES:
-        raise unknown_value("references", "value", mode, REFERENCES)
-    kw = {k: overrides[k] for k in ("v_min", "baumgarte", "inputs") if k in overrides}
+    controller, mode = _checked_options(preload, controller, references)
+    kw = {k: v for k, v in (("v_min", v_min), ("baumgarte", baumgarte), ("inputs", inputs)) if v is not None}
     eqs = problem.equations(**kw)
-    if overrides.get("wear"):  # worn profiles: other input numbers, the same compiled code
-        eqs = with_profiles(eqs, overrides["wear"])
-    jit = overrides.get("jit")
+    if wear:  # worn profiles: other input numbers, the same compiled code
+        eqs = with_profiles(eqs, wear)
     method = _integrator(scene.integrator, integrator,
                          default_jit() if jit is None else BACKGROUND if jit == BACKGROUND else bool(jit))
-    model = problem.model
-    model_scene = overrides.get("model") or scene
-    if isinstance(model_scene, Problem):
-        model_scene = model_scene.scene
-    if not isinstance(model_scene, Scene) or (Problem.from_scene(model_scene).model.actuator_names !=
-                                              model.actuator_names):
-        raise SceneError(f"model: {describe(model_scene)} is not allowed (a Scene of the same mechanism, with the "
-                         "same actuators: the controller's model of the simulated one)")
-    # the controller's model of the mechanism, on the one commanded path
-    ctrl = problem if model_scene is scene else Problem.from_scene(replace(model_scene, path=scene.path))
-    loop = loop_of(ctrl, eqs, controller, mode, given)
+    ctrl = _controller_model(problem, model)
+    loop = loop_of(ctrl, eqs, controller, mode, preload)
     held = loop.kind == "held"
 
     n_frames, every = _frames(ctrl, t_end, rate, held)
@@ -246,22 +240,21 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
                          f"{t_end:g} s (at most {MAX_SAMPLES:g} control periods and {MAX_STEPS:g} steps)")
     t_grid = functools.partial(frame_times, t_end, n_frames)  # frame ends, by index
     t_out = t_grid(np.arange(0, n_frames + 1, every))
-    refs, refs_at = _references(problem, ctrl, eqs, loop, given, t_end, n_frames, t_grid)
+    refs, refs_at = _references(problem, ctrl, eqs, loop, preload, t_end, n_frames, t_grid)
     u = _frame_inputs(problem, loop, refs_at, n_frames, t_grid)
 
     def tabulated_at(t):  # the tabulated controller's (theta, theta_d, tau_ff) at the times t
         return tuple(refs_at(t)[key] for key in ("th", "thd", "ff")) if refs_at is not None else None
 
     def efforts(t, q, qd):  # what the controller commands at the states (q, qd) at the times t
-        return controller_efforts(ctrl, loop, model, t, q, qd, tabulated_at(t))
+        return controller_efforts(ctrl, loop, problem.model, t, q, qd, tabulated_at(t))
 
     tree = in_tree(problem, eqs)
-    system = system_of(problem, eqs, loop, refs, tree, overrides.get("inputs") or "contact")
+    system = system_of(problem, eqs, loop, refs, tree, inputs or "contact")
     x0 = system.started(initial_state(problem, eqs, efforts, tree, loop.settings), u[:1][0])
     outputs = Outputs(problem, eqs, system, tree, t_out, x0, efforts, _prescribed(problem, eqs, refs, refs_at))
     wall = time.perf_counter()
-    run = method.run(system, x0, u, h, spf, progress=bool(overrides.get("progress", False)), every=every,
-                     sink=outputs)
+    run = method.run(system, x0, u, h, spf, progress=bool(progress), every=every, sink=outputs)
     outputs.flush()
     wall = time.perf_counter() - wall - u.seconds - outputs.seconds  # the stepping alone
     if outputs.bad is not None:
@@ -273,16 +266,55 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
     stats = {"method": method.name, "step": h, "steps": spf * n_frames, "frames": len(t_out) - 1, "wall_time": wall,
              "input_time": u.seconds, "output_time": outputs.seconds, "jit": method.jit, "v_min": eqs.v_min,
              "graph": {f.name(): graph_size(f) for f in (eqs.acceleration, system.ode)},
-             "controller": (controller if loop.control is not None else "none"),
-             "coordinates": "tree" if tree else "reference-point",
-             "control_rate": ctrl.scene.actuation.control_rate if held else None, "references": loop.kind,
-             "preload": "given" if given is not None else (ctrl.scene.actuation.preload.method if ctrl.has_preload
-                                                            and eqs.mode == "torque" else "none"),
-             "compensation": ctrl.scene.actuation.compensation if eqs.mode == "torque" else "none",
-             "seat_model": ctrl.scene.actuation.seat_model if eqs.mode == "torque" and ctrl.compensates else "none"}
+             **_loop_stats(ctrl, eqs, loop, controller, preload, tree)}
     stats.update(run.stats)
     stats["stepping"] = _stepping(run.stats.get("stepping"), t_grid)
     return outputs.simulation(stats)
+
+
+# the keyword-only options of simulate, from its signature (one source)
+OVERRIDES = tuple(k for k, v in inspect.signature(simulate).parameters.items() if v.kind is v.KEYWORD_ONLY)
+
+
+def _checked_options(preload, controller, references) -> tuple[str, str]:
+    """(controller, references) with their defaults, after a one-line check of each and of `preload`."""
+    if preload is not None and not (hasattr(preload, "t") and hasattr(preload, "tau")):
+        raise SceneError(f"preload: {describe(preload)} is not allowed (a PreloadSolution from rrr4.solve_preload, "
+                         "or an object with t (N,) [s] and tau (N, n))")
+    controller = controller or "python"
+    if controller not in CONTROLLERS:
+        raise unknown_value("controller", "value", controller, CONTROLLERS)
+    mode = references or "exact"
+    if mode not in REFERENCES:
+        raise unknown_value("references", "value", mode, REFERENCES)
+    return controller, mode
+
+
+def _controller_model(problem: Problem, model) -> Problem:
+    """The controller's model of the simulated mechanism (`model`, default the problem's own
+    scene) on the one commanded path; one line when it is not a scene of the same actuators."""
+    scene = problem.scene
+    model_scene = model or scene
+    if isinstance(model_scene, Problem):
+        model_scene = model_scene.scene
+    if not isinstance(model_scene, Scene) or (Problem.from_scene(model_scene).model.actuator_names !=
+                                              problem.model.actuator_names):
+        raise SceneError(f"model: {describe(model_scene)} is not allowed (a Scene of the same mechanism, with the "
+                         "same actuators: the controller's model of the simulated one)")
+    return problem if model_scene is scene else Problem.from_scene(replace(model_scene, path=scene.path))
+
+
+def _loop_stats(ctrl: Problem, eqs, loop: Loop, controller: str, preload, tree: bool) -> dict:
+    """What a run's statistics say of its controller and coordinates."""
+    torque = eqs.mode == "torque"
+    a = ctrl.scene.actuation
+    return {"controller": (controller if loop.control is not None else "none"),
+            "coordinates": "tree" if tree else "reference-point",
+            "control_rate": a.control_rate if loop.kind == "held" else None, "references": loop.kind,
+            "preload": ("given" if preload is not None else
+                        a.preload.method if ctrl.has_preload and torque else "none"),
+            "compensation": a.compensation if torque else "none",
+            "seat_model": a.seat_model if torque and ctrl.compensates else "none"}
 
 
 def _prescribed(problem: Problem, eqs, refs, refs_at):
