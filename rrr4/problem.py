@@ -19,10 +19,13 @@ from a validated :class:`~rrr4.scene.Scene` (:meth:`Problem.from_scene`, or
 Below the front doors (``solve_preload``, ``simulate``, ``codegen``, ``sweep``, the
 studies), which accept a Scene or a Problem, every algorithm takes the Problem and reads
 the scene's settings through it. Its methods are the one dispatch between the closed-form
-n-RRR and a general graph (effort family, path and body coordinates, seated coordinates);
-what exists only in closed form (the closed-form controller step and its full set of
-generated functions, transmission angles) is asked with :attr:`Problem.closed_form`; any
-other scene's controller steps on references tabulated along its path
+n-RRR and a general graph (effort family, path, body and seated coordinates, the assembly
+branch); the path's references dispatch once in :func:`rrr4.control.prescribed_references`.
+What exists only in closed form is asked with :attr:`Problem.closed_form`, and only for
+that: the closed-form controller step and its full set of generated functions, the
+scalar preload laws inside it, the transmission angles of the workspace maps, the
+robustness cases (which perturb an n-RRR's chains) and the seated model of identification;
+any other scene's controller steps on references tabulated along its path
 (:func:`rrr4.control.controller_step`).
 """
 
@@ -408,6 +411,18 @@ class Problem:
             return ""
         mech = self.mechanism
         return mech.branch_hint(self.start_target)
+
+    @functools.cached_property
+    def assembly_branch(self) -> str:
+        """Which assembly the scene takes at t = 0, in words: an n-RRR's chains' working modes,
+        else the branch of :attr:`start_coordinates` and whether mechanism.assembly names it."""
+        if self.closed_form:
+            return "working modes " + " ".join(f"{c.name}:{'+' if c.working_mode > 0 else '-'}"
+                                               for c in self.scene.mechanism.chains) + " (the chains' working_mode)"
+        mech = self.mechanism
+        named = "named in mechanism.assembly" if mech.assembly else \
+            "none named: mechanism.assembly fixes it, see the README"
+        return f"{mech.branch_text(self.start_coordinates)} ({named})"
 
     @functools.cached_property
     def start_target(self) -> np.ndarray:

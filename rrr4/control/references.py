@@ -26,7 +26,7 @@ from ..trajectory import trajectory_function
 from .compensation import compensated_ik, rolling_friction, slip_rows
 from .step import controller_function, pointwise_controller
 
-__all__ = ["References", "graph_references", "reference_function", "tabulated", "path_rows"]
+__all__ = ["References", "graph_references", "prescribed_references", "reference_function", "tabulated", "path_rows"]
 
 
 @dataclass(frozen=True)
@@ -52,10 +52,13 @@ def path_rows(path: PathSpec, t: np.ndarray) -> np.ndarray:
     return np.vstack(list(out.values())).T
 
 
-def reference_function(problem: Problem) -> ca.Function:
+def reference_function(problem: Problem) -> ca.Function | None:
     """SX Function 'references' of an n-RRR problem: t [s] -> pose_ref (3), theta_ref (n) [rad],
-    theta_d_ref, theta_dd_ref (the closed-form IK of the path, for the prescribed mode).
+    theta_d_ref, theta_dd_ref (the closed-form IK of the path, for the prescribed mode); None
+    for a graph, which has no closed-form IK (:func:`prescribed_references` samples either).
     Built once per mechanism and path (``Problem.path_key``)."""
+    if not problem.closed_form:
+        return None
     structure = problem.structure("path")
 
     def build():
@@ -68,6 +71,17 @@ def reference_function(problem: Problem) -> ca.Function:
         return ca.Function("references", [t], [pose, theta, theta_d, theta_dd],
                            ["t"], ["pose_ref", "theta_ref", "theta_d_ref", "theta_dd_ref"])
     return structure.memo("reference_function", build)
+
+
+def prescribed_references(problem: Problem, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """theta_ref, theta_d_ref, theta_dd_ref (N, n) of the path at the times t (N,) [s] without a
+    controller (the prescribed mode): the closed-form IK where there is one, else Newton along
+    the path (:func:`graph_references`)."""
+    refs = reference_function(problem)
+    if refs is not None:
+        return tuple(np.array(v).T for v in refs.map(len(t))(np.asarray(t, float)[None, :])[1:])
+    g = graph_references(problem, t)
+    return g.theta_ref, g.theta_d_ref, g.theta_dd_ref
 
 
 def tabulated(problem: Problem, t: np.ndarray, given=None) -> References:

@@ -353,15 +353,8 @@ def scene_summary(scene: Scene | Problem) -> str:
 def _assembly_lines(problem: Problem) -> list[str]:
     """The assembled pose of every body at t = 0 (the path's start, or the drivers' initial
     values) and the branch the assembly chose (the named mechanism.assembly, or which one)."""
-    scene, mech = problem.scene, problem.mechanism
     q = problem.start_coordinates
-    if problem.closed_form:
-        branch = "working modes " + " ".join(f"{c.name}:{'+' if c.working_mode > 0 else '-'}"
-                                             for c in scene.mechanism.chains) + " (the chains' working_mode)"
-    else:
-        named = "named in mechanism.assembly" if mech.assembly else \
-            "none named: mechanism.assembly fixes it, see the README"
-        branch = f"{mech.branch_text(q)} ({named})"
+    branch = problem.assembly_branch
     lines = ["assembled at t = 0 (x, y in mm, theta in deg, wrapped to (-180, 180]):"]
     for k, b in enumerate(problem.model.body_names):
         x, y, th = q[3 * k:3 * k + 3]

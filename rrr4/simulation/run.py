@@ -36,7 +36,7 @@ import numpy as np
 from scipy.interpolate import CubicHermiteSpline
 
 from ..checks import argument, describe, unknown_value
-from ..control import CONTROLLERS, graph_references, interpolants, reference_function, step_inputs, tabulated
+from ..control import CONTROLLERS, interpolants, prescribed_references, reference_function, step_inputs, tabulated
 from ..dynamics.builder import with_profiles
 from ..errors import SceneError, SimulationError
 from ..files import c_compiler
@@ -338,14 +338,11 @@ def _references(problem: Problem, ctrl: Problem, eqs, loop: Loop, given, t_end: 
         if eqs.mode == "torque":
             tab = tabulated(ctrl, t_s, given)
             th, th_d, th_dd, ff = tab.theta_ref, tab.theta_d_ref, tab.theta_dd_ref, tab.tau_ff
-        elif problem.closed_form:
-            th, th_d, th_dd = (np.array(v).T for v in reference_function(problem).map(len(t_s))(t_s[None, :])[1:])
-            ff = np.zeros_like(th)
         else:
-            g = graph_references(problem, t_s)
-            th, th_d, th_dd, ff = g.theta_ref, g.theta_d_ref, g.theta_dd_ref, np.zeros_like(g.theta_ref)
+            th, th_d, th_dd = prescribed_references(problem, t_s)
+            ff = np.zeros_like(th)
         return None, _interpolated(t_s, th, th_d, th_dd, ff)
-    if eqs.mode == "prescribed" and problem.closed_form:
+    if eqs.mode == "prescribed":
         return reference_function(problem), None
     return None, None
 

@@ -246,7 +246,7 @@ def problem_system(problem: Problem, references: str = "exact", controller: str 
     continuous or held, see :class:`Loop`), e.g. to time its right-hand side."""
     eqs = problem.equations()
     loop = loop_of(problem, eqs, controller, references, None)
-    refs = reference_function(problem) if eqs.mode == "prescribed" and problem.closed_form else None
+    refs = reference_function(problem) if eqs.mode == "prescribed" else None
     return system_of(problem, eqs, loop, refs if loop.kind == "exact" else None, in_tree(problem, eqs))
 
 
