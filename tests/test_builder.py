@@ -256,3 +256,16 @@ def test_with_geometry_inputs_scenes_that_differ_in_masses_and_geometry_share_th
     assert np.max(np.abs(folded.q - b.q)) < 1e-11
     with pytest.raises(SceneError, match="inputs: unknown value 'mass'"):
         simulate(nominal, t_end=0.01, inputs="mass")
+
+
+def test_a_mechanism_without_actuators_builds_in_every_mode():
+    """A driven scene has no actuators: its equations build in every mode, tree coordinates
+    included (the reader refuses 'prescribed' without a task; the builder must not crash on
+    it: it did, on the empty effort's power)."""
+    from rrr4.dynamics.builder import parametric_equations
+    scene = load_scene(ROOT / "problems" / "flores_slider_crank.yaml")
+    problem = build(scene)
+    for mode in ("free", "torque", "prescribed"):
+        eqs = parametric_equations(problem.model, scene.effects, mode, forces=scene.forces)
+        assert eqs.tree_acceleration is not None
+        assert "power_in" in eqs.tree_acceleration.name_out()

@@ -43,7 +43,7 @@ def tree_functions(a: Assembly, act: Actuation, con: Constraints, m_diag, refs: 
         rhs = rhs - phi_p.T @ lam_t
     pdd = ca.solve(M_t, rhs)
     tau_t = -lam_t[lam_t.shape[0] - n:] if act.mode == "prescribed" else act.tau
-    power_t = ca.SX(0) if act.mode == "free" else ca.dot(tau_t, on_tree(act.theta_d))
+    power_t = ca.SX(0) if act.mode == "free" or n == 0 else ca.dot(tau_t, on_tree(act.theta_d))
     if con.n_drivers:
         k = 2 * len(tree.closures)
         power_t += ca.dot(-lam_t[k:k + con.n_drivers], on_tree(con.phi_q[con.driver_rows, :] @ qd))
