@@ -84,6 +84,9 @@ class Model:
         self.task_point = graph.task_point
         # task degrees of freedom: a body's pose (3) or a point's position (2); 0 without a task
         self.task_dof = 0 if graph.task is None else (3 if graph.task_point is None else 2)
+        # what the task locates, in words (figures' labels): the task body, or a point on it
+        self.task_label = (None if graph.task is None else graph.task if graph.task_point is None
+                           else f"task point on {graph.task}")
         self.mass_diagonal = np.array([v for b in graph.bodies for v in (b.mass, b.mass, b.inertia)])
         self.pose_guess = np.array([v for b in graph.bodies for v in b.pose], float)
 

@@ -125,7 +125,7 @@ def contact_forces(study: Study, path: Path) -> Path | None:
 
 
 def platform_error(study: Study, path: Path) -> Path | None:
-    """Platform position error |p - p_ref| [um] against time (scenes with a task body)."""
+    """The task's position error |p - p_ref| [um] against time (scenes with a task body or point)."""
     if study.problem.model.task is None:
         return None
     fig, ax = plt.subplots(figsize=(8, 3.6))
@@ -136,7 +136,7 @@ def platform_error(study: Study, path: Path) -> Path | None:
                 label=f"{STYLE[arm_name]['label']} (RMS {rms:.3g} um)")
     ax.set_xlabel("t [s]")
     ax.set_ylabel("position error [um]")
-    ax.set_title(_title(study, "platform position error against the commanded path"))
+    ax.set_title(_title(study, f"{study.problem.model.task_label} position error against the commanded path"))
     ax.legend()
     ax.grid(alpha=0.3)
     fig.tight_layout()

@@ -41,7 +41,7 @@ def plot_work_precision(rows: list[dict], problem: Problem, path: Path, t_end: f
     ax.axhline(max(r["error_m"] for r in checks), color="black", lw=0.9, ls="-.",
                label=f"reference {rows[0]['reference']}; its distance to {note}")
     ax.set_xlabel(f"time of the stepping [s] (one core; {machine})")
-    ax.set_ylabel("max platform position error [m]" if problem.model.task
+    ax.set_ylabel(f"max {problem.model.task_label} position error [m]" if problem.model.task
                   else "max body position error [m]")
     ax.set_title(f"Work-precision on {problem.name}: the first {t_end:g} s of the path simulated, with preload")
     ax.grid(True, which="both", alpha=0.3)
