@@ -376,3 +376,14 @@ def test_any_optimize_arguments_end_in_a_result_or_one_line(paper_scene, objecti
         assert "\n" not in str(e), str(e)
     else:
         assert opt.law.duration > 0 and np.all(np.isfinite(opt.law.efforts))
+
+
+@pytest.mark.parametrize("text", ["7.7e12", "1e-4", "2E5", "3.5e-3"])
+def test_a_number_yaml_reads_as_text_is_refused_with_a_spelling_yaml_reads_as_that_number(paper_data, text):
+    """YAML 1.1 reads 7.7e12 as text; the refusal names a spelling it reads as the number (it
+    once suggested the same refused spelling), checked by reading the suggestion back."""
+    paper_data["effects"]["contact"]["stiffness"] = text
+    with pytest.raises(SceneError, match="is text, not a number") as err:
+        parse_scene(paper_data)
+    suggested = str(err.value).rsplit("write ", 1)[1].rstrip(")")
+    assert yaml.safe_load(f"v: {suggested}")["v"] == pytest.approx(float(text), rel=0)

@@ -99,7 +99,7 @@ class Section:
             raise self.missing(k, "a number")
         if isinstance(v, str) and _looks_numeric(v):
             raise SceneError(f"{key}: {describe(v)} is text, not a number (YAML reads a number in exponent "
-                             f"form only with a dot: write {_with_dot(v)})")
+                             f"form only with a dot and a signed exponent: write {_with_dot(v)})")
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise SceneError(f"{key}: {describe(v)} is not a number")
         v = float(v)
@@ -197,8 +197,10 @@ def _looks_numeric(v: str) -> bool:
 
 
 def _with_dot(v: str) -> str:
+    """The YAML 1.1 float spelling of a number in exponent form: 7.7e12 -> 7.7e+12, 1e-4 -> 1.0e-4."""
     m, _, e = v.strip().lower().partition("e")
-    return f"{m if '.' in m else m + '.0'}e{e}" if e else v
+    e = e if e[:1] in "+-" else "+" + e
+    return f"{m if '.' in m else m + '.0'}e{e}" if e.strip("+-") else v
 
 
 def read_csv_rows(path, key: str, columns: tuple[str, ...], max_rows: int) -> list[tuple[str, ...]]:
