@@ -47,11 +47,12 @@ from __future__ import annotations
 import math
 
 import casadi as ca
+import numpy as np
 
 from ..scene.vocabulary import LUBRICATION_LAWS as LUBRICATION_LAW_NAMES
 from ..scene.vocabulary import registry
 
-__all__ = ["LUBRICATION_LAWS", "film_force", "film_weight", "film_rates", "RATE_FLOOR"]
+__all__ = ["LUBRICATION_LAWS", "film_force", "film_weight", "film_rates", "RATE_FLOOR", "min_film_thickness"]
 
 # [1/s] added to the squeeze rate where the film's position is taken (see _film_integrals)
 RATE_FLOOR = 1e-9
@@ -124,3 +125,10 @@ def film_weight(eps, threshold):
     apply w(eps) F(min(eps, threshold), A, B): continuous (C1) in eps and finite as eps -> 1."""
     s = ca.fmin(ca.fmax((eps - threshold) / (1.0 - threshold), 0.0), 1.0)
     return 1.0 - s**2 * (3.0 - 2.0 * s)
+
+
+def min_film_thickness(eccentricity, clearance):
+    """h_min = c (1 - eps) = c - |e| [m], the thinnest film between journal and bore, from the
+    eccentricities (..., nc, 2) [m] and the radial clearances c (nc,) [m] (numpy); 0 where
+    the journal touches its bore (eps >= 1: the dry laws carry the load)."""
+    return np.maximum(np.asarray(clearance, float) - np.linalg.norm(np.asarray(eccentricity, float), axis=-1), 0.0)

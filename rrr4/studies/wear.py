@@ -27,10 +27,11 @@ import time
 import numpy as np
 
 from ..checks import argument
+from ..contact.lubrication import min_film_thickness
 from ..contact.wear import node_depths, profile_volume
 from ..errors import SceneError
 from ..problem import Problem
-from ..results.wear import WearArm, WearStudy
+from ..results.wear import PERIODIC, WearArm, WearStudy
 from ..scene import Scene
 from ..simulation import simulate
 from .study import arm_scene
@@ -38,21 +39,24 @@ from .study import arm_scene
 __all__ = ["jump_cycles", "wear_study", "cycle_duration", "DEFAULT_MAX_CHANGE", "MAX_CYCLES"]
 
 DEFAULT_MAX_CHANGE = 0.02  # the deepest change of a profile per jump, in radial clearances
+MAX_TRANSIENT = 5  # cycles the start transient may take before the jumps begin
 MAX_CYCLES = 1e12
 
 
-def jump_cycles(cycle, clearance: dict, cycles: int, max_change: float, progress: str = ""):
+def jump_cycles(cycle, clearance: dict, cycles: int, max_change: float, progress: str = "", profiles=None,
+                done: int = 0):
     """Cycle jumping to `cycles` cycles. cycle(profiles) -> (wear of one cycle on `profiles`:
     joint -> surface -> node depths (M,) [m], a record of the cycle); profiles None at the
     start (unworn). clearance: joint -> radial clearance c0 [m]. Returns (profiles after
     `cycles` cycles, the cycle counts where a cycle was simulated (K + 1,), the jumps (K,),
     the records (K + 1)): the last cycle simulated is the one at `cycles`. progress: the
-    label of a progress bar over the cycles ('' for none)."""
-    profiles, done, at, jumps, records = None, 0, [], [], []
+    label of a progress bar over the cycles ('' for none). profiles, done: where an earlier
+    stage left off (the start transient, :func:`settle`)."""
+    at, jumps, records = [], [], []
     bar = None
     if progress:
         from tqdm import tqdm
-        bar = tqdm(total=cycles, desc=progress, unit="cycle", leave=False)
+        bar = tqdm(total=cycles, initial=done, desc=progress, unit="cycle", leave=False)
     while True:
         wear, record = cycle(profiles)
         at.append(done)
@@ -95,27 +99,64 @@ def _arms(problem: Problem) -> dict:
     return {name: arm_scene(problem, name) for name in names}
 
 
-def _cycle(problem: Problem, scene: Scene, t_end: float):
+class _Cycle:
     """cycle(profiles) of :func:`jump_cycles` for `scene` (an arm of `problem`): one simulated
-    cycle on the profiles and its record (per joint in the order of ``WearArm.joints``)."""
-    joints = _joints(problem)
+    cycle on the profiles, starting where the last one it simulated ended (the first from the
+    scene's initial state), and its record (per joint in the order of ``WearArm.joints``)."""
 
-    def run(profiles):
+    def __init__(self, problem: Problem, scene: Scene, t_end: float):
+        self.problem, self.scene, self.t_end, self.last = problem, scene, t_end, None
+        self.joints = _joints(problem)
+
+    def __call__(self, profiles):
+        problem, joints = self.problem, self.joints
         wall = time.perf_counter()
-        sim = simulate(scene, t_end=t_end, wear=profiles)
+        sim = simulate(self.scene, t_end=self.t_end, wear=profiles, start=self.last)
+        self.last = sim
         e, volume = sim.platform_error, _volumes(problem, profiles)
+        k = [sim.clearance_joints.index(j) for j in joints]
+        film = np.linalg.norm(sim.film_force, axis=2) if sim.film_force is not None else np.zeros(sim.normal_force.shape)
+        total = np.linalg.norm(sim.contact_force, axis=2)
+        h_min = min_film_thickness(sim.eccentricity, [problem.joint(j).radial_clearance for j in sim.clearance_joints])
         record = {"platform_error_rms_m": float(np.sqrt(np.mean(e**2))), "platform_error_max_m": float(np.max(e)),
                   "contact_loss_events": int(sum(sim.contact_loss_events[j] for j in sim.clearance_joints)),
                   "dissipated_friction_J": float(sim.energy["dissipated_friction"][-1]),
-                  "peak_contact_force_N": [float(sim.extremes["normal_force_max"][sim.clearance_joints.index(j)])
-                                           for j in joints],
+                  "peak_contact_force_N": [float(sim.extremes["normal_force_max"][i]) for i in k],
+                  "peak_film_force_N": [float(np.max(film[:, i])) for i in k],
+                  "peak_total_force_N": [float(np.max(total[:, i])) for i in k],
+                  "min_film_thickness_m": [float(np.min(h_min[:, i])) for i in k],
+                  "periodicity": periodicity(sim),
                   "volume_m3": [volume.get(j, 0.0) for j in joints],
                   "deepest_m": [max((float(np.max(node_depths(d))) for d in (profiles or {}).get(j, {}).values()),
                                     default=0.0) for j in joints],
                   "wear_per_cycle_m": [max(float(np.max(d)) for d in sim.wear[j].values()) for j in joints],
                   "wall_time_s": time.perf_counter() - wall}
         return sim.wear, record
-    return run
+
+
+def periodicity(sim) -> float:
+    """How far a cycle is from the periodic steady state: the largest change of a journal's
+    eccentricity from the cycle's start to its end, over the joint's radial clearance."""
+    if not sim.clearance_joints:
+        return 0.0
+    c = np.array([sim.scene.joint(j).radial_clearance for j in sim.clearance_joints])
+    return float(np.max(np.linalg.norm(sim.eccentricity[-1] - sim.eccentricity[0], axis=1) / c))
+
+
+def settle(cycle: _Cycle, cycles: int, tolerance: float = PERIODIC, most: int = MAX_TRANSIENT):
+    """The start transient: cycle 0 from the scene's initial state, then cycles each from the
+    end of the last, until one ends within `tolerance` radial clearances of where it started
+    (:func:`periodicity`), at most `most` cycles and `cycles`. Each of them wears once (no
+    jump). Returns (profiles after them (None: none wore), their records)."""
+    profiles, records = None, []
+    while len(records) < min(most, cycles):
+        wear, record = cycle(profiles)
+        records.append(record)
+        profiles = {j: {s: (0.0 if profiles is None else profiles[j][s]) + d for s, d in by.items()}
+                    for j, by in wear.items()} if wear else profiles
+        if len(records) > 1 and record["periodicity"] <= tolerance:
+            break
+    return profiles, records
 
 
 def _joints(problem: Problem) -> tuple[str, ...]:
@@ -145,22 +186,30 @@ def wear_study(scene: Scene | Problem, cycles: float, max_change: float = DEFAUL
                          "effects.wear with surfaces, coefficient, hardness and length)")
     t_cycle = cycle_duration(problem)
     clearance = {j: problem.joint(j).radial_clearance for j, _, _ in worn}
-    arms = {}
+    arms, settled = {}, {}
     for name, sc in _arms(problem).items():
         say(f"{name.replace('_', ' ')}: {cycles:g} cycles of {t_cycle:g} s, jumps of at most {max_change:g} c")
         wall = time.perf_counter()
-        profiles, at, jumps, records = jump_cycles(_cycle(problem, sc, t_cycle), clearance, cycles, max_change,
+        cycle = _Cycle(problem, sc, t_cycle)
+        start, transient = settle(cycle, cycles)
+        settled[name] = (start, cycle.last)
+        say(f"{name.replace('_', ' ')}: start transient of {len(transient)} cycles, the last ending "
+            f"{transient[-1]['periodicity']:.2g} c from its start")
+        profiles, at, jumps, records = jump_cycles(cycle, clearance, cycles, max_change, profiles=start,
+                                                   done=len(transient),
                                                    progress=name.replace("_", " ") if progress else "")
         arms[name] = WearArm(name=name, joints=_joints(problem), cycles=at, jumps=jumps, profiles=profiles,
-                             volume=_volumes(problem, profiles), records=records,
+                             volume=_volumes(problem, profiles), records=records, transient=transient,
                              wall_time=time.perf_counter() - wall)
     jump_error = None
     if check:
         first = next(iter(arms))
         say(f"{first.replace('_', ' ')}: again with half the jumps (max change {max_change / 2:g} c), for the "
             "jump's error")
-        profiles, *_ = jump_cycles(_cycle(problem, _arms(problem)[first], t_cycle), clearance, cycles,
-                                   max_change / 2, progress="half jumps" if progress else "")
+        start, cycle = settled[first][0], _Cycle(problem, _arms(problem)[first], t_cycle)
+        cycle.last = settled[first][1]  # from the same end of the same start transient
+        profiles, *_ = jump_cycles(cycle, clearance, cycles, max_change / 2, profiles=start,
+                                   done=len(arms[first].transient), progress="half jumps" if progress else "")
         jump_error = _jump_error(problem, arms[first], profiles, max_change)
     return WearStudy(scene=problem.scene, cycles=cycles, max_change=max_change, cycle_time=t_cycle, arms=arms,
                      jump_error=jump_error)
