@@ -52,7 +52,8 @@ import numpy as np
 from ..scene.vocabulary import LUBRICATION_LAWS as LUBRICATION_LAW_NAMES
 from ..scene.vocabulary import registry
 
-__all__ = ["LUBRICATION_LAWS", "film_force", "film_weight", "film_rates", "RATE_FLOOR", "min_film_thickness"]
+__all__ = ["LUBRICATION_LAWS", "film_force", "film_weight", "film_rates", "RATE_FLOOR", "min_film_thickness",
+           "film_torque"]
 
 # [1/s] added to the squeeze rate where the film's position is taken (see _film_integrals)
 RATE_FLOOR = 1e-9
@@ -116,6 +117,23 @@ def film_force(law: str, eps, A, B, radius, length, viscosity, clearance):
     (:func:`film_rates`), journal radius R [m], bearing length L [m], viscosity mu [Pa s] and
     radial clearance c [m]. F_n < 0 pushes the journal back towards the bearing centre."""
     return LUBRICATION_LAWS[law](eps, A, B, radius, length, viscosity, clearance)
+
+
+def film_torque(eps, relative_rate, radius, length, viscosity, clearance):
+    """The film's shear torque [N m] on the journal about its centre (the bearing takes the
+    opposite): the viscous (Couette) shear stress mu R w / h of the journal turning at
+    w = omega_J - omega_B [rad/s] inside the bore, over the whole film h = c (1 - eps cos theta),
+
+        T = -mu w R^3 L / c  int_0^2pi dtheta / (1 - eps cos theta) = -2 pi mu w R^3 L / (c sqrt(1 - eps^2)),
+
+    Petroff's torque 2 pi mu w R^3 L / c of the concentric bearing at eps = 0, and Ocvirk's
+    short-bearing friction torque at eccentricity (Ocvirk 1952; Hamrock, Schmid & Jacobson,
+    Fundamentals of Fluid Film Lubrication, ch. 10; the oil fills the cavitated half as
+    streamers and shears there too). It dissipates -T w >= 0. The
+    pressure's share of the friction (+-e W sin(phi) / 2 on journal and bearing) is the moment
+    of the film force about the two centres, which the equations already apply (the force
+    acts at each body's own centre). Floats or CasADi; eps < 1."""
+    return -2.0 * math.pi * viscosity * relative_rate * radius**3 * length / (clearance * ca.sqrt(1.0 - eps**2))
 
 
 def film_weight(eps, threshold):
