@@ -138,7 +138,8 @@ def _transient(scene: Scene, arm: WearArm) -> dict | None:
                         if _film(scene, spec, arm.transient[-1], k) else {})}
     end = arm.transient[-1]["periodicity"]
     return {"cycles": len(arm.transient), "contact_loss_events": [r["contact_loss_events"] for r in arm.transient],
-            "periodicity": [r["periodicity"] for r in arm.transient], "periodic": len(arm.transient) > 1 and end <= PERIODIC, "joints": joints}
+            "periodicity": [r["periodicity"] for r in arm.transient],
+            "periodic": len(arm.transient) > 1 and end <= PERIODIC, "joints": joints}
 
 
 def _history_csv(study: WearStudy) -> str:

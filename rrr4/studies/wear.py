@@ -115,7 +115,7 @@ class _Cycle:
         self.last = sim
         e, volume = sim.platform_error, _volumes(problem, profiles)
         k = [sim.clearance_joints.index(j) for j in joints]
-        film = np.linalg.norm(sim.film_force, axis=2) if sim.film_force is not None else np.zeros(sim.normal_force.shape)
+        film = np.linalg.norm(sim.film_force, axis=2)
         total = np.linalg.norm(sim.contact_force, axis=2)
         h_min = min_film_thickness(sim.eccentricity, [problem.joint(j).radial_clearance for j in sim.clearance_joints])
         record = {"platform_error_rms_m": float(np.sqrt(np.mean(e**2))), "platform_error_max_m": float(np.max(e)),
@@ -126,12 +126,26 @@ class _Cycle:
                   "peak_total_force_N": [float(np.max(total[:, i])) for i in k],
                   "min_film_thickness_m": [float(np.min(h_min[:, i])) for i in k],
                   "periodicity": periodicity(sim),
+                  "load_direction_deg": [_load_direction(problem, sim, j, total[:, i]) for j, i in zip(joints, k,
+                                                                                                        strict=True)],
                   "volume_m3": [volume.get(j, 0.0) for j in joints],
                   "deepest_m": [max((float(np.max(node_depths(d))) for d in (profiles or {}).get(j, {}).values()),
                                     default=0.0) for j in joints],
                   "wear_per_cycle_m": [max(float(np.max(d)) for d in sim.wear[j].values()) for j in joints],
                   "wall_time_s": time.perf_counter() - wall}
         return sim.wear, record
+
+
+def _load_direction(problem: Problem, sim, joint: str, force: np.ndarray) -> float | None:
+    """Where the journal presses the bore over the cycle [deg, in the bearing body's frame]:
+    the direction of the eccentricity averaged with the joint's total force as weight; None
+    when the joint carried nothing."""
+    k = sim.clearance_joints.index(joint)
+    e = sim.eccentricity[:, k]
+    i = problem.model.rotation_index(problem.joint(joint).bearing_body)
+    angle = np.arctan2(e[:, 1], e[:, 0]) - (0.0 if i is None else sim.q[:, i])
+    mean = np.sum(force * np.exp(1j * angle))
+    return float(np.degrees(np.angle(mean))) if abs(mean) > 0 else None
 
 
 def periodicity(sim) -> float:
