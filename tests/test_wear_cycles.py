@@ -12,8 +12,8 @@ import rrr4
 from rrr4 import SceneError
 from rrr4.contact.wear import depth_at
 from rrr4.results.figures.wear import _magnification
-from rrr4.results.wear import PERIODIC, wear_summary, write_wear
-from rrr4.studies.wear import periodicity, wear_study
+from rrr4.results.wear import PERIODIC, jump_line, wear_summary, write_wear
+from rrr4.studies.wear import JUMP_TOLERANCE, jump_cycles, periodicity, suggested_max_change, wear_study
 from tests.conftest import ROOT
 
 # Archard's check scene (docs/wear.md) at a step of 1e-5 s: 5 times its own, still 10 steps per period of
@@ -108,3 +108,28 @@ def test_the_drawn_wear_is_magnified_by_a_round_factor_to_a_fifth_of_the_radius(
     assert min(abs(mantissa - f) for f in (1, 2, 5)) < 1e-9
     assert 0.04 * radius < M * deepest <= 0.2 * radius
     assert _magnification(0.0, radius) == 1.0
+
+
+def test_a_jump_error_beyond_its_tolerance_names_a_max_change_that_meets_it():
+    """The closed-form wear dw/dN = r / (1 + w / b) (tests/test_wear.py): jumps of 0.5 c err
+    by more than 2 %; the max_change suggested from their difference to jumps of 0.25 c keeps
+    the true error (against the closed form) within 2 %."""
+    r, b, N, c = np.array([1e-9, 2e-9]), 2e-6, 200000, 1e-4
+    exact = b * (np.sqrt(1 + 2 * r * N / b) - 1)
+
+    def cycle(profiles):
+        w = np.zeros(2) if profiles is None else profiles["J"]["bearing"]
+        return {"J": {"bearing": r / (1 + w / b)}}, {}
+
+    def worn(f):
+        return jump_cycles(cycle, {"J": c}, N, f)[0]["J"]["bearing"]
+    coarse, half = worn(0.5), worn(0.25)
+    difference = np.max(np.abs(coarse - half)) / np.max(half)
+    assert np.max(np.abs(coarse - exact)) / exact.max() > JUMP_TOLERANCE
+    f = suggested_max_change(0.5, difference)
+    assert f is not None and f < 0.25
+    assert np.max(np.abs(worn(f) - exact)) / exact.max() <= JUMP_TOLERANCE
+    assert suggested_max_change(0.02, 0.5 * JUMP_TOLERANCE) is None
+    line = jump_line({"max_change": 0.5, "profile_error": difference, "tolerance": JUMP_TOLERANCE,
+                      "suggested_max_change": f})
+    assert line.startswith("max_change: 0.5 lets the profile differ by") and f"--max-change {f:.2g}" in line

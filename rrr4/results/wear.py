@@ -16,7 +16,7 @@ from ..contact.wear import line_contact_pressure, node_angles, node_depths
 from ..scene import Scene
 from .output import atomic_directory
 
-__all__ = ["WearArm", "WearStudy", "wear_summary", "write_wear", "PERIODIC"]
+__all__ = ["WearArm", "WearStudy", "wear_summary", "write_wear", "PERIODIC", "jump_line"]
 
 PERIODIC = 0.01  # a cycle is periodic when no journal ends farther than this (radial clearances) from its start
 
@@ -179,6 +179,8 @@ def _report(summary: dict) -> str:
         lines += [f"Jump error ({je['arm'].replace('_', ' ')}, against jumps of at most {je['finer_max_change']:g} "
                   f"clearances): profile {je['profile_error']:.2g} of the deepest depth, worn volume "
                   f"{worst:.2g} at most.", ""]
+        if je.get("suggested_max_change") is not None:
+            lines += [f"**The jumps are too coarse:** {jump_line(je)}.", ""]
     for name, arm in summary["arms"].items():
         error = arm["platform_error_rms_m"]
         error = (f"platform error RMS {error['first'] * 1e6:.3g} um in cycle 0 -> {error['last'] * 1e6:.3g} um in the "
@@ -225,6 +227,13 @@ def _transient_lines(t: dict | None) -> list[str]:
              f"{t['periodicity'][-1]:.2g} radial clearances from its start (the jumps scale a cycle that still varies)")
     return [f"Start transient, run once and not scaled: {t['cycles']} cycles from the scene's initial state, contact "
             f"losses {t['contact_loss_events']}, peak contact force {peak}; {state}.", ""]
+
+
+def jump_line(error: dict) -> str:
+    """One line when the measured jump error exceeds its tolerance, with the max_change to use."""
+    return (f"max_change: {error['max_change']:g} lets the profile differ by {error['profile_error']:.2g} of its "
+            f"deepest depth from jumps half as large (more than {error['tolerance']:g}); use --max-change "
+            f"{error['suggested_max_change']:.2g} or less")
 
 
 def _g(v) -> str:

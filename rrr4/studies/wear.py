@@ -31,15 +31,17 @@ from ..contact.lubrication import min_film_thickness
 from ..contact.wear import node_depths, profile_volume
 from ..errors import SceneError
 from ..problem import Problem
-from ..results.wear import PERIODIC, WearArm, WearStudy
+from ..results.wear import PERIODIC, WearArm, WearStudy, jump_line
 from ..scene import Scene
 from ..simulation import simulate
 from .study import arm_scene
 
-__all__ = ["jump_cycles", "wear_study", "cycle_duration", "DEFAULT_MAX_CHANGE", "MAX_CYCLES"]
+__all__ = ["jump_cycles", "wear_study", "cycle_duration", "DEFAULT_MAX_CHANGE", "MAX_CYCLES", "settle", "periodicity",
+           "suggested_max_change", "JUMP_TOLERANCE", "MAX_TRANSIENT"]
 
 DEFAULT_MAX_CHANGE = 0.02  # the deepest change of a profile per jump, in radial clearances
 MAX_TRANSIENT = 5  # cycles the start transient may take before the jumps begin
+JUMP_TOLERANCE = 0.02  # the jump error (of the deepest depth) beyond which the study names a smaller max_change
 MAX_CYCLES = 1e12
 
 
@@ -225,8 +227,20 @@ def wear_study(scene: Scene | Problem, cycles: float, max_change: float = DEFAUL
         profiles, *_ = jump_cycles(cycle, clearance, cycles, max_change / 2, profiles=start,
                                    done=len(arms[first].transient), progress="half jumps" if progress else "")
         jump_error = _jump_error(problem, arms[first], profiles, max_change)
+        if jump_error["suggested_max_change"] is not None:
+            say(jump_line(jump_error))
     return WearStudy(scene=problem.scene, cycles=cycles, max_change=max_change, cycle_time=t_cycle, arms=arms,
                      jump_error=jump_error)
+
+
+def suggested_max_change(max_change: float, difference: float, tolerance: float = JUMP_TOLERANCE) -> float | None:
+    """The max_change that keeps the jump error within `tolerance` (of the deepest depth),
+    from the `difference` measured between jumps of max_change and of half of it; None when
+    that difference is already within it. Cycle jumping is first order: the error of jumps
+    F is about twice that difference and shrinks in proportion to F, so F tol / (2 d) would
+    just meet it; a margin of 2 more covers coarse jumps, where the error is not yet first
+    order."""
+    return max_change * tolerance / (4 * difference) if difference > tolerance else None
 
 
 def _volumes(problem: Problem, profiles) -> dict:
@@ -245,6 +259,7 @@ def _jump_error(problem: Problem, arm: WearArm, finer: dict, max_change: float) 
     diff = max(float(np.max(np.abs(node_depths(arm.profiles[j][s] - finer[j][s])))) for j in finer for s in finer[j])
     deepest = max(float(np.max(node_depths(finer[j][s]))) for j in finer for s in finer[j])
     fine_volume = _volumes(problem, finer)
-    return {"arm": arm.name, "max_change": max_change, "finer_max_change": max_change / 2,
-            "profile_error": diff / deepest if deepest > 0 else 0.0,
-            "volume_error": {j: abs(arm.volume[j] - v) / v if v > 0 else 0.0 for j, v in fine_volume.items()}}
+    error = diff / deepest if deepest > 0 else 0.0
+    return {"arm": arm.name, "max_change": max_change, "finer_max_change": max_change / 2, "profile_error": error,
+            "volume_error": {j: abs(arm.volume[j] - v) / v if v > 0 else 0.0 for j, v in fine_volume.items()},
+            "tolerance": JUMP_TOLERANCE, "suggested_max_change": suggested_max_change(max_change, error)}

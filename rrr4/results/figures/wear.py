@@ -31,7 +31,7 @@ def _magnification(deepest: float, radius: float) -> float:
 def plot_wear_profiles(study, path: Path) -> Path:
     """One axis per worn joint, drawn to scale [mm] in the bearing body's frame: the original
     bore (grey circle; the journal's surface inside it when the journal wears) and each arm's
-    worn surface with the wear magnified by M (in the legend): the bore grows outward by M w(psi),
+    worn surface with the wear magnified by M (written in the arm's colour): the bore grows outward by M w(psi),
     the journal shrinks inward by M w(psi) (its angle in the journal's own frame). An arrow
     marks the load direction of the arm's last cycle (where the journal presses the bore)."""
     arms = list(study.arms.values())
@@ -40,11 +40,9 @@ def plot_wear_profiles(study, path: Path) -> Path:
     rows = math.ceil(len(joints) / cols)
     fig, axes = plt.subplots(rows, cols, squeeze=False, figsize=(max(3.4 * cols, 8.0), 3.6 * rows + 1.2))
     a = np.linspace(0.0, 2 * math.pi, 721)
-    for ax, j in zip(axes.flat, joints, strict=False):
+    for n, (ax, j) in enumerate(zip(axes.flat, joints, strict=False)):
         spec = study.scene.graph.joint(j)
         radius = {"bearing": spec.bearing_radius, "journal": spec.journal_radius}
-        deepest = max(float(np.max(depth_at(c, a))) for arm in arms for c in arm.profiles[j].values())
-        M = _magnification(deepest, spec.bearing_radius)
         ax.plot(spec.bearing_radius * 1e3 * np.cos(a), spec.bearing_radius * 1e3 * np.sin(a), color="0.6", lw=2.5,
                 label="original bore")
         if any("journal" in arm.profiles[j] for arm in arms):
@@ -52,34 +50,38 @@ def plot_wear_profiles(study, path: Path) -> Path:
                     lw=2.0, label="original journal")
         for k, arm in enumerate(arms):
             color = STYLE[arm.name]["color"]
+            deepest = max(float(np.max(depth_at(c, a))) for c in arm.profiles[j].values())
+            M = _magnification(deepest, spec.bearing_radius)  # each arm its own factor, written in its colour
             for s, c in arm.profiles[j].items():
                 r = (radius[s] + (1.0 if s == "bearing" else -1.0) * M * depth_at(c, a)) * 1e3
                 ax.plot(r * np.cos(a), r * np.sin(a), _SURFACE[s], color=color, lw=1.4,
                         label=f"{STYLE[arm.name]['label']}, worn {s}")
+            ax.text(0.02, 0.98 - 0.07 * k, f"wear x{M:g}: deepest {deepest * 1e6:.3g} um", color=color, fontsize=7,
+                    transform=ax.transAxes, va="top")
             load = arm.records[-1].get("load_direction_deg", [None] * len(joints))[joints.index(j)]
             if load is not None:
                 u = np.array([math.cos(math.radians(load)), math.sin(math.radians(load))])
                 ax.annotate("", xy=0.8 * spec.journal_radius * 1e3 * u, xytext=(0, 0),
                             arrowprops={"arrowstyle": "-|>", "color": color, "lw": 1.6})
-                ax.text(*(0.45 * spec.journal_radius * 1e3 * u + [0, 0.08 * spec.journal_radius * 1e3 * (1 - k)]),
-                        "load", color=color, fontsize=7, ha="center")
         ax.set_aspect("equal")
-        lim = spec.bearing_radius * 1e3 * 1.3
+        lim = spec.bearing_radius * 1e3 * 1.35
         ax.set_xlim(-lim, lim)
         ax.set_ylim(-lim, lim)
-        ax.set_title(f"{j}: deepest {deepest * 1e6:.3g} um, wear x{M:g}", fontsize=9)
-        ax.set_xlabel("x [mm] (bearing frame)", fontsize=8)
-        ax.set_ylabel("y [mm]", fontsize=8)
+        ax.set_title(j, fontsize=10)
+        if n // cols == rows - 1 or n + cols >= len(joints):
+            ax.set_xlabel("x [mm], bearing body's frame", fontsize=8)
+        if n % cols == 0:
+            ax.set_ylabel("y [mm]", fontsize=8)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.2)
     for ax in list(axes.flat)[len(joints):]:
         ax.set_visible(False)
     handles, labels = axes.flat[0].get_legend_handles_labels()
     handles.append(plt.Line2D([], [], color="k", marker=r"$\rightarrow$", ls="", ms=10))
-    labels.append("load direction, last cycle")
+    labels.append("load direction (last cycle)")
     fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 3), fontsize=8)
-    fig.suptitle(f"{study.scene.name}: worn surfaces after {study.cycles:.3g} cycles, to scale\n(the wear magnified "
-                 "by the factor in each title)", fontsize=10)
+    fig.suptitle(f"{study.scene.name}: worn surfaces after {study.cycles:.3g} cycles, to scale [mm]\n(the wear "
+                 "magnified by the factor written in each arm's colour)", fontsize=10)
     fig.tight_layout(rect=(0, 0.12, 1, 0.95))
     return save_figure(fig, path, dpi=110)
 
