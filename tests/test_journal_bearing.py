@@ -80,11 +80,21 @@ def test_the_run_reports_the_film_its_total_force_and_thinnest_gap(tmp_path):
     """rrr4 run on the lubricated slider-crank (short): summary.json and report.md name the
     film's peak force, the total force and h_min per lubricated joint; timeseries.csv holds
     the film's force and h_min, which agrees with the eccentricity columns."""
+    from rrr4.results.animation import save_motion
     from rrr4.results.output import write_results
     from rrr4.studies.study import run_study
-    scene = rrr4.load_scene(ROOT / "problems" / "flores_slider_crank_lubricated.yaml")
+    # changed in memory: no file describes it, the animation's data comes from the scene itself (Scene.data)
+    scene = rrr4.load_scene(ROOT / "problems" / "flores_slider_crank_lubricated.yaml").with_values(
+        {"effects.lubrication.viscosity": 0.3})
     study = run_study(scene, t_end=0.003)
     summary, names = write_results(study, tmp_path / "r", animate=False)
+    assert save_motion(study, tmp_path / "motion.npz") is not None
+    with np.load(tmp_path / "motion.npz") as z:
+        total, t = z["total_force_with_clearance"][:, 0], z["t"]
+        assert rrr4.scene.parse_scene(rrr4.scene.load_yaml(str(z["scene_yaml"]), "motion")) == scene
+    sim_total = np.linalg.norm(study.arms["with_clearance"].simulation.contact_force[:, 0], axis=1)
+    rows = np.searchsorted(study.arms["with_clearance"].simulation.t, t)
+    assert np.allclose(total, sim_total[rows]) and total.max() > 10.0  # the colour: dry + film
     film = summary["with_clearance"]["film"]["B"]
     sim = study.arms["with_clearance"].simulation
     assert film["peak_film_force_N"] == pytest.approx(np.linalg.norm(sim.film_force[:, 0], axis=1).max())

@@ -24,12 +24,16 @@ PERIODIC = 0.01  # a cycle is periodic when no journal ends farther than this (r
 @dataclass(frozen=True)
 class WearArm:
     """One arm's cycle jumping. joints: the clearance joints that wear (graph order); cycles
-    (K + 1,): the cycle counts where a cycle was simulated (0 first, N last); jumps (K,);
+    (K + 1,): the cycle counts where a cycle was simulated after the start transient (its
+    length first, N last); jumps (K,);
     profiles: joint -> surface -> the profile's B-spline coefficients (M,) [m] after N cycles; volume: joint -> worn
     volume [m^3] after N cycles; records (K + 1): each simulated cycle's platform_error_rms_m /
     _max_m, contact_loss_events (all clearance joints), dissipated_friction_J, and per joint
     (in `joints` order) peak_contact_force_N, volume_m3 and deepest_m of the profiles it ran on,
-    wear_per_cycle_m (the deepest depth that cycle added), wall_time_s; wall_time [s]."""
+    wear_per_cycle_m (the deepest depth that cycle added), peak_film_force_N,
+    peak_total_force_N, min_film_thickness_m, load_direction_deg (bearing frame), periodicity
+    (how far it ended from its start, radial clearances), wall_time_s; wall_time [s];
+    transient: the records of the start transient's cycles (run once, not scaled)."""
     name: str
     joints: tuple[str, ...]
     cycles: np.ndarray

@@ -1,19 +1,24 @@
 """Wear of the clearance joints over many cycles, by cycle jumping (``rrr4 wear``).
 
 One cycle is the scene's path (a task scene) or one revolution of its first driver (a driven
-scene). Each step of the study simulates one cycle on the current wear profiles
-(:func:`rrr4.simulate` with ``wear=``: contact uses the worn clearance; the journals start
-seated on the worn profile), takes the wear that cycle adds (Archard's law integrated at
-every integrator step, :mod:`rrr4.contact.wear`), and scales it by the number of cycles n
-for which the deepest change stays within ``max_change`` times the joint's radial clearance:
+scene). The start transient runs once (:func:`settle`): cycle 0 from the scene's initial
+state, then cycles each from the end of the last until one ends where it started (the
+periodic steady state), each wearing once. Each step of the study then simulates one cycle
+on the current wear profiles, starting where the last simulated cycle ended
+(:func:`rrr4.simulate` with ``wear=`` and ``start=``: contact uses the worn clearance, and
+each journal moves by the depth the last jump added under it), takes the wear that cycle
+adds (Archard's law integrated at every integrator step, :mod:`rrr4.contact.wear`), and
+scales it by the number of cycles n for which the deepest change stays within
+``max_change`` times the joint's radial clearance:
 
     w <- w + n dw,   n = max(1, floor(max_change c0 / max dw)),   capped at what is left of N
 
 (Flores 2009, Mech. Mach. Theory 44; Mukras et al. 2010, Wear 268: the wear of a cycle is
 extrapolated while the profile changes little). This is explicit Euler in the cycle count:
 its error is first order in the jump, and :func:`wear_study` reports it against a run with
-half the jumps. The last step simulates the cycle at N on the final profiles, so every
-history ends at N.
+half the jumps (from the same end of the same start transient), naming a smaller
+``max_change`` when it exceeds :data:`JUMP_TOLERANCE`. The last step simulates the cycle at
+N on the final profiles, so every history ends at N.
 
 Arms (task scene): ``with_preload`` and ``without_preload`` (:func:`rrr4.studies.study.arm_scene`;
 only ``without_preload`` when the controller does not preload); a driven scene: ``with_clearance``.
