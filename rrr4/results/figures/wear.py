@@ -38,7 +38,7 @@ def plot_wear_profiles(study, path: Path) -> Path:
     joints = arms[0].joints
     cols = min(4, len(joints))
     rows = math.ceil(len(joints) / cols)
-    fig, axes = plt.subplots(rows, cols, squeeze=False, figsize=(max(3.4 * cols, 8.0), 3.6 * rows + 1.2))
+    fig, axes = plt.subplots(rows, cols, squeeze=False, figsize=(max(3.4 * cols, 8.0), 3.9 * rows + 1.3))
     a = np.linspace(0.0, 2 * math.pi, 721)
     for n, (ax, j) in enumerate(zip(axes.flat, joints, strict=False)):
         spec = study.scene.graph.joint(j)
@@ -56,8 +56,8 @@ def plot_wear_profiles(study, path: Path) -> Path:
                 r = (radius[s] + (1.0 if s == "bearing" else -1.0) * M * depth_at(c, a)) * 1e3
                 ax.plot(r * np.cos(a), r * np.sin(a), _SURFACE[s], color=color, lw=1.4,
                         label=f"{STYLE[arm.name]['label']}, worn {s}")
-            ax.text(0.02, 0.98 - 0.07 * k, f"wear x{M:g}: deepest {deepest * 1e6:.3g} um", color=color, fontsize=7,
-                    transform=ax.transAxes, va="top")
+            ax.text(0.0, 1.02 + 0.075 * (len(arms) - 1 - k), f"x{M:g}: deepest {deepest * 1e6:.3g} um", color=color,
+                    fontsize=7, transform=ax.transAxes, va="bottom")
             load = arm.records[-1].get("load_direction_deg", [None] * len(joints))[joints.index(j)]
             if load is not None:
                 u = np.array([math.cos(math.radians(load)), math.sin(math.radians(load))])
@@ -67,7 +67,7 @@ def plot_wear_profiles(study, path: Path) -> Path:
         lim = spec.bearing_radius * 1e3 * 1.35
         ax.set_xlim(-lim, lim)
         ax.set_ylim(-lim, lim)
-        ax.set_title(j, fontsize=10)
+        ax.set_title(j, fontsize=10, loc="right")
         if n // cols == rows - 1 or n + cols >= len(joints):
             ax.set_xlabel("x [mm], bearing body's frame", fontsize=8)
         if n % cols == 0:
@@ -82,7 +82,8 @@ def plot_wear_profiles(study, path: Path) -> Path:
     fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 3), fontsize=8)
     fig.suptitle(f"{study.scene.name}: worn surfaces after {study.cycles:.3g} cycles, to scale [mm]\n(the wear "
                  "magnified by the factor written in each arm's colour)", fontsize=10)
-    fig.tight_layout(rect=(0, 0.12, 1, 0.95))
+    fig.tight_layout(rect=(0, 0.12, 1, 0.94))
+    fig.subplots_adjust(hspace=0.35)
     return save_figure(fig, path, dpi=110)
 
 
