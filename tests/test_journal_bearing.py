@@ -86,7 +86,7 @@ def test_the_run_reports_the_film_its_total_force_and_thinnest_gap(tmp_path):
     # changed in memory: no file describes it, the animation's data comes from the scene itself (Scene.data)
     scene = rrr4.load_scene(ROOT / "problems" / "flores_slider_crank_lubricated.yaml").with_values(
         {"effects.lubrication.viscosity": 0.3})
-    study = run_study(scene, t_end=0.003)
+    study = run_study(scene, t_end=0.0015)
     summary, names = write_results(study, tmp_path / "r", animate=False)
     assert save_motion(study, tmp_path / "motion.npz") is not None
     with np.load(tmp_path / "motion.npz") as z:
