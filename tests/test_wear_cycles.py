@@ -99,6 +99,12 @@ def test_a_joint_that_did_not_wear_says_so_rather_than_nan(dropped, tmp_path):
     assert "nan" not in report and "| no wear |" in report
     assert "Start transient, run once and not scaled" in report
     assert "wear_profiles.png" in names
+    assert "The cycles are not periodic" not in report  # the sleeve rests: every steady cycle ends where it began
+    rattling = dataclasses.replace(arm, records=[{**r, "periodicity": 0.3} for r in arm.records])
+    summary, _ = write_wear(dataclasses.replace(dropped, arms={"with_clearance": rattling}), tmp_path / "r")
+    assert summary["arms"]["with_clearance"]["steady_periodicity_max"] == 0.3
+    said = (tmp_path / "r" / "report.md").read_text()
+    assert "The cycles are not periodic: a steady cycle ended up to 0.3 radial" in said
 
 
 @pytest.mark.parametrize("deepest,radius", [(1.75e-6, 0.0101), (2.3e-4, 0.01), (3e-8, 0.005)])

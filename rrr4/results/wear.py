@@ -107,7 +107,10 @@ def wear_summary(study: WearStudy) -> dict:
             "platform_error_max_m": {"first": first["platform_error_max_m"], "last": last["platform_error_max_m"]},
             "contact_loss_events_per_cycle": {"first": first["contact_loss_events"],
                                               "last": last["contact_loss_events"]},
-            "start_transient": _transient(scene, arm)}
+            "start_transient": _transient(scene, arm),
+            # how far a steady cycle ended from its start at most (radial clearances): beyond PERIODIC the
+            # cycles differ from one another and the jump scales one sample of them
+            "steady_periodicity_max": max((r.get("periodicity", 0.0) for r in arm.records), default=0.0)}
     return out
 
 
@@ -202,6 +205,11 @@ def _report(summary: dict) -> str:
                          f"{'no wear' if r['concentration'] is None else format(r['concentration'], '.3g')} | "
                          f"{_g(r['life_cycles'])} | {r['peak_pressure_Pa'] / 1e6:.4g} |")
         lines += ["", *_film_lines(arm), *_transient_lines(arm["start_transient"])]
+        if arm["steady_periodicity_max"] > PERIODIC:
+            lines += [f"The cycles are not periodic: a steady cycle ended up to {arm['steady_periodicity_max']:.2g} "
+                      "radial clearances from where it started (rattling). Each jump scales one sample of cycles that "
+                      "differ, so the jump error measures their variability as well as the jump; smaller jumps "
+                      "(--max-change) simulate and average more of them.", ""]
     lines += ["life: the cycles until the deepest point of the profile is one radial clearance deep, extrapolated "
               "at the last cycle's wear rate. Peak pressure: of the last cycle, a steady one (each cycle starts where "
               "the last ended; the start transient is reported apart). Angles: the bearing angle in the bearing "
