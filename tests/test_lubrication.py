@@ -49,10 +49,10 @@ def test_film_force_matches_reynolds_equation_by_quadrature(law, eps, A, B):
 
 # ---- a journal (one body) in a lubricated bearing on the ground, loaded by "gravity"
 
-def journal_scene(law, load, mass=1.0, viscosity=MU, threshold=0.95):
+def journal_scene(law, load, mass=1.0, viscosity=MU, threshold=0.95, inertia=1e-3):
     return parse_scene({
         "name": "journal", "mechanism": {"kind": "graph", "ground": {"points": {"O": [0.0, 0.0]}},
-                                         "bodies": [{"name": "journal", "mass": mass, "inertia": 1e-3,
+                                         "bodies": [{"name": "journal", "mass": mass, "inertia": inertia,
                                                      "points": {"O": [0.0, 0.0]}}],
                                          "joints": [{"name": "J", "type": "revolute", "bodies": ["ground", "journal"],
                                                      "points": ["O", "O"],
@@ -92,13 +92,14 @@ def test_steadily_loaded_journal_settles_on_the_closed_form_eccentricity_and_att
     omega, eps_want = 200.0, 0.6
     s, phi_want = sommerfeld(law, eps_want)
     load = (R / C) ** 2 * MU * omega / (2 * math.pi) * 2 * R * L / s  # the load of that Sommerfeld number
-    q, qd = run(journal_scene(law, load, mass=0.05), omega, 0.3, start=0.5 * C)
+    # a heavy flywheel keeps the spin that the film's shear torque brakes (by 2e-7 of it over the run)
+    q, qd = run(journal_scene(law, load, mass=0.05, inertia=1e3), omega, 0.3, start=0.5 * C)
     e = q[:2]
     eps = np.linalg.norm(e) / C
     phi = math.acos(np.dot(e, [0.0, -1.0]) / np.linalg.norm(e))  # from the load line to the line of centres
     assert abs(eps - eps_want) < 1e-4
     assert abs(phi - phi_want) < 1e-4
-    assert np.linalg.norm(qd[:2]) < 1e-9 and abs(qd[2] - omega) < 1e-9  # at rest, still turning
+    assert np.linalg.norm(qd[:2]) < 1e-9 and abs(qd[2] - omega) < 1e-6 * omega  # at rest, still turning
     assert e[0] > 0  # off the load line (-y) in the sense of rotation (counterclockwise)
 
 

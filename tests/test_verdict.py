@@ -184,7 +184,7 @@ def test_stiffest_vibration_is_the_law_linearised_at_the_planned_load(paper_scen
     line, = foresight_lines(problem, step=8 / v.omega)
     assert "fewer than 2 steps per period" in line and f"{math.pi / v.omega:.2g} s" in line
     line, = foresight_lines(problem, step=3 / v.omega, method="rk4")
-    assert "rk4 is unstable beyond 2.83" in line
+    assert "rk4 is unstable beyond a step of" in line and "implicit method" in line
 
 
 def test_an_explicit_step_too_coarse_for_the_oil_film_is_said_before_the_run_and_flagged_after_it():

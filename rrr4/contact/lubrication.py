@@ -47,11 +47,13 @@ from __future__ import annotations
 import math
 
 import casadi as ca
+import numpy as np
 
 from ..scene.vocabulary import LUBRICATION_LAWS as LUBRICATION_LAW_NAMES
 from ..scene.vocabulary import registry
 
-__all__ = ["LUBRICATION_LAWS", "film_force", "film_weight", "film_rates", "RATE_FLOOR"]
+__all__ = ["LUBRICATION_LAWS", "film_force", "film_weight", "film_rates", "RATE_FLOOR", "min_film_thickness",
+           "film_torque"]
 
 # [1/s] added to the squeeze rate where the film's position is taken (see _film_integrals)
 RATE_FLOOR = 1e-9
@@ -117,6 +119,23 @@ def film_force(law: str, eps, A, B, radius, length, viscosity, clearance):
     return LUBRICATION_LAWS[law](eps, A, B, radius, length, viscosity, clearance)
 
 
+def film_torque(eps, relative_rate, radius, length, viscosity, clearance):
+    """The film's shear torque [N m] on the journal about its centre (the bearing takes the
+    opposite): the viscous (Couette) shear stress mu R w / h of the journal turning at
+    w = omega_J - omega_B [rad/s] inside the bore, over the whole film h = c (1 - eps cos theta),
+
+        T = -mu w R^3 L / c  int_0^2pi dtheta / (1 - eps cos theta) = -2 pi mu w R^3 L / (c sqrt(1 - eps^2)),
+
+    Petroff's torque 2 pi mu w R^3 L / c of the concentric bearing at eps = 0, and Ocvirk's
+    short-bearing friction torque at eccentricity (Ocvirk 1952; Hamrock, Schmid & Jacobson,
+    Fundamentals of Fluid Film Lubrication, ch. 10; the oil fills the cavitated half as
+    streamers and shears there too). It dissipates -T w >= 0. The
+    pressure's share of the friction (+-e W sin(phi) / 2 on journal and bearing) is the moment
+    of the film force about the two centres, which the equations already apply (the force
+    acts at each body's own centre). Floats or CasADi; eps < 1."""
+    return -2.0 * math.pi * viscosity * relative_rate * radius**3 * length / (clearance * ca.sqrt(1.0 - eps**2))
+
+
 def film_weight(eps, threshold):
     """The film's share w of the bearing's load, 1 for eps <= threshold, falling as a cubic
     step 1 - s^2 (3 - 2 s), s = (eps - threshold) / (1 - threshold), to 0 at eps = 1 where
@@ -124,3 +143,10 @@ def film_weight(eps, threshold):
     apply w(eps) F(min(eps, threshold), A, B): continuous (C1) in eps and finite as eps -> 1."""
     s = ca.fmin(ca.fmax((eps - threshold) / (1.0 - threshold), 0.0), 1.0)
     return 1.0 - s**2 * (3.0 - 2.0 * s)
+
+
+def min_film_thickness(eccentricity, clearance):
+    """h_min = c (1 - eps) = c - |e| [m], the thinnest film between journal and bore, from the
+    eccentricities (..., nc, 2) [m] and the radial clearances c (nc,) [m] (numpy); 0 where
+    the journal touches its bore (eps >= 1: the dry laws carry the load)."""
+    return np.maximum(np.asarray(clearance, float) - np.linalg.norm(np.asarray(eccentricity, float), axis=-1), 0.0)

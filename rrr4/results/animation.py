@@ -2,8 +2,9 @@
 
 A study saves what the animation needs in its result directory (:func:`save_motion`):
 ``motion.npz`` with the output instants, every arm's body coordinates q, the eccentricity
-and normal force of every clearance joint, the commanded task path, and the scene's YAML
-text (the geometry). :func:`render` draws from that file alone, so ``rrr4 animate
+and force of every clearance joint (the dry normal force, and the total force on the
+journal: dry + oil film), the commanded task path, and the scene's YAML data (the scene in
+memory, :attr:`rrr4.scene.Scene.data`, its tables inlined). :func:`render` draws from that file alone, so ``rrr4 animate
 RESULT_DIR`` remakes the animation without simulating again.
 
 A driven scene (no task, a revolute driver) is shown over two driver revolutions after the
@@ -11,7 +12,8 @@ first, so that a fast crank is not aliased by the frame rate. Drawn to scale [m]
 as the polygon through its named points, the ground points, the joints, the commanded path
 (dashed) and the task point's actual trace. Every clearance joint carries a circle drawn at
 its bearing point, the clearance magnified by a factor M (in the legend) so the journal
-centre's eccentricity is visible; the journal centre is coloured by its contact force. A time stamp in the title.
+centre's eccentricity is visible; the journal centre is coloured by the joint's total
+force (dry contact + oil film). A time stamp in the title.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ from ..checks import argument, describe  # noqa: E402
 from ..errors import Rrr4Error  # noqa: E402
 from ..mechanism import Model  # noqa: E402
 from ..problem import Problem  # noqa: E402
-from ..scene import GROUND, Scene, inline_tables, load_yaml, parse_scene  # noqa: E402
+from ..scene import GROUND, Scene, load_yaml, parse_scene  # noqa: E402
 from .figures import STYLE, save_figure  # noqa: E402
 from .study import ARMS  # noqa: E402
 
@@ -47,16 +49,13 @@ def save_motion(study, path: Path, rate: float | None = None) -> Path | None:
     """Write ``motion.npz`` of `study` at `rate` [Hz] (default the path's sample rate); None
     (nothing written) when the scene's YAML text is not available (a scene built in Python)."""
     scene: Scene = study.scene
-    if not scene.source or not Path(scene.source).is_file():
+    if scene.data is None or scene.read is None:
         return None
-    text = Path(scene.source).read_text()
-    parsed = parse_scene(load_yaml(text, scene.source), name=Path(scene.source).stem, source=scene.source)
-    raw = load_yaml(text, scene.source)
-    if inline_tables(raw, Path(scene.source).parent):  # the tables beside the scene file travel with it
-        text = yaml.safe_dump(raw, sort_keys=False)
-    # the file's scene, but for the path (an optimal law or motion replayed: pose_ref holds it)
+    parsed = scene.read(scene.data, name=scene.name)  # the scene in memory (its tables inlined), not its file
+    # the data's scene, but for the path (an optimal law or motion replayed: pose_ref holds it)
     if replace(parsed, path=scene.path) != scene:
-        return None     # the file changed since the study read it
+        return None     # changed in memory since it was read (dataclasses.replace): its data does not describe it
+    text = yaml.safe_dump(scene.data, sort_keys=False)
     base = next(iter(study.arms.values())).simulation
     rate = scene.path.sample_rate if rate is None else rate
     every = max(int(round(1.0 / (rate * (base.t[1] - base.t[0])))), 1)
@@ -68,6 +67,7 @@ def save_motion(study, path: Path, rate: float | None = None) -> Path | None:
         data[f"q_{name}"] = sim.q[rows]
         data[f"eccentricity_{name}"] = sim.eccentricity[rows]
         data[f"normal_force_{name}"] = sim.normal_force[rows]
+        data[f"total_force_{name}"] = np.linalg.norm(sim.contact_force[rows], axis=2)  # dry + film, on the journal
         data[f"clearance_joints_{name}"] = np.array(sim.clearance_joints, dtype=str)
     np.savez_compressed(path, **data)
     return path
@@ -124,6 +124,8 @@ def _check_motion(data: dict, model: Model, f) -> None:
             raise bad(f"clearance_joints_{arm}", f"{describe(joints)} are not clearance joints of the scene")
         nc = len(joints)
         shapes.update({f"q_{arm}": (n, model.nq), f"eccentricity_{arm}": (n, nc, 2), f"normal_force_{arm}": (n, nc)})
+        if f"total_force_{arm}" in data:  # written since the film's force joined the colour (older files lack it)
+            shapes[f"total_force_{arm}"] = (n, nc)
     for key, shape in shapes.items():
         a = array(key, len(shape))
         if a.shape != shape:
@@ -229,7 +231,8 @@ def build(data: dict, problem: Problem, frames: int = FRAMES, magnification: flo
     c_max = max((j.radial_clearance for j in clear), default=1.0)
     R = 0.04 * span
     mag = R / c_max if magnification is None else magnification
-    fmax = max((float(np.max(data[f"normal_force_{a}"], initial=0.0)) for a in arms), default=1.0) or 1.0
+    force = {a: data.get(f"total_force_{a}", data[f"normal_force_{a}"]) for a in arms}  # dry + film (older: dry)
+    fmax = max((float(np.max(force[a], initial=0.0)) for a in arms), default=1.0) or 1.0
     cmap = plt.get_cmap("viridis")
     tasks = {a: _task_points(model, data[f"q_{a}"]) for a in arms} if model.task else {}
     artists = []
@@ -259,7 +262,7 @@ def build(data: dict, problem: Problem, frames: int = FRAMES, magnification: flo
         artists.append((lines, joints_art, trace, circles, dots, names))
     shown = f"{mag:.0f}" if mag >= 10 else f"{mag:.3g}"
     handles = [plt.Line2D([], [], color="k", lw=0.8, label=f"clearance circles x{shown}, journal centre "
-                          f"(colour: contact force, 0 to {fmax:.3g} N)")] if clear else []
+                          f"(colour: the joint's total force, dry + film, 0 to {fmax:.3g} N)")] if clear else []
     fig.legend(handles=axes[0].get_legend_handles_labels()[0] + handles, loc="lower center", ncol=3, fontsize=7,
                frameon=False)
     stamp = fig.suptitle("")
@@ -283,7 +286,7 @@ def build(data: dict, problem: Problem, frames: int = FRAMES, magnification: flo
                     e = data[f"eccentricity_{a}"][k, m]
                     # the bearing is on the body that does not carry the journal; drawn at the joint
                     dot.set_data([centre[0] + mag * e[0]], [centre[1] + mag * e[1]])
-                    dot.set_color(cmap(min(float(data[f"normal_force_{a}"][k, m]) / fmax, 1.0)))
+                    dot.set_color(cmap(min(float(force[a][k, m]) / fmax, 1.0)))
                 else:
                     dot.set_data([centre[0]], [centre[1]])
                     dot.set_color("k")

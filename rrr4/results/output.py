@@ -32,8 +32,8 @@ def atomic_directory(out, fill) -> Path:
 
 def write_results(study: Study, out, animate: bool = True, progress: bool = False) -> tuple[dict, list[str]]:
     """Write figures, timeseries.csv, summary.json and report.md of `study` into `out`
-    atomically, and with `animate` the motion data and motion.gif (when the scene came from a
-    file). Returns (summary, file names written)."""
+    atomically, and with `animate` the motion data and motion.gif (when the scene holds its
+    YAML data, as a scene read from a file or a mapping does). Returns (summary, file names written)."""
     summary = study_summary(study)
     names: list[str] = []
 

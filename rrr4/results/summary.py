@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..contact import V_MIN, hysteresis_factor
+from ..contact.lubrication import min_film_thickness
 from ..dynamics.builder import lubricated_joints, worn_joints
 from ..functions import graph_size
 from ..mechanism import wrap_angle
@@ -219,6 +220,8 @@ def study_summary(study: Study) -> dict:
     out.update({k: None for k in PRELOAD_ARMS})
     for name, arm in study.arms.items():
         out[name] = arm_metrics(arm.simulation, arm.wall_time, study.skip, arm.compile_time)
+        if films := film_metrics(problem, arm.simulation):  # a lubricated joint: its film, beside the dry force
+            out[name]["film"] = films
         if arm.convergence is not None:  # rrr4 run --converge: the steps tried until the verdict passed
             out[name]["step_refinement"] = arm.convergence
     if "ideal" in study.arms:
@@ -226,6 +229,25 @@ def study_summary(study: Study) -> dict:
             out.pop(k)
         out.update(_driven(study, out))
     out["targets"] = target_checks(out)
+    return out
+
+
+def film_joints(problem: Problem, sim) -> list[tuple[int, str]]:
+    """(index in ``sim.clearance_joints``, name) of the lubricated clearance joints of a run."""
+    films = dict(lubricated_joints(problem.model, problem.scene.effects))
+    return [(k, j) for k, j in enumerate(sim.clearance_joints) if j in films]
+
+
+def film_metrics(problem: Problem, sim) -> dict:
+    """Per lubricated joint, over the run's outputs: the peak film force, the peak total force
+    on the journal (dry + film) [N] and the minimum film thickness h_min = c (1 - eps) [m]
+    (0: the journal touched its bore); {} without a film."""
+    out = {}
+    for k, j in film_joints(problem, sim):
+        h = min_film_thickness(sim.eccentricity[:, k], problem.joint(j).radial_clearance)
+        out[j] = {"peak_film_force_N": float(np.max(np.linalg.norm(sim.film_force[:, k], axis=1))),
+                  "peak_total_force_N": float(np.max(np.linalg.norm(sim.contact_force[:, k], axis=1))),
+                  "min_film_thickness_m": float(np.min(h))}
     return out
 
 

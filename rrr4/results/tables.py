@@ -7,8 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..contact.lubrication import min_film_thickness
 from .study import PRELOAD_ARMS, Study
-from .summary import contact_lines, unconverged, verdict_line
+from .summary import contact_lines, film_joints, unconverged, verdict_line
 
 __all__ = ["write_timeseries_csv", "report_markdown"]
 
@@ -66,6 +67,11 @@ def write_timeseries_csv(study: Study, path: Path, rate: float | None = None) ->
             cols[f"{name}_penetration_{j}_m"] = sim.penetration[rows, k]
             cols[f"{name}_ex_{j}_m"] = sim.eccentricity[rows, k, 0]
             cols[f"{name}_ey_{j}_m"] = sim.eccentricity[rows, k, 1]
+        for k, j in film_joints(problem, sim):  # the oil film's share of the force, and its thinnest gap
+            cols[f"{name}_film_Fx_{j}_N"] = sim.film_force[rows, k, 0]
+            cols[f"{name}_film_Fy_{j}_N"] = sim.film_force[rows, k, 1]
+            cols[f"{name}_h_min_{j}_m"] = min_film_thickness(sim.eccentricity[rows, k],
+                                                             problem.joint(j).radial_clearance)
         for k, j in enumerate(sim.ideal_passive_joints):
             cols[f"{name}_Rx_{j}_N"] = sim.reaction[rows, k, 0]
             cols[f"{name}_Ry_{j}_N"] = sim.reaction[rows, k, 1]
@@ -100,6 +106,7 @@ def report_markdown(summary: dict) -> str:
     row("largest free-flight fraction", lambda m: _fmt(max(m["free_flight_fraction"].values(), default=0.0)))
     row("max penetration [um]", lambda m: _fmt(m["max_penetration_m"], 1e6))
     row("peak contact force [N]", lambda m: _fmt(max(m["peak_contact_force_N"].values(), default=0.0)))
+    _film_rows(row, arms)
     row("smallest contact force [N]", lambda m: _fmt(min(m["min_contact_force_N"].values(), default=None)))
     row("platform error RMS [um]", lambda m: _fmt(m["platform_error_rms_m"], 1e6))
     row("platform error max [um]", lambda m: _fmt(m["platform_error_max_m"], 1e6))
@@ -208,6 +215,17 @@ def _contact(summary: dict) -> list[str]:
     return [f"- {line.strip()}" for line in contact_lines(summary.get("contact"))] + [""]
 
 
+def _film_rows(row, arms: list) -> None:
+    """The lubricated joints' rows: the film's peak force, the peak total (dry + film) force
+    and the minimum film thickness h_min = c (1 - eps)."""
+    def film(key, j, scale=1.0):
+        return lambda m: _fmt(m["film"][j][key], scale) if "film" in m else "-"
+    for j in next((a["film"] for _, a in arms if "film" in a), {}):
+        row(f"peak film force at {j} [N]", film("peak_film_force_N", j))
+        row(f"peak total force (dry + film) at {j} [N]", film("peak_total_force_N", j))
+        row(f"min film thickness h_min = c (1 - eps) at {j} [um]", film("min_film_thickness_m", j, 1e6))
+
+
 def _driven_report(summary: dict) -> str:
     """Report of a driven scene: clearance against the ideal twin, and the half-step rerun."""
     arms = [(k, summary[k]) for k in ("with_clearance", "half_step", "ideal") if summary.get(k) is not None]
@@ -224,6 +242,7 @@ def _driven_report(summary: dict) -> str:
         row(f"impacts per revolution at {j} (t >= {after:.4g} s)",
             lambda m, j=j: _fmt(m["impacts_per_revolution"].get(j)))
         row(f"peak contact force at {j} [N]", lambda m, j=j: _fmt(m["peak_contact_force_N"][j]))
+    _film_rows(row, arms)
     row("max penetration [um]", lambda m: _fmt(m["max_penetration_m"], 1e6))
     for b in arms[0][1]["body_acceleration_peak_m_s2"]:
         row(f"peak acceleration of {b} [m/s^2]", lambda m, b=b: _fmt(m["body_acceleration_peak_m_s2"][b]))

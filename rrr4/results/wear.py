@@ -16,18 +16,24 @@ from ..contact.wear import line_contact_pressure, node_angles, node_depths
 from ..scene import Scene
 from .output import atomic_directory
 
-__all__ = ["WearArm", "WearStudy", "wear_summary", "write_wear"]
+__all__ = ["WearArm", "WearStudy", "wear_summary", "write_wear", "PERIODIC", "jump_line"]
+
+PERIODIC = 0.01  # a cycle is periodic when no journal ends farther than this (radial clearances) from its start
 
 
 @dataclass(frozen=True)
 class WearArm:
     """One arm's cycle jumping. joints: the clearance joints that wear (graph order); cycles
-    (K + 1,): the cycle counts where a cycle was simulated (0 first, N last); jumps (K,);
+    (K + 1,): the cycle counts where a cycle was simulated after the start transient (its
+    length first, N last); jumps (K,);
     profiles: joint -> surface -> the profile's B-spline coefficients (M,) [m] after N cycles; volume: joint -> worn
     volume [m^3] after N cycles; records (K + 1): each simulated cycle's platform_error_rms_m /
     _max_m, contact_loss_events (all clearance joints), dissipated_friction_J, and per joint
     (in `joints` order) peak_contact_force_N, volume_m3 and deepest_m of the profiles it ran on,
-    wear_per_cycle_m (the deepest depth that cycle added), wall_time_s; wall_time [s]."""
+    wear_per_cycle_m (the deepest depth that cycle added), peak_film_force_N,
+    peak_total_force_N, min_film_thickness_m, load_direction_deg (bearing frame), periodicity
+    (how far it ended from its start, radial clearances), wall_time_s; wall_time [s];
+    transient: the records of the start transient's cycles (run once, not scaled)."""
     name: str
     joints: tuple[str, ...]
     cycles: np.ndarray
@@ -36,6 +42,7 @@ class WearArm:
     volume: dict
     records: list = field(repr=False)
     wall_time: float = 0.0
+    transient: list = field(default_factory=list, repr=False)  # the start transient's records, each cycle once
 
     def series(self, key: str) -> np.ndarray:
         """The records' `key` over the simulated cycles: (K + 1,) or (K + 1, joints)."""
@@ -84,13 +91,13 @@ def wear_summary(study: WearStudy) -> dict:
             joints[j] = {"volume_m3": arm.volume[j], "deepest_m": deepest, "surface": surface,
                          "deepest_at_deg": float(np.degrees(node_angles(len(d))[int(np.argmax(d))])),
                          "deepest_over_clearance": deepest / spec.radial_clearance,
-                         "concentration": deepest / float(np.mean(d)) if np.mean(d) > 0 else float("nan"),
+                         # None: nothing wore (report.md writes "no wear")
+                         "concentration": deepest / float(np.mean(d)) if np.mean(d) > 0 else None,
                          "life_cycles": (study.cycles + left / rate if rate > 0 and left > 0 else
                                          study.cycles if left <= 0 else None),  # None: it stopped wearing
-                         "peak_pressure_Pa": float(line_contact_pressure(
-                             last["peak_contact_force_N"][k], w.length, spec.journal_radius, spec.bearing_radius,
-                             _modulus(spec))),
-                         "hardness_Pa": w.hardness}
+                         "peak_contact_force_N": last["peak_contact_force_N"][k],
+                         "peak_pressure_Pa": _pressure(spec, w, last["peak_contact_force_N"][k]),
+                         "hardness_Pa": w.hardness, **_film(scene, spec, last, k)}
         first = arm.records[0]
         out["arms"][name] = {
             "simulated_cycles": len(arm.records), "wall_time_s": arm.wall_time,
@@ -99,8 +106,47 @@ def wear_summary(study: WearStudy) -> dict:
             "platform_error_rms_m": {"first": first["platform_error_rms_m"], "last": last["platform_error_rms_m"]},
             "platform_error_max_m": {"first": first["platform_error_max_m"], "last": last["platform_error_max_m"]},
             "contact_loss_events_per_cycle": {"first": first["contact_loss_events"],
-                                              "last": last["contact_loss_events"]}}
+                                              "last": last["contact_loss_events"]},
+            "start_transient": _transient(scene, arm),
+            # how far a steady cycle ended from its start at most (radial clearances): beyond PERIODIC the
+            # cycles differ from one another and the jump scales one sample of them
+            "steady_periodicity_max": max((r.get("periodicity", 0.0) for r in arm.records), default=0.0)}
     return out
+
+
+def _pressure(spec, w, force: float) -> float:
+    """The peak Hertzian line-contact pressure [Pa] of a normal force [N] at a clearance joint."""
+    return float(line_contact_pressure(force, w.length, spec.journal_radius, spec.bearing_radius, _modulus(spec)))
+
+
+def _film(scene: Scene, spec, record: dict, k: int) -> dict:
+    """A lubricated joint's film numbers of a cycle's record: the peak film force [N], the
+    peak total force on the journal (dry + film) [N] and the minimum film thickness
+    h_min = c (1 - eps) [m]; {} at a dry joint."""
+    if scene.effects.lubrication_of(spec).law == "none" or "peak_film_force_N" not in record:
+        return {}
+    return {"peak_film_force_N": record["peak_film_force_N"][k], "peak_total_force_N": record["peak_total_force_N"][k],
+            "min_film_thickness_m": record["min_film_thickness_m"][k]}
+
+
+def _transient(scene: Scene, arm: WearArm) -> dict | None:
+    """The start transient (run once, each cycle wearing once): its cycles, contact losses,
+    the peak contact force and pressure per joint over it, and how far its last cycle ended
+    from its start (radial clearances); None when the arm has none recorded."""
+    if not arm.transient:
+        return None
+    joints = {}
+    for k, j in enumerate(arm.joints):
+        spec = scene.graph.joint(j)
+        force = max(r["peak_contact_force_N"][k] for r in arm.transient)
+        joints[j] = {"peak_contact_force_N": force, "peak_pressure_Pa": _pressure(spec, scene.effects.wear_of(spec),
+                                                                                  force),
+                     **({"peak_film_force_N": max(r["peak_film_force_N"][k] for r in arm.transient)}
+                        if _film(scene, spec, arm.transient[-1], k) else {})}
+    end = arm.transient[-1]["periodicity"]
+    return {"cycles": len(arm.transient), "contact_loss_events": [r["contact_loss_events"] for r in arm.transient],
+            "periodicity": [r["periodicity"] for r in arm.transient],
+            "periodic": len(arm.transient) > 1 and end <= PERIODIC, "joints": joints}
 
 
 def _history_csv(study: WearStudy) -> str:
@@ -140,6 +186,8 @@ def _report(summary: dict) -> str:
         lines += [f"Jump error ({je['arm'].replace('_', ' ')}, against jumps of at most {je['finer_max_change']:g} "
                   f"clearances): profile {je['profile_error']:.2g} of the deepest depth, worn volume "
                   f"{worst:.2g} at most.", ""]
+        if je.get("suggested_max_change") is not None:
+            lines += [f"**The jumps are too coarse:** {jump_line(je)}.", ""]
     for name, arm in summary["arms"].items():
         error = arm["platform_error_rms_m"]
         error = (f"platform error RMS {error['first'] * 1e6:.3g} um in cycle 0 -> {error['last'] * 1e6:.3g} um in the "
@@ -153,12 +201,51 @@ def _report(summary: dict) -> str:
                   "life [cycles] | peak pressure [MPa] |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
         for j, r in arm["joints"].items():
             lines.append(f"| {j} | {r['volume_m3']:.3g} | {r['deepest_m'] * 1e6:.3g} | {r['deepest_at_deg']:g} | "
-                         f"{r['deepest_over_clearance']:.3g} | {r['concentration']:.3g} | {_g(r['life_cycles'])} | "
-                         f"{r['peak_pressure_Pa'] / 1e6:.4g} |")
-        lines.append("")
+                         f"{r['deepest_over_clearance']:.3g} | "
+                         f"{'no wear' if r['concentration'] is None else format(r['concentration'], '.3g')} | "
+                         f"{_g(r['life_cycles'])} | {r['peak_pressure_Pa'] / 1e6:.4g} |")
+        lines += ["", *_film_lines(arm), *_transient_lines(arm["start_transient"])]
+        if arm["steady_periodicity_max"] > PERIODIC:
+            lines += [f"The cycles are not periodic: a steady cycle ended up to {arm['steady_periodicity_max']:.2g} "
+                      "radial clearances from where it started (rattling). Each jump scales one sample of cycles that "
+                      "differ, so the jump error measures their variability as well as the jump; smaller jumps "
+                      "(--max-change) simulate and average more of them.", ""]
     lines += ["life: the cycles until the deepest point of the profile is one radial clearance deep, extrapolated "
-              "at the last cycle's wear rate. Angles: the bearing angle in the bearing body's frame.", ""]
+              "at the last cycle's wear rate. Peak pressure: of the last cycle, a steady one (each cycle starts where "
+              "the last ended; the start transient is reported apart). Angles: the bearing angle in the bearing "
+              "body's frame.", ""]
     return "\n".join(lines)
+
+
+def _film_lines(arm: dict) -> list[str]:
+    """The lubricated joints' film in the last (steady) cycle, one table; none at dry joints."""
+    films = {j: r for j, r in arm["joints"].items() if "peak_film_force_N" in r}
+    if not films:
+        return []
+    return ["| lubricated joint | peak film force [N] | peak dry force [N] | peak total force [N] | "
+            "min film thickness h_min [um] |", "| --- | --- | --- | --- | --- |",
+            *(f"| {j} | {r['peak_film_force_N']:.4g} | {r['peak_contact_force_N']:.4g} | {r['peak_total_force_N']:.4g} "
+              f"| {r['min_film_thickness_m'] * 1e6:.3g} |" for j, r in films.items()), ""]
+
+
+def _transient_lines(t: dict | None) -> list[str]:
+    """The start transient, reported apart from the steady cycles."""
+    if t is None:
+        return []
+    peak = ", ".join(f"{j} {r['peak_contact_force_N']:.4g} N ({r['peak_pressure_Pa'] / 1e6:.4g} MPa)"
+                     for j, r in t["joints"].items())
+    state = (f"periodic: its last cycle ended {t['periodicity'][-1]:.2g} radial clearances from where it started"
+             if t["periodic"] else f"not periodic after {t['cycles']} cycles: the last ended "
+             f"{t['periodicity'][-1]:.2g} radial clearances from its start (the jumps scale a cycle that still varies)")
+    return [f"Start transient, run once and not scaled: {t['cycles']} cycles from the scene's initial state, contact "
+            f"losses {t['contact_loss_events']}, peak contact force {peak}; {state}.", ""]
+
+
+def jump_line(error: dict) -> str:
+    """One line when the measured jump error exceeds its tolerance, with the max_change to use."""
+    return (f"max_change: {error['max_change']:g} lets the profile differ by {error['profile_error']:.2g} of its "
+            f"deepest depth from jumps half as large (more than {error['tolerance']:g}); use --max-change "
+            f"{error['suggested_max_change']:.2g} or less")
 
 
 def _g(v) -> str:

@@ -8,15 +8,17 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..checks import describe
 from ..contact import seat_gap_function
 from ..contact.wear import depth_at
 from ..dynamics.builder import Equations, profiles_of
 from ..dynamics.family import graph_family
+from ..errors import SceneError
 from ..problem import Problem
 from ..trajectory import trajectory_function
 from .state_layout import StateLayout
 
-__all__ = ["initial_state", "seated_offsets"]
+__all__ = ["initial_state", "seated_offsets", "continued_motion"]
 
 
 def seated_offsets(problem: Problem, eqs: Equations, q0, qdd0, tau0) -> np.ndarray:
@@ -39,17 +41,27 @@ def seated_offsets(problem: Problem, eqs: Equations, q0, qdd0, tau0) -> np.ndarr
     gaps, _ = seat_gap_function().map(len(joints))(rj, clearance, np.array([eqs.stiffness]),
                                                     problem.scene.effects.contact.exponent, 0.0)
     gaps = np.array(gaps).T
-    for joint, by_surface in profiles_of(eqs).items():  # on a worn profile: the seat lies deeper by w(psi)
-        k, gap = joints.index(joint), gaps[joints.index(joint)]
+    return _deepened(problem, q0, gaps, profiles_of(eqs))
+
+
+def _deepened(problem: Problem, q, offsets: np.ndarray, profiles: dict) -> np.ndarray:
+    """`offsets` (nc, 2) (second joint point - first) at the coordinates q with each journal
+    moved along its eccentricity by the depth of `profiles` (joint -> surface -> coefficients)
+    in that direction: a journal on the worn profile lies deeper by w(psi)."""
+    joints = problem.model.clearance_joints
+    offsets = np.array(offsets, float)
+    for joint, by_surface in profiles.items():
+        k = joints.index(joint)
+        gap = offsets[k]
         size = np.linalg.norm(gap)
         if size > 0:
             spec = problem.joint(joint)
             bodies = {"bearing": spec.bearing_body, "journal": spec.journal_body}
             e = gap if spec.journal == 1 else -gap  # the eccentricity, journal - bearing
             angle = np.arctan2(e[1], e[0])
-            depth = sum(float(depth_at(d, angle - _angle(problem, q0, bodies[s]))) for s, d in by_surface.items())
-            gaps[k] = gap * (size + depth) / size
-    return gaps
+            depth = sum(float(depth_at(d, angle - _angle(problem, q, bodies[s]))) for s, d in by_surface.items())
+            offsets[k] = gap * (size + depth) / size
+    return offsets
 
 
 def _angle(problem: Problem, q, body: str) -> float:
@@ -58,11 +70,43 @@ def _angle(problem: Problem, q, body: str) -> float:
     return 0.0 if i is None else float(q[i])
 
 
-def initial_state(problem: Problem, eqs: Equations, efforts, tree: bool, settings) -> np.ndarray:
+def continued_motion(problem: Problem, eqs: Equations, start, q0: np.ndarray, target) -> tuple:
+    """(q, qd, delta_dot0, in_contact) where the run `start` (a Simulation) ended: its last
+    output's motion, each body's angle shifted by the whole turns that bring it nearest its
+    angle in q0 (the scene's own start), and each journal's contact memory; one line when
+    `start` is not a run of a mechanism of this structure. Where the equations' wear profiles
+    are deeper than the ones `start` ran on (a cycle jump), each journal moves along its
+    eccentricity by the added depth (it stays as deep in its bore as it was; the task, or
+    the drivers, at `target`), so a jump does not drop it onto the bore."""
+    joints = problem.model.clearance_joints
+    end = getattr(start, "stats", {}).get("end_contact") if hasattr(start, "q") else None
+    if end is None and joints or np.shape(getattr(start, "q", None))[1:] != q0.shape or \
+            tuple(getattr(start, "clearance_joints", ())) != tuple(joints):
+        raise SceneError(f"start: {describe(start)} is not allowed (a Simulation of a scene of the same mechanism, "
+                         "whose end the run starts from)")
+    q, qd = np.array(start.q[-1], float), np.array(start.qd[-1], float)
+    turns = [problem.model.rotation_index(b) for b in problem.model.body_names]
+    q[turns] -= 2 * np.pi * np.round((q[turns] - q0[turns]) / (2 * np.pi))
+    nc = len(joints)
+    if nc:
+        before = end.get("profiles", {})
+        added = {j: {s: d - before[j][s] if j in before else d for s, d in by.items()}
+                 for j, by in profiles_of(eqs).items()}
+        if any(np.any(d != 0) for by in added.values() for d in by.values()):
+            e = np.asarray(start.eccentricity[-1], float)
+            offsets = np.array([e[k] if problem.joint(j).journal == 1 else -e[k] for k, j in enumerate(joints)])
+            if problem.model.task is not None:
+                target = np.array(problem.model.task_pose_function(q)).ravel()[:len(target)]
+            q = problem.seated_coordinates(target, _deepened(problem, q, offsets, added), guess=q)
+    return q, qd, (end["delta_dot0"] if nc else np.zeros(0)), (end["in_contact"] if nc else np.zeros(0))
+
+
+def initial_state(problem: Problem, eqs: Equations, efforts, tree: bool, settings, start=None) -> np.ndarray:
     """x0 = [t = 0, y0, W_in, D_damping, D_friction = 0, the wear quadratures = 0, delta_dot0 = v_min, in_contact,
     losses = 0 (nc each), the equations' parameters, the controller's settings]; y0 = [q,
     qd], or the tree coordinates with `tree`. efforts(t, q, qd): the controller's efforts at
-    states (torque mode), for the seated journals' loads."""
+    states (torque mode), for the seated journals' loads. start: a Simulation whose end the
+    state takes instead (:func:`continued_motion`)."""
     scene, mech, model = problem.scene, problem.mechanism, problem.model
     nc = len(eqs.clearance_joints)
     if model.task is not None:
@@ -73,8 +117,10 @@ def initial_state(problem: Problem, eqs: Equations, efforts, tree: bool, setting
     else:
         target, target_d, target_dd = (np.array(v, float).ravel() for v in model.driver_values(0.0))
     q0, qd0, qdd0 = problem.body_motion(target, target_d, target_dd)
-    seated = np.zeros(nc)
-    if scene.initial.journals == "seated" and nc and (eqs.mode != "free" or scene.graph.drivers):
+    seated, delta_dot0 = np.zeros(nc), np.full(nc, eqs.v_min)
+    if start is not None:  # where an earlier run ended (continued_motion)
+        q0, qd0, delta_dot0, seated = continued_motion(problem, eqs, start, q0, target)
+    elif scene.initial.journals == "seated" and nc and (eqs.mode != "free" or scene.graph.drivers):
         tau0 = efforts(np.array([0.0]), q0[None, :], qd0[None, :])[0] if eqs.mode == "torque" else \
             np.zeros(eqs.n_actuators)
         offsets = seated_offsets(problem, eqs, q0, qdd0, tau0)
@@ -84,6 +130,6 @@ def initial_state(problem: Problem, eqs: Equations, efforts, tree: bool, setting
     L = StateLayout(nq=len(y0) // 2, n_wear=sum(m for *_, m in eqs.worn), nc=nc, n_parameters=len(eqs.parameters),
                n_settings=len(settings))  # without the peaks: System.started appends them
     x0 = np.zeros(1 + L.ny + L.nz)  # t, the energy and wear quadratures and the losses start at 0
-    x0[L.in_x("motion")], x0[L.in_x("delta_dot0")], x0[L.in_x("in_contact")] = y0, eqs.v_min, seated
+    x0[L.in_x("motion")], x0[L.in_x("delta_dot0")], x0[L.in_x("in_contact")] = y0, delta_dot0, seated
     x0[L.in_x("parameters")], x0[L.in_x("settings")] = eqs.parameters, settings
     return x0

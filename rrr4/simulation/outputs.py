@@ -15,7 +15,7 @@ import time
 import numpy as np
 
 from ..control import path_rows
-from ..dynamics.builder import Equations
+from ..dynamics.builder import Equations, profiles_of
 from ..dynamics.energy import energy_audit_residual, energy_terms
 from ..functions import mapped
 from ..integrators import System
@@ -143,6 +143,10 @@ class Outputs:
         losses = {j: 0 for j in model.passive_joints}
         losses.update({j: int(round(v)) for j, v in zip(eqs.clearance_joints, self.last[L.in_x("losses")],
                                                          strict=True)})
+        if eqs.clearance_joints:  # where the run ended: what a continued run starts from
+            stats = {**stats, "end_contact": {"delta_dot0": self.last[L.in_x("delta_dot0")].copy(),
+                                              "in_contact": self.last[L.in_x("in_contact")].copy(),
+                                              "profiles": profiles_of(eqs)}}
         return Simulation(
             scene=self.problem.scene, clearance_joints=eqs.clearance_joints,
             ideal_passive_joints=eqs.passive_ideal_joints, terms=eqs.terms, t=self.t, **self.arrays,

@@ -158,7 +158,8 @@ def _frames(ctrl: Problem, t_end: float, rate: float, held: bool) -> tuple[int, 
 def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None, *, step: float | None = None,
              output_rate: float | None = None, controller: str | None = None, preload=None, model=None,
              v_min: float | None = None, baumgarte: float | None = None, jit=None, progress: bool = False,
-             references: str | None = None, inputs: str | None = None, wear=None, **unknown) -> Simulation:
+             references: str | None = None, inputs: str | None = None, wear=None, start=None,
+             **unknown) -> Simulation:
     """Simulate `scene` from the path's start pose; journals centred, or seated under
     their initial load when the scene says ``initial.journals: seated``.
 
@@ -206,6 +207,11 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
     wear : the wear profiles to start from at the joints that wear (joint -> surface -> node
         depths [m], as :attr:`Simulation.wear` gives them; see :mod:`rrr4.contact.wear`):
         contact then uses the worn clearance, and the run's wear is what it adds.
+    start : a Simulation of a scene of the same structure: the run starts where that one
+        ended (its last output's motion and each journal's contact memory; each body's angle
+        shifted by the whole turns that bring it nearest the scene's own start, so a driver
+        that turned once starts again at its initial value), instead of the scene's initial
+        state: the next cycle of a periodic motion.
 
     Any other keyword is refused in one line naming the nearest of :data:`OVERRIDES`.
     """
@@ -251,7 +257,7 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
 
     tree = in_tree(problem, eqs)
     system = system_of(problem, eqs, loop, refs, tree, inputs or "contact")
-    x0 = system.started(initial_state(problem, eqs, efforts, tree, loop.settings), u[:1][0])
+    x0 = system.started(initial_state(problem, eqs, efforts, tree, loop.settings, start), u[:1][0])
     outputs = Outputs(problem, eqs, system, tree, t_out, x0, efforts, _prescribed(problem, eqs, refs, refs_at))
     wall = time.perf_counter()
     run = method.run(system, x0, u, h, spf, progress=bool(progress), every=every, sink=outputs)

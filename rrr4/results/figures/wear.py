@@ -1,6 +1,6 @@
 """The figures of a wear study (``rrr4 wear``): every joint's wear profile after N cycles
-(polar), and how the worn volume, the platform error and the contact losses evolve with the
-cycles."""
+(each bore to scale, the wear magnified), and how the worn volume, the platform error and
+the contact losses evolve with the cycles."""
 
 from __future__ import annotations
 
@@ -18,32 +18,72 @@ __all__ = ["plot_wear_profiles", "plot_wear_history"]
 _SURFACE = {"bearing": "-", "journal": ":"}
 
 
+def _magnification(deepest: float, radius: float) -> float:
+    """A round factor (1, 2 or 5 times a power of ten) that draws the deepest wear [m] as about
+    a fifth of the radius [m]; 1 when nothing wore."""
+    if deepest <= 0:
+        return 1.0
+    raw = 0.2 * radius / deepest
+    power = 10.0 ** math.floor(math.log10(raw))
+    return max(f * power for f in (1.0, 2.0, 5.0) if f * power <= raw)
+
+
 def plot_wear_profiles(study, path: Path) -> Path:
-    """One polar axis per worn joint: depth [um] over the bearing angle (bearing: solid,
-    journal: dotted; the angle in that surface's body frame), one colour per arm."""
+    """One axis per worn joint, drawn to scale [mm] in the bearing body's frame: the original
+    bore (grey circle; the journal's surface inside it when the journal wears) and each arm's
+    worn surface with the wear magnified by M (written in the arm's colour): the bore grows outward by M w(psi),
+    the journal shrinks inward by M w(psi) (its angle in the journal's own frame). An arrow
+    marks the load direction of the arm's last cycle (where the journal presses the bore)."""
     arms = list(study.arms.values())
     joints = arms[0].joints
     cols = min(4, len(joints))
     rows = math.ceil(len(joints) / cols)
-    fig, axes = plt.subplots(rows, cols, subplot_kw={"projection": "polar"}, squeeze=False,
-                             figsize=(max(3.2 * cols, 8.0), 3.4 * rows + 0.8))
+    fig, axes = plt.subplots(rows, cols, squeeze=False, figsize=(max(3.4 * cols, 8.0), 3.9 * rows + 1.3))
     a = np.linspace(0.0, 2 * math.pi, 721)
-    top = max(float(np.max(depth_at(c, a))) for arm in arms for by in arm.profiles.values() for c in by.values()) * 1e6
-    for ax, j in zip(axes.flat, joints, strict=False):
-        for arm in arms:
+    for n, (ax, j) in enumerate(zip(axes.flat, joints, strict=False)):
+        spec = study.scene.graph.joint(j)
+        radius = {"bearing": spec.bearing_radius, "journal": spec.journal_radius}
+        ax.plot(spec.bearing_radius * 1e3 * np.cos(a), spec.bearing_radius * 1e3 * np.sin(a), color="0.6", lw=2.5,
+                label="original bore")
+        if any("journal" in arm.profiles[j] for arm in arms):
+            ax.plot(spec.journal_radius * 1e3 * np.cos(a), spec.journal_radius * 1e3 * np.sin(a), ":", color="0.6",
+                    lw=2.0, label="original journal")
+        for k, arm in enumerate(arms):
+            color = STYLE[arm.name]["color"]
+            deepest = max(float(np.max(depth_at(c, a))) for c in arm.profiles[j].values())
+            M = _magnification(deepest, spec.bearing_radius)  # each arm its own factor, written in its colour
             for s, c in arm.profiles[j].items():
-                ax.plot(a, depth_at(c, a) * 1e6, _SURFACE[s], color=STYLE[arm.name]["color"], lw=1.3,
-                        label=f"{STYLE[arm.name]['label']}, {s}")
-        ax.set_ylim(0, top * 1.05 if top > 0 else 1)
-        ax.set_title(j, fontsize=10)
+                r = (radius[s] + (1.0 if s == "bearing" else -1.0) * M * depth_at(c, a)) * 1e3
+                ax.plot(r * np.cos(a), r * np.sin(a), _SURFACE[s], color=color, lw=1.4,
+                        label=f"{STYLE[arm.name]['label']}, worn {s}")
+            ax.text(0.0, 1.02 + 0.075 * (len(arms) - 1 - k), f"x{M:g}: deepest {deepest * 1e6:.3g} um", color=color,
+                    fontsize=7, transform=ax.transAxes, va="bottom")
+            load = arm.records[-1].get("load_direction_deg", [None] * len(joints))[joints.index(j)]
+            if load is not None:
+                u = np.array([math.cos(math.radians(load)), math.sin(math.radians(load))])
+                ax.annotate("", xy=0.8 * spec.journal_radius * 1e3 * u, xytext=(0, 0),
+                            arrowprops={"arrowstyle": "-|>", "color": color, "lw": 1.6})
+        ax.set_aspect("equal")
+        lim = spec.bearing_radius * 1e3 * 1.35
+        ax.set_xlim(-lim, lim)
+        ax.set_ylim(-lim, lim)
+        ax.set_title(j, fontsize=10, loc="right")
+        if n // cols == rows - 1 or n + cols >= len(joints):
+            ax.set_xlabel("x [mm], bearing body's frame", fontsize=8)
+        if n % cols == 0:
+            ax.set_ylabel("y [mm]", fontsize=8)
         ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.2)
     for ax in list(axes.flat)[len(joints):]:
         ax.set_visible(False)
     handles, labels = axes.flat[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 4), fontsize=8)
-    fig.suptitle(f"{study.scene.name}: wear depth [um] over the bearing angle after {study.cycles:.3g} cycles",
-                 fontsize=10)
-    fig.tight_layout(rect=(0, 0.06, 1, 0.96))
+    handles.append(plt.Line2D([], [], color="k", marker=r"$\rightarrow$", ls="", ms=10))
+    labels.append("load direction (last cycle)")
+    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 3), fontsize=8)
+    fig.suptitle(f"{study.scene.name}: worn surfaces after {study.cycles:.3g} cycles, to scale [mm]\n(the wear "
+                 "magnified by the factor written in each arm's colour)", fontsize=10)
+    fig.tight_layout(rect=(0, 0.12, 1, 0.94))
+    fig.subplots_adjust(hspace=0.35)
     return save_figure(fig, path, dpi=110)
 
 
