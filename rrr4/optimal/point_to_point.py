@@ -576,7 +576,7 @@ def _solve(task: _Task, sign: int) -> OptimalMotion:
     opti.set_initial(X, np.vstack([warm["pose"][:, :k].T, warm["pose_d"][:, :k].T]))
     opti.set_initial(U, warm["pose_dd"][:, :k].T)
     form.initial(opti, v, warm)
-    opti.solver("ipopt", {"ipopt.max_wall_time": 60.0 + 0.1 * N, **IPOPT_OPTIONS,
+    opti.solver("ipopt", {"ipopt.max_cpu_time": 60.0 + 0.1 * N, **IPOPT_OPTIONS,
                           "ipopt.hessian_approximation": HESSIAN[objective]})
     build = time.perf_counter() - t0
     t1 = time.perf_counter()
