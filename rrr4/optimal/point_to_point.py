@@ -37,9 +37,10 @@ is then checked along its whole length with the mechanism's own kinematics and t
 family (:mod:`rrr4.optimal.motion_check`): where a margin fails between two nodes (a thin
 singular set, e.g. a pure turn through a parallel singularity) it is solved again with
 MAX_INNER_POINTS between each two nodes; where an effort limit or the contact condition fails
-between nodes, it is solved again with the limits lowered and f_min raised by what was missed
-(at most BACKOFF_ROUNDS times); what still fails is refused (InfeasibleError naming the instant
-and the value). The summary reports the extremes along the motion beside those at the nodes.
+between nodes by at most BACKOFF_MAX, it is solved again from that motion with the limits
+lowered and f_min raised by what was missed (at most BACKOFF_ROUNDS times); what still fails,
+or fails by more, is refused (InfeasibleError naming the instant and the value). The summary
+reports the extremes along the motion beside those at the nodes.
 
 Objectives: 'time' (T free); 'effort' at a given duration: the integral of tau^T W tau dt (W the
 preload weights), each interval the mean of its two ends; 'time+effort': T plus effort_weight
@@ -63,17 +64,17 @@ from ..problem import Problem
 from ..scene.vocabulary import OBJECTIVES
 from ..trajectory import path_geometry_function
 from .graph_motion import GraphMotion
-from .motion_check import along_motion, margin_report, plan_report
+from .motion_check import MIN_SAMPLES_PER_INTERVAL, along_motion, margin_report, plan_report
 from .time_law import binding_counts, binding_labels, contact_directions, optimal_time_law, optimum_summary
 
-__all__ = ["checked_pose", "OptimalMotion", "optimal_motion", "MOTION_OBJECTIVES"]
+__all__ = ["checked_pose", "OptimalMotion", "optimal_motion", "MOTION_OBJECTIVES", "MIN_SAMPLES_PER_INTERVAL"]
 
 MOTION_OBJECTIVES = OBJECTIVES
 MAX_NODES = 2000
 # the margins are held at INNER_POINTS instants between each two nodes (MAX_INNER_POINTS where the
 # check along the motion fails); the limits and the contact condition tightened at most BACKOFF_ROUNDS times
-# (each round by what was missed and BACKOFF_EXTRA more, relative)
-INNER_POINTS, MAX_INNER_POINTS, BACKOFF_ROUNDS, BACKOFF_EXTRA = 1, 16, 4, 1e-4
+# (each round by what was missed and BACKOFF_EXTRA more, relative; only a miss of at most BACKOFF_MAX)
+INNER_POINTS, MAX_INNER_POINTS, BACKOFF_ROUNDS, BACKOFF_EXTRA, BACKOFF_MAX = 1, 16, 4, 1e-4, 0.1
 IPOPT_OPTIONS = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-9,
                  "ipopt.constr_viol_tol": 1e-9, "ipopt.max_iter": 1000, "ipopt.mu_strategy": "adaptive"}
 # per objective: for 'time' a limited-memory Hessian (the exact one through the mapped closed-form
@@ -184,6 +185,7 @@ class _Task:
     inner: int = INNER_POINTS
     limit_scale: float = 1.0
     f_min_solved: float | None = None
+    previous: OptimalMotion | None = None   # the warm start of a tightened solve
 
 
 def optimal_motion(scene, target, objective: str = "time", *, duration: float | None = None, nodes: int = 40,
@@ -249,9 +251,16 @@ def optimal_motion(scene, target, objective: str = "time", *, duration: float | 
 def _checked_along(task: _Task, signs) -> OptimalMotion:
     """The best motion, solved again until it keeps every margin, limit and the contact condition
     along its whole length (see the module docstring)."""
-    rounds = 0
+    rounds, missed = 0, ""
     while True:
-        best = _best(task, signs)
+        try:
+            best = _best(task, signs)
+        except (SolverError, InfeasibleError) as e:
+            if not rounds:
+                raise
+            raise InfeasibleError(f"optimal motion: {missed} between the nodes, and solved again with the limits "
+                                  f"lowered to {task.limit_scale:.6g} of theirs and f_min raised to "
+                                  f"{task.f_min_solved:.6g} N no motion was found ({e})") from None
         along = _along(task, best)
         along.update(inner_points=task.inner, limit_scale=task.limit_scale,
                      f_min_solved_N=task.f_min_solved or task.f_min, backoff_rounds=rounds)
@@ -260,17 +269,26 @@ def _checked_along(task: _Task, signs) -> OptimalMotion:
             return best
         if along["margin_violation"] and task.inner < MAX_INNER_POINTS:
             task = replace(task, inner=MAX_INNER_POINTS)
-        elif not along["margin_violation"] and rounds < BACKOFF_ROUNDS:
-            rounds += 1
+        elif not along["margin_violation"] and rounds < BACKOFF_ROUNDS and _small_miss(along, task):
+            # solved again from this motion, with its sign, the limits and f_min tightened by what it missed
+            rounds, missed = rounds + 1, along["violation"]
             scale = task.limit_scale / max(along["peak_effort_ratio"], 1.0) * (1 - BACKOFF_EXTRA)
-            missed = max(-along.get("min_contact_margin_N", 0.0), 0.0)
-            task = replace(task, limit_scale=scale, f_min_solved=(task.f_min_solved or task.f_min) + missed
-                           + BACKOFF_EXTRA * task.f_min)
+            short = max(-along.get("min_contact_margin_N", 0.0), 0.0)
+            task = replace(task, limit_scale=scale, previous=best, f_min_solved=(task.f_min_solved or task.f_min)
+                           + short + BACKOFF_EXTRA * task.f_min)
+            signs = (best.sign,) if best.sign else signs
         else:
             raise InfeasibleError(f"optimal motion: {along['violation']} between the nodes, with the constraints "
                                   f"held at the {task.nodes + 1} nodes, {task.inner} points between each two for the "
                                   f"margins and {rounds} rounds of tightened limits (no motion found that keeps them "
-                                  "everywhere; try other --nodes or another target)")
+                                  "everywhere; try more --nodes or another target)")
+
+
+def _small_miss(along: dict, task: _Task) -> bool:
+    """True if the limits and the contact condition were missed between the nodes by at most
+    BACKOFF_MAX (relative): what tightening them can fix; a larger miss needs more nodes."""
+    short = max(-along.get("min_contact_margin_N", 0.0), 0.0) / task.f_min
+    return along["peak_effort_ratio"] - 1.0 <= BACKOFF_MAX and short <= BACKOFF_MAX
 
 
 def _along(task: _Task, motion: OptimalMotion) -> dict:
@@ -485,6 +503,9 @@ def _warm(task: _Task, sign, fractions) -> dict:
     t0 = time.perf_counter()
     problem, N, start, target, contact = task.problem, task.nodes, task.start, task.target, task.contact
     law, note = None, ""
+    if task.previous is not None:
+        p = task.previous
+        return _warm_dict(p.duration, p.pose, p.pose_d, p.alpha, None, "from the previous solve", fractions, t0)
     if task.warm_start:
         path = replace(problem.path, type="line", start=tuple(start.tolist()), end=tuple(target.tolist()))
         try:
@@ -511,7 +532,11 @@ def _warm(task: _Task, sign, fractions) -> dict:
         pose = start + np.outer(shape, target - start)
         pose_d = np.outer(rate, target - start)
         alpha = np.zeros((N + 1, m_all))
-    h = T / N
+    return _warm_dict(T, pose, pose_d, alpha, T_line, note, fractions, t0)
+
+
+def _warm_dict(T, pose, pose_d, alpha, T_line, note, fractions, t0) -> dict:
+    h = T / (len(pose) - 1)
     acc = np.diff(pose_d, axis=0) / h
     inner = np.vstack([pose[:-1] + (h * u) * pose_d[:-1] + (h * u)**2 / 2 * acc for u in fractions])
     return {"T": T, "pose": pose, "pose_d": pose_d, "pose_dd": acc, "alpha": alpha, "line_duration": T_line,
