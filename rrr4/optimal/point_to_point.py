@@ -251,7 +251,7 @@ def optimal_motion(scene, target, objective: str = "time", *, duration: float | 
 def _checked_along(task: _Task, signs) -> OptimalMotion:
     """The best motion, solved again until it keeps every margin, limit and the contact condition
     along its whole length (see the module docstring)."""
-    rounds, missed = 0, ""
+    rounds, missed, first = 0, "", {}
     while True:
         try:
             best = _best(task, signs)
@@ -261,6 +261,12 @@ def _checked_along(task: _Task, signs) -> OptimalMotion:
             raise InfeasibleError(f"optimal motion: {missed} between the nodes, and solved again with the limits "
                                   f"lowered to {task.limit_scale:.6g} of theirs and f_min raised to "
                                   f"{task.f_min_solved:.6g} N no motion was found ({e})") from None
+        if rounds:   # what the first solve found with each sign and its warm start, this sign's updated
+            by_sign = {**first["objective_by_sign"], f"{best.sign:+d}": best.statistics["objective_value"]}
+            best.statistics.update(objective_by_sign=by_sign, at_rest_infeasible=first["at_rest_infeasible"],
+                                   line_duration_s=first["line_duration_s"], warm_start_note="the motion tightened")
+        else:
+            first = best.statistics
         along = _along(task, best)
         along.update(inner_points=task.inner, limit_scale=task.limit_scale,
                      f_min_solved_N=task.f_min_solved or task.f_min, backoff_rounds=rounds)
