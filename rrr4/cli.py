@@ -111,8 +111,14 @@ def _optimize(args) -> int:
           f"{'with the contact condition' if law['contact_condition'] else 'actuator limits'}, "
           f"{grid}, {st['solver']}, {steps}{st['solve_time_s']:.3g} s solve)")
     if "max_condition_number_at_nodes" in law:
+        contact = law.get("min_contact_margin_along_N")
         print(f"along the whole motion ({law['margins_checked_at']} instants): largest condition number of J "
-              f"{law['max_condition_number']:.4g} ({law['max_condition_number_at_nodes']:.4g} at the nodes)")
+              f"{law['max_condition_number']:.4g} ({law['max_condition_number_at_nodes']:.4g} at the nodes), peak "
+              f"effort {law['peak_effort_ratio_along']:.6g} x its limit"
+              + ("" if contact is None else f", smallest contact margin {contact:.3g} N"))
+    if "replay_time_law" in summary["statistics"]:
+        r = summary["statistics"]["replay_time_law"]
+        print(f"replayed: the motion's path {r['what']}, {r['duration_s']:.6g} s")
     if summary.get("contact_cost_ratio"):
         print(f"with the actuator limits only: {summary['optimal_duration_limits_only_s']:.6g} s; keeping contact "
               f"costs x{summary['contact_cost_ratio']:.3f} in cycle time")
@@ -364,9 +370,9 @@ def build_parser() -> argparse.ArgumentParser:
                                                                    "time+effort (refused with time)")
     op.add_argument("--points", type=int, default=None, help="grid intervals along the path (default 1000; "
                                                              "refused with --to)")
-    op.add_argument("--to", nargs=3, type=float, metavar=("X", "Y", "PHI"),
+    op.add_argument("--to", nargs="+", type=float, metavar="V",
                     help="a point-to-point motion instead: rest to rest from the path's start to the task pose "
-                         "X [m], Y [m], PHI [rad], the path free")
+                         "X [m], Y [m], PHI [rad] (a task point: X Y), the path free")
     op.add_argument("--nodes", type=int, default=None, help="intervals of a --to motion (default 40; refused "
                                                             "without --to)")
     op.add_argument("--no-replay", action="store_true", help="solve only; do not replay the law")

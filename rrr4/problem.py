@@ -245,6 +245,20 @@ class Problem:
                                       if e.known and not e.table and e not in taken])
 
     @functools.cached_property
+    def known_forces(self):
+        """'force_elements' Function (q, qd, t -> Q) of every known time-independent force
+        element (spring-dampers, constant loads, the platform's too), or None without any: what
+        the effort family balances besides gravity, for a formulation on the graph's equations."""
+        return self._forces_function([i for i, e in enumerate(self.scene.forces) if e.known and not e.table])
+
+    @property
+    def closed_form_family(self) -> bool:
+        """True where the n-RRR's closed-form :meth:`inverse_dynamics` is the whole effort family
+        (an n-RRR whose known force elements are constant loads on the platform only); elsewhere
+        the family comes from the graph's equations (:meth:`effort_family`, :attr:`known_forces`)."""
+        return self.closed_form and self.element_forces is None
+
+    @functools.cached_property
     def plant_forces(self):
         """'force_elements' Function (q, qd, t -> Q) of every force element, as the plant
         feels them (the journals' initial seats take them in), or None without any."""

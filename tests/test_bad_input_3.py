@@ -52,7 +52,9 @@ def test_pure_turn_through_a_parallel_singularity_is_refined_or_refused(paper_sc
     try:
         m = optimal_motion(paper_scene, [0.0, 0.0, -1.0], nodes=10)
     except InfeasibleError as e:
-        assert re.search(r"condition number of J of [0-9.e+]+ at t = .* between the nodes", str(e)), str(e)
+        # or the efforts of the detour between its nodes (the check along the motion sees those too)
+        assert re.search(r"(condition number of J of [0-9.e+]+|an effort of [0-9.]+ times its limit|a contact "
+                         r"force of [0-9.e+-]+ N at joint \w+) at t = .* between the nodes", str(e)), str(e)
         return
     cond = _between_nodes(paper_scene, m, 3 * MIN_SAMPLES_PER_INTERVAL)
     assert cond.max() <= paper_scene.path.max_condition_number * 1.01

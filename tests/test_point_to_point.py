@@ -139,7 +139,9 @@ def test_transmission_margin_holds_at_every_node_and_binds(paper_scene):
     r = optimal_motion(strict, target, start=start, nodes=20, contact=False)
     assert r.transmission.min() >= 0.85 * (1 - 1e-8)
     assert any(k.startswith("transmission") for k in r.binding_counts())
-    assert r.duration > free.duration
+    # between the nodes too: the free motion dips below 0.85 there, the strict one keeps it
+    assert free.statistics["along"]["min_transmission"] < 0.85
+    assert r.statistics["along"]["min_transmission"] >= 0.85 * (1 - 1e-6)
 
 
 def test_solver_failure_names_the_worst_constraint_and_node(paper_scene, monkeypatch):

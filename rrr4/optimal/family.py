@@ -66,7 +66,7 @@ def path_family(problem: Problem, s) -> PathFamily:
     """The :class:`PathFamily` of `problem`'s path at progress values s (N,) in [0, 1]."""
     s = np.asarray(s, float).ravel()
     N = len(s)
-    if problem.closed_form:
+    if problem.closed_form_family:
         out = _evaluate(mapped_function(_family_function(problem), N), s)
         pose, pose_s, pose_ss = (v.T for v in out[:3])
         acc, vel, rest = (EffortFamily.from_raw(out[i:i + 4]) for i in (3, 7, 11))

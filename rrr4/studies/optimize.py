@@ -12,11 +12,16 @@ If the preloaded replay loses contact although the ideal model kept f_min everyw
 controller's dynamics, the clearance), the law is solved again with f_min raised by the
 factors of :data:`HEADROOM_FACTORS` and replayed (preloaded arm only) until no contact is
 lost; the smallest such f_min is reported (or that none of them was enough).
+
+With a target (``--to``) the loop is the point-to-point one on any mechanism with a task body
+or point (:func:`rrr4.optimal.optimal_motion`): the optimal motion with the contact condition
+where the scene preloads and with the actuator limits only, replayed along a spline through its
+nodes, retimed by the optimal time law along it (:func:`retimed_scene`). A replay of a sampled
+controller ends with the run's whole control periods (:func:`rrr4.simulation.run_end`).
 """
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import replace
 
@@ -29,11 +34,11 @@ from ..problem import Problem
 from ..results.metrics import scalar_metrics
 from ..results.optimal import Optimization
 from ..scene.vocabulary import OBJECTIVES
-from ..simulation import simulate
+from ..simulation import run_end, simulate
 from .study import arm_scene, run_study, study_controller
 
-__all__ = ["optimize", "motion_scene", "check_arguments", "at_duration", "HEADROOM_FACTORS", "DEFAULT_POINTS",
-           "DEFAULT_NODES"]
+__all__ = ["optimize", "motion_scene", "retimed_scene", "check_arguments", "at_duration", "HEADROOM_FACTORS",
+           "DEFAULT_POINTS", "DEFAULT_NODES"]
 
 HEADROOM_FACTORS = (1.25, 1.5, 2.0, 3.0, 5.0, 10.0)
 DEFAULT_POINTS, DEFAULT_NODES = 1000, 40  # grid intervals of a time law, intervals of a point-to-point motion
@@ -58,7 +63,8 @@ def optimize(scene, objective: str = "time", *, points: int | None = None, durat
     contact = problem.has_preload
     t0 = time.perf_counter()
     if target is not None:
-        return _point_to_point(problem, objective, target, nodes, duration, contact, replay, progress, log, say, t0)
+        return _point_to_point(problem, objective, target, nodes, duration, effort_weight, contact, replay, progress,
+                               log, say, t0)
     what = "with the contact condition" if contact else "with the actuator limits"
     say(f"optimal time law ({objective}) {what}, {points} grid intervals")
     law = at_duration(lambda: optimal_time_law(problem, objective, points=points, contact=contact,
@@ -76,7 +82,7 @@ def optimize(scene, objective: str = "time", *, points: int | None = None, durat
     if replay:
         follow = problem.scene.with_time_table(law.table)
         say(f"replay: the study of the scene following the optimal law ({law.duration:.4g} s)")
-        study = run_study(follow, t_end=_replay_end(follow, law.duration), progress=progress, log=log)
+        study = run_study(follow, progress=progress, log=log)
         arm = study.arms.get("with_preload")
         if contact and arm is not None and sum(arm.simulation.contact_loss_events.values()) > 0:
             headroom = _headroom(problem, law, sum(arm.simulation.contact_loss_events.values()), objective, points,
@@ -128,26 +134,51 @@ def at_duration(solve, fastest, duration):
                           "fastest, or fewer grid intervals") from None
 
 
-def _point_to_point(problem, objective, target, nodes, duration, contact, replay, progress, log, say, t0):
+def _point_to_point(problem, objective, target, nodes, duration, effort_weight, contact, replay, progress, log, say,
+                    t0):
     """Part 2 of the loop: the optimal motion to `target`, with and without the contact
-    condition, replayed along a clamped spline through its nodes (:func:`motion_scene`)."""
+    condition, replayed along a clamped spline through its nodes retimed by its optimal time law
+    (:func:`retimed_scene`)."""
     what = "with the contact condition" if contact else "with the actuator limits"
-    target = checked_pose("target", target)
+    point = problem.model.task_dof == 2
+    target = checked_pose("target (--to)", target, point)[:2 if point else 3]
     say(f"optimal motion ({objective}) to {target.tolist()} {what}, {nodes} intervals")
     motion = at_duration(lambda: optimal_motion(problem, target, objective, duration=duration, nodes=nodes,
-                                                contact=contact),
+                                                contact=contact, effort_weight=effort_weight),
                          lambda: optimal_motion(problem, target, nodes=nodes, contact=contact).duration, duration)
     free = None
     if contact:
         say("the same with the actuator limits only")
-        free = optimal_motion(problem, target, objective, duration=duration, nodes=nodes, contact=False)
+        free = optimal_motion(problem, target, objective, duration=duration, nodes=nodes, contact=False,
+                              effort_weight=effort_weight)
     stats = {"optimization_wall_time_s": time.perf_counter() - t0}
     study = None
     if replay:
-        follow = motion_scene(problem.scene, motion)
-        say(f"replay: the study of the scene following the optimal motion ({motion.duration:.4g} s)")
-        study = run_study(follow, t_end=_replay_end(follow, motion.duration), progress=progress, log=log)
+        follow, stats["replay_time_law"] = retimed_scene(problem, motion, contact, effort_weight)
+        say(f"replay: the study of the scene following the optimal motion's path, "
+            f"{stats['replay_time_law']['what']} ({follow.path.duration:.4g} s)")
+        study = run_study(follow, progress=progress, log=log)
     return Optimization(problem, motion, free, None, study, None, stats)
+
+
+def retimed_scene(problem, motion, contact: bool, effort_weight: float = 1.0, points: int = DEFAULT_POINTS):
+    """(scene, note): the scene following the motion's path (:func:`motion_scene`) with the
+    optimal time law along it, same objective and constraints (at the motion's duration for
+    'effort'), so the replayed reference keeps the limits and the contact condition at every
+    sample of the path (the spline's accelerations between the nodes are not the motion's
+    constant ones: followed at the motion's own timing its efforts would exceed the limits
+    somewhere); where that law fails, the motion's own timing. note: what was replayed, with its
+    duration against the motion's."""
+    follow = motion_scene(problem.scene, motion)
+    duration = motion.duration if motion.objective == "effort" else None
+    try:
+        law = optimal_time_law(follow, motion.objective, points=points, contact=contact, duration=duration,
+                               effort_weight=effort_weight)
+    except (InfeasibleError, SolverError) as e:
+        return follow, {"what": "at the motion's own timing", "duration_s": motion.duration, "retime_failed": str(e)}
+    return follow.with_time_table(law.table), {
+        "what": f"retimed by its optimal time law ({motion.objective})", "duration_s": law.duration,
+        "duration_ratio_to_motion": law.duration / motion.duration}
 
 
 def motion_scene(scene, motion):
@@ -158,13 +189,6 @@ def motion_scene(scene, motion):
     path = replace(scene.path, type="waypoints", points=tuple(tuple(float(v) for v in p) for p in motion.pose),
                    duration=float(motion.duration), time_law="linear", time_table=())
     return replace(scene, path=path)
-
-
-def _replay_end(scene, duration: float) -> float:
-    """The law's duration rounded up to whole control periods (or steps): a sampled controller
-    runs whole periods; the path rests at its end pose after the duration."""
-    period = 1.0 / scene.actuation.control_rate if scene.actuation.control_rate else scene.integrator.step
-    return math.ceil(duration / period - 1e-9) * period
 
 
 def _headroom(problem, law, losses, objective, points, duration, effort_weight, say) -> dict:
@@ -182,7 +206,7 @@ def _headroom(problem, law, losses, objective, points, duration, effort_weight, 
             tried.append({"f_min_N": f_min, "infeasible": str(e)})
             break
         follow = Problem.from_scene(arm_scene(Problem.from_scene(sc.with_time_table(raised.table)), "with_preload"))
-        sim = simulate(follow, t_end=_replay_end(follow.scene, raised.duration),
+        sim = simulate(follow, t_end=run_end(follow.scene)[0],
                        output_rate=1.0 / follow.scene.integrator.step, controller=study_controller(follow))
         losses = scalar_metrics(sim)["contact_loss_events"]
         tried.append({"f_min_N": f_min, "duration_s": raised.duration, "contact_loss_events": int(losses)})
