@@ -21,7 +21,7 @@ from .least_squares import Z95, covariance, identifiability, levenberg_marquardt
 from .measurements import Measurements, measurements_from_simulation, read_measurements
 from .multiple_shooting import WindowedData, check_windows, first_frame
 from .parameters import Parameter, identified_scene, resolve_parameters
-from .seated import SeatedData, check_friction_explained, noise_from_residuals
+from .seated import SeatedData, check_friction_explained, check_seated, noise_from_residuals
 
 __all__ = ["identify", "Identification", "METHODS"]
 
@@ -294,9 +294,8 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
     if method != "dynamic" and not (isinstance(windows, int) and not isinstance(windows, bool) and windows == 1):
         raise SceneError(f"windows: {windows!r} is not allowed with method {method!r} (windows of multiple shooting "
                          "belong to method 'dynamic')")
-    if method == "seated" and not problem.has_preload:
-        raise SceneError(f"actuation.preload: method 'seated' needs the journals seated by a preload (scene "
-                         f"{problem.name!r} does not preload; method 'dynamic' shoots through the simulation)")
+    if method == "seated":
+        check_seated(problem)
     wall = time.perf_counter()
     m = _measurements(problem, measurements, arm, noise)
     nominal = scene if isinstance(scene, Scene) else problem.scene  # the one given is the one varied
