@@ -256,9 +256,8 @@ def _intervals(params, u, lower, upper, se_u, inflation, cov_u, s2, fun, profile
         if profile and np.isfinite(se_u[i]) and se_u[i] > 0:
             direction = np.zeros(u.size)  # the others' conditional move along u_i (the plain covariance's)
             direction[:npar] = cov_u[:, i] / cov_u[i, i] * inflation[i] / inflation
-            ends = [u + direction * (e - u[i]) for e in (a, b)]
-            quadratic = all(np.all(v[:npar] >= lower[:npar]) and np.all(v[:npar] <= upper[:npar])
-                            and abs((cost(v) - c0) / threshold - 1.0) <= QUADRATIC_TOL for v in ends)
+            ends = [np.clip(u + direction * (e - u[i]), lower, upper) for e in (a, b)]
+            quadratic = all(abs((cost(v) - c0) / threshold - 1.0) <= QUADRATIC_TOL for v in ends)
             if se_u[i] > PROFILE_FRACTION or not quadratic:
                 a, b = profile_interval(cost, u, i, lower, upper, se_u[i], threshold, refit)
                 kind = "profile"

@@ -118,55 +118,57 @@ def covariance(J: np.ndarray, r: np.ndarray, scale: np.ndarray, dof: float | Non
 
 
 def profile_interval(cost, u: np.ndarray, i: int, lower: np.ndarray, upper: np.ndarray, se: float,
-                     threshold: float, refit, steps: int = 12) -> tuple[float, float]:
+                     threshold: float, refit, steps: int = 24) -> tuple[float, float]:
     """The 95 % interval of coordinate i in u-space from the profile of cost(u) (chi^2): the
     values t of u[i] at which min over the others of cost, minus cost(u), reaches `threshold`
     (Z95^2 times the residual variance: the likelihood-ratio test's 95 % quantile), on each
     side of u[i], or the bound where it does not. refit(u_start, i) -> u: the others refitted
-    with u[i] held (warm-started from the last point). se: the linearised standard error of
-    u[i], the first step out. Bracketing by doubling, then bisection on the rise's square root
-    (linear in t where chi^2 is quadratic); `steps` profile points per side at most."""
+    with u[i] held (warm-started from the nearest point inside). se: the linearised standard
+    error of u[i]: the first step out is min(se, a quarter of the range). Bracketing by
+    doubling, then regula falsi (Illinois) on sqrt(rise) (linear in t where chi^2 is
+    quadratic) to 1e-3 se; `steps` profile points per side at most."""
     c0 = cost(u)
+    tol = 1e-3 * min(se, 1.0)
     out = []
+
+    def rise_at(t, start):
+        trial = start.copy()
+        trial[i] = t
+        trial = refit(trial, i)
+        return np.sqrt(max(cost(trial) - c0, 0.0)) - np.sqrt(threshold), trial
+
     for sign in (-1.0, 1.0):
         bound = lower[i] if sign < 0 else upper[i]
-        inner, rise_in, start = u[i], 0.0, u.copy()
-        outer, d = None, se
-        for _ in range(steps):  # bracket: double the step until the rise passes the threshold or the bound
+        inner, f_in, start = u[i], -np.sqrt(threshold), u.copy()
+        outer, f_out = None, None
+        d, used = min(se, 0.25 * (upper[i] - lower[i])), 0
+        while used < steps:  # bracket: double the step until the rise passes the threshold or the bound
             t = u[i] + sign * d
-            if (t - bound) * sign >= 0:
-                t = bound
-            trial = start.copy()
-            trial[i] = t
-            trial = refit(trial, i)
-            rise = cost(trial) - c0
-            if rise >= threshold:
-                outer, rise_out = t, rise
+            t = bound if (t - bound) * sign >= 0 else t
+            f, trial = rise_at(t, start)
+            used += 1
+            if f >= 0:
+                outer, f_out = t, f
                 break
-            inner, rise_in, start = t, max(rise, 0.0), trial
+            inner, f_in, start = t, f, trial
             if t == bound:
                 break
             d *= 2.0
         if outer is None:
             out.append(bound)  # the data do not bound it on this side
             continue
-        t = outer
-        for _ in range(steps):  # interpolate in sqrt(rise), which is linear in t for a quadratic profile
-            a, b = np.sqrt(rise_in), np.sqrt(rise_out)
-            t = inner + (outer - inner) * (np.sqrt(threshold) - a) / max(b - a, 1e-300)
-            if min(abs(t - inner), abs(outer - t)) < 1e-3 * se:
-                break
-            trial = start.copy()
-            trial[i] = t
-            trial = refit(trial, i)
-            rise = cost(trial) - c0
-            if abs(rise - threshold) <= 0.01 * threshold:
-                break
-            if rise < threshold:
-                inner, rise_in, start = t, max(rise, 0.0), trial
+        side = 0
+        while used < steps and abs(outer - inner) > tol:
+            t = inner + (outer - inner) * (-f_in) / (f_out - f_in)
+            f, trial = rise_at(t, start)
+            used += 1
+            if f < 0:
+                inner, f_in, start = t, f, trial
+                f_out, side = (f_out / 2, 0) if side == -1 else (f_out, -1)
             else:
-                outer, rise_out = t, rise
-        out.append(t)
+                outer, f_out = t, f
+                f_in, side = (f_in / 2, 0) if side == 1 else (f_in, 1)
+        out.append(0.5 * (inner + outer))
     return out[0], out[1]
 
 

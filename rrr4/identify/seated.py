@@ -259,22 +259,30 @@ class SeatedData:
         self.effort_index = idx
         self.tau_p = fam.tau_p[:, idx]
         self.tau_n = fam.tau_n[:, idx, :]
-        self.f = seated_model(problem, params).map(N)
+        f = seated_model(problem, params)
+        self.f = f.map(N)
+        self.f_value = problem.memo(("identify_seated_value", _layout(params)), lambda: ca.Function(
+            "seated_value", f.sx_in(), f.call(f.sx_in())[:2], f.name_in(), f.name_out()[:2])).map(N)
         if problem.closed_form:
             self.args, self.pose_nominal, self.slip = (self.pose_ref.T, self.pose_d.T, self.theta.T, self.r), \
                 self.pose_ref, None
         else:
             self.args, self.pose_nominal, self.slip = _graph_inputs(problem, q, self.pose_d, self.theta, self.r)
 
-    def predict(self, p: np.ndarray, efforts: str = "measured"):
+    def predict(self, p: np.ndarray, efforts: str = "measured", jacobian: bool = True):
         """(pose (N, 3), tau_friction (N, n_e), dpose (N, 3, np), dtau (N, n_e, np)) at parameters p,
-        for the measured efforts (n_e of them) or with efforts='all' every actuator's."""
+        for the measured efforts (n_e of them) or with efforts='all' every actuator's; without
+        `jacobian` dpose and dtau are None (a cheaper Function: trial steps, profiles)."""
         N, npar = len(self.m), len(self.params)
+        idx = slice(None) if efforts == "all" else self.effort_index
+        if not jacobian:
+            pose, tau = (np.array(v) for v in self.f_value(*self.args, np.asarray(p, float)))
+            tau = first_order_lag(self.m.t, tau.T, self.lag) if self.lag > 0 else tau.T
+            return pose.T, tau[:, idx], None, None
         pose, tau, dpose, dtau = (np.array(v) for v in self.f(*self.args, np.asarray(p, float)))
         tau, dtau = tau.T, dtau.reshape(-1, N, npar).transpose(1, 0, 2)
         if self.lag > 0:
             tau, dtau = first_order_lag(self.m.t, tau, self.lag), first_order_lag(self.m.t, dtau, self.lag)
-        idx = slice(None) if efforts == "all" else self.effort_index
         return pose.T, tau[:, idx], dpose.reshape(3, N, npar).transpose(1, 0, 2), dtau[:, idx, :]
 
     def columns(self) -> list[str]:
@@ -288,7 +296,7 @@ class SeatedData:
         'prediction': {column: (N,) model}, 'explained': {column: (N,) what the parameters
         explain: the pose's offset from the path, the friction efforts off the preload}}."""
         kinds = measurement_columns(self.problem)
-        pose, tau_f, dpose, dtau = self.predict(p)
+        pose, tau_f, dpose, dtau = self.predict(p, jacobian=jacobian)
         rs, js, raw, expected, pred, explained = [], [], {}, {}, {}, {}
         for c in self.pose_cols:
             i = kinds["pose"].index(c)
@@ -299,23 +307,26 @@ class SeatedData:
             expected[c], pred[c] = np.ones(len(raw[c])), pose[:, i]
             explained[c] = pose[:, i] - self.pose_nominal[:, i]
             rs.append(raw[c] / s)
-            js.append(-dpose[:, i, :] / s)
+            if jacobian:
+                js.append(-dpose[:, i, :] / s)
         if self.effort_cols:
             s = np.array([sigma[c] for c in self.effort_cols])
             meas = np.column_stack([self.m.columns[c] for c in self.effort_cols])
             z = (meas - self.tau_p - tau_f) / s
-            dz = -dtau / s[None, :, None]
             Q = np.linalg.qr(self.tau_n / s[None, :, None])[0]  # (N, ne, m): the whitened preload directions
             z = z - np.einsum("kim,kjm,kj->ki", Q, Q, z)
             zf = tau_f / s - np.einsum("kim,kjm,kj->ki", Q, Q, tau_f / s)  # the friction efforts off the preload
-            dz = dz - np.einsum("kim,kjm,kjp->kip", Q, Q, dz)
+            if jacobian:
+                dz = -dtau / s[None, :, None]
+                dz = dz - np.einsum("kim,kjm,kjp->kip", Q, Q, dz)
             left = 1.0 - np.einsum("kim,kim->ki", Q, Q)
             for i, c in enumerate(self.effort_cols):
                 raw[c], expected[c], explained[c] = z[:, i] * s[i], left[:, i], zf[:, i] * s[i]
                 pred[c] = meas[:, i] - raw[c]
                 rs.append(z[:, i])
-                js.append(dz[:, i, :])
-        return {"r": np.concatenate(rs), "J": np.vstack(js), "raw": raw, "expected": expected, "prediction": pred,
+                if jacobian:
+                    js.append(dz[:, i, :])
+        return {"r": np.concatenate(rs), "J": np.vstack(js) if jacobian else None, "raw": raw, "expected": expected, "prediction": pred,
                 "explained": explained}
 
     def initial_noise(self) -> dict:
