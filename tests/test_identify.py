@@ -61,26 +61,6 @@ def _simulated(problem, case: str, t_end: float):
 # ---------------------------------------------------------------------- synthetic truth
 
 
-def test_intervals_cover_the_truth_in_90_to_99_percent_of_50_seeded_trials(problem):
-    keys = [CLEARANCE, FRICTION, LINK]
-    params, truth = _truth(problem, keys, [0.15, 0.5, 0.3])  # +15 um, mu 0.15, +30 um
-    t = np.linspace(0.0, 1.0, 201)
-    clean = seated_measurements(problem, params, truth, t)
-    noise = _noise(clean)
-    inside, err, se = [], [], []
-    for seed in range(50):
-        res = identify(problem, _noisy(clean, noise, seed), keys)
-        assert res.fit["converged"]
-        inside.append((res.interval[:, 0] <= truth) & (truth <= res.interval[:, 1]))
-        err.append(res.estimate - truth)
-        se.append(res.standard_error)
-    coverage = np.mean(inside)
-    assert 0.90 <= coverage <= 0.99, f"coverage {coverage:.3f}"
-    mean_err, mean_se = np.mean(err, axis=0), np.mean(se, axis=0)
-    assert np.all(np.abs(mean_err) < mean_se / 3), (mean_err / mean_se)
-    assert np.std(err, axis=0) == pytest.approx(mean_se, rel=0.35)  # the standard errors are the spread's
-
-
 def test_noise_levels_are_estimated_from_the_residuals(problem):
     keys = [CLEARANCE, FRICTION]
     params, truth = _truth(problem, keys, [0.1, -0.3])

@@ -29,13 +29,14 @@ METHODS = IDENTIFICATION_METHODS
 FIT_LIMIT = 10.0  # the reduced chi^2 with every noise level given beyond which a dynamic fit is refused
 POOR = 0.5  # a standard error above half a parameter's scale (a factor 1.6 in a stiffness): barely determined
 # a positive parameter (clearance, friction, stiffness) whose 95 % interval spans more than this factor is
-# poorly determined, unless the interval's half-width is below SPAN_FLOOR of its scale (a friction of 0.001 +- 0.001
-# is determined: it is nearly 0)
+# poorly determined, unless it is fitted linearly and the interval's half-width is below SPAN_FLOOR of its scale (a
+# friction of 0.001 +- 0.001 is determined: it is nearly 0)
 SPAN_FACTOR, SPAN_FLOOR = 2.0, 0.1
 # the linearised (Wald) interval is replaced by the profile likelihood's where the standard error in the fitted
 # coordinate exceeds this, or where chi^2 at the Wald interval's ends misses its quadratic prediction by more than
 # QUADRATIC_TOL
 PROFILE_FRACTION, QUADRATIC_TOL = 0.25, 0.25
+INSEPARABLE = 0.995  # a correlation beyond which a parameter is not profiled (the verdict names its combination)
 POSITIVE = ("clearance", "friction", "stiffness")
 
 
@@ -222,7 +223,8 @@ def _verdict(J, params, relative_se, interval=None) -> dict:
             reasons[q.key] = "in a combination these data cannot separate"
         elif not s_u <= POOR:
             reasons[q.key] = f"standard error {s_u:.2g} of its scale, above {POOR:g}"
-        elif q.kind in POSITIVE and not (lo > 0 and hi <= SPAN_FACTOR * lo) and hi - lo > 2 * SPAN_FLOOR * q.scale:
+        elif q.kind in POSITIVE and not (lo > 0 and hi <= SPAN_FACTOR * lo) and (q.log or
+                                                                              hi - lo > 2 * SPAN_FLOOR * q.scale):
             span = f"a factor {hi / lo:.3g}" if lo > 0 else "down to 0"
             reasons[q.key] = f"its 95 % interval [{lo:.3g}, {hi:.3g}] spans {span}, more than {SPAN_FACTOR:g}"
     poor = [k for k in keys if k in reasons]
@@ -253,7 +255,11 @@ def _intervals(params, u, lower, upper, se_u, inflation, cov_u, s2, fun, profile
     for i, q in enumerate(params):
         a, b, kind = u[i] - Z95 * se_u[i], u[i] + Z95 * se_u[i], "wald"
         threshold = Z95 ** 2 * s2 * inflation[i] ** 2
-        if profile and np.isfinite(se_u[i]) and se_u[i] > 0:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            corr = np.abs(cov_u[i] / np.sqrt(cov_u[i, i] * np.diag(cov_u)))
+        corr[i] = 0.0
+        # a member of a combination the data cannot separate is not determined, whatever its profile
+        if profile and np.isfinite(se_u[i]) and se_u[i] > 0 and not np.nanmax(corr, initial=0.0) > INSEPARABLE:
             direction = np.zeros(u.size)  # the others' conditional move along u_i (the plain covariance's)
             direction[:npar] = cov_u[:, i] / cov_u[i, i] * inflation[i] / inflation
             ends = [np.clip(u + direction * (e - u[i]), lower, upper) for e in (a, b)]
