@@ -83,7 +83,7 @@ def test_95_percent_intervals_cover_the_truth_per_parameter_stiffness_included_f
     keys, inside, _ = _coverage(problem, seeds, 101)
     misses = seeds - inside.sum(axis=0)
     assert binom.sf(3, seeds, 0.05) < 0.003
-    assert np.all(misses <= 3), dict(zip(keys, misses.tolist()))
+    assert np.all(misses <= 3), dict(zip(keys, misses.tolist(), strict=True))
     assert inside.mean() >= 0.85, inside.mean()
 
 
@@ -91,7 +91,7 @@ def test_95_percent_intervals_cover_the_truth_per_parameter_stiffness_included_f
 def test_95_percent_intervals_cover_the_truth_per_parameter_stiffness_included_200_seeds(problem):
     keys, inside, z = _coverage(problem, 200, 201)
     coverage = inside.mean(axis=0)
-    assert np.all((coverage >= 0.90) & (coverage <= 0.99)), dict(zip(keys, coverage.tolist()))
+    assert np.all((coverage >= 0.90) & (coverage <= 0.99)), dict(zip(keys, coverage.tolist(), strict=True))
     # the clearance, friction and link (Wald) are unbiased to a third of a standard error
     assert np.all(np.abs(np.mean(z[:, [0, 1, 3]], axis=0)) < 1 / 3), np.mean(z, axis=0)
 

@@ -326,8 +326,8 @@ class SeatedData:
                 rs.append(z[:, i])
                 if jacobian:
                     js.append(dz[:, i, :])
-        return {"r": np.concatenate(rs), "J": np.vstack(js) if jacobian else None, "raw": raw, "expected": expected, "prediction": pred,
-                "explained": explained}
+        return {"r": np.concatenate(rs), "J": np.vstack(js) if jacobian else None, "raw": raw, "expected": expected,
+                "prediction": pred, "explained": explained}
 
     def initial_noise(self) -> dict:
         """A first guess of the noise levels, for the weights of the first fit: 1 um, 1e-5 rad,
