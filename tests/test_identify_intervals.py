@@ -99,10 +99,16 @@ def test_95_percent_intervals_cover_the_truth_per_parameter_stiffness_included_2
 # ---------------------------------------------------------------------- the intervals themselves
 
 
-def test_a_log_fitted_stiffness_gets_an_interval_symmetric_in_its_log(problem):
+@pytest.fixture(scope="module")
+def stiffness_fit(problem):
+    """The default parameters on the seated model's own data, the stiffness at K / 20."""
     params, truth = _truth(problem, [CLEARANCE, FRICTION, STIFFNESS], [0.1, 0.5, np.log(0.05)])
     clean = seated_measurements(problem, params, truth, np.linspace(0.0, 1.0, 101))
-    res = identify(problem, _noisy(clean, _noise(clean), 2), [CLEARANCE, FRICTION, STIFFNESS])
+    return params, identify(problem, _noisy(clean, _noise(clean), 2))
+
+
+def test_a_log_fitted_stiffness_gets_an_interval_symmetric_in_its_log(stiffness_fit):
+    _, res = stiffness_fit
     lo, hi = res.interval[2]
     k = res.value(STIFFNESS)
     assert 0 < lo < k < hi
@@ -113,6 +119,18 @@ def test_a_log_fitted_stiffness_gets_an_interval_symmetric_in_its_log(problem):
     # the clearance is fitted linearly: its interval is the estimate -+ 1.96 standard errors
     assert res.fit["intervals"][CLEARANCE] == "wald"
     assert res.interval[0] == pytest.approx(res.estimate[0] + np.array([-1, 1]) * Z95 * res.standard_error[0])
+
+
+def test_every_interval_spanning_more_than_a_factor_two_is_called_poorly_determined(stiffness_fit):
+    params, res = stiffness_fit
+    lo, hi = res.interval[2]
+    assert hi / lo > 2 and STIFFNESS in res.verdict["poorly_determined"] and not res.verdict["identifiable"]
+    why = res.verdict["reasons"][STIFFNESS]
+    assert "spans a factor" in why or "standard error" in why, why
+    assert res.identified.data["effects"]["contact"]["stiffness"] == params[2].nominal
+    for q, (a, b) in zip(res.parameters, res.interval, strict=True):
+        if q.key not in res.verdict["poorly_determined"]:
+            assert b <= 2 * a, q.key
 
 
 def test_the_profile_interval_is_the_brute_force_profile_of_a_nonlinear_model():
@@ -166,10 +184,12 @@ def test_the_sandwich_covariance_is_the_plain_one_on_white_noise_and_the_ar1_lon
 # ---------------------------------------------------------------------- the seated method's model error
 
 
+@pytest.mark.slow
 def test_the_seated_friction_interval_holds_the_truth_on_noise_free_simulated_data(problem):
     # the quasi-static seat model does not follow the journals rolling where the slip reverses: on
     # noise-free data its friction is off by 5 plain standard errors (0.1469 for 0.15, se 0.0006);
-    # the residuals' autocorrelation carries that model error into the interval
+    # the residuals' autocorrelation carries that model error into the interval (the default suite
+    # checks the same on the friction 0.2 run in test_identify.py)
     plant = rrr4.build(problem.scene.with_values({FRICTION: 0.15}, name="plant"))
     sim = rrr4.simulate(arm_scene(plant, "with_preload"), t_end=1.0, model=arm_scene(problem, "with_preload"),
                         output_rate=1000)
@@ -251,15 +271,3 @@ def test_what_the_data_do_not_determine_keeps_its_nominal_value_in_the_identifie
     assert rows[keys[0]]["in_identified_scene"] == params[0].nominal
     text = res.table()
     assert "in a combination these data cannot separate" in text and "keeps its nominal value" in text
-
-
-def test_every_interval_spanning_more_than_a_factor_two_is_called_poorly_determined(problem):
-    params, truth = _truth(problem, [CLEARANCE, FRICTION, STIFFNESS], [0.1, 0.5, np.log(0.7)])
-    clean = seated_measurements(problem, params, truth, np.linspace(0.0, 1.0, 101))
-    res = identify(problem, _noisy(clean, _noise(clean), 5))
-    lo, hi = res.interval[2]
-    assert hi / lo > 2 and STIFFNESS in res.verdict["poorly_determined"] and not res.verdict["identifiable"]
-    assert res.identified.data["effects"]["contact"]["stiffness"] == params[2].nominal
-    for q, (a, b) in zip(res.parameters, res.interval, strict=True):
-        if q.key not in res.verdict["poorly_determined"]:
-            assert b <= 2 * a
