@@ -96,10 +96,12 @@ def test_b_and_c_clearances_of_one_chain_are_flagged_as_inseparable(problem):
 
 def test_the_default_parameters_on_synthetic_truth_say_stiffness_is_barely_determined(problem):
     params, truth = _truth(problem, [CLEARANCE, FRICTION, STIFFNESS], [0.1, 0.5, np.log(0.7)])
-    clean = seated_measurements(problem, params, truth, np.linspace(0.0, 1.0, 201))
+    clean = seated_measurements(problem, params, truth, np.linspace(0.0, 1.0, 101))
     res = identify(problem, _noisy(clean, _noise(clean), 5))
     assert res.keys == [CLEARANCE, FRICTION, STIFFNESS]
     assert STIFFNESS in res.verdict["poorly_determined"] and not res.verdict["identifiable"]
+    lo, hi = res.interval[2]  # its profile interval: wide, and it holds the truth
+    assert lo <= truth[2] <= hi and hi / lo > 2 and res.fit["intervals"][STIFFNESS] == "profile"
     assert abs(res.value(CLEARANCE) - truth[0]) < 3 * res.standard_error[0]
 
 
