@@ -80,7 +80,7 @@ def test_95_percent_intervals_cover_the_truth_per_parameter_stiffness_included_f
     # 12 seeds can only catch intervals that are too narrow: at most 3 misses of 12 per parameter
     # (a correct 95 % interval misses 4 or more with probability 0.2 %), at least 85 % pooled
     seeds = 12
-    keys, inside, _ = _coverage(problem, seeds, 101)
+    keys, inside, _ = _coverage(problem, seeds, 51)
     misses = seeds - inside.sum(axis=0)
     assert binom.sf(3, seeds, 0.05) < 0.003
     assert np.all(misses <= 3), dict(zip(keys, misses.tolist(), strict=True))
