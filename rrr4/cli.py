@@ -245,6 +245,10 @@ def _identify(args) -> int:
     check_writable(out)
     from .files import check_target
     check_target(out, MARKER)
+    if args.method == "seated":  # a scene the method cannot model: one line before the measurements are read
+        from .identify.seated import check_seated
+        from .problem import Problem
+        check_seated(Problem.from_scene(scene))
     parameters = _key_values("--parameters", args.parameters, "LOWER:UPPER") or None
     noise = _key_values("--noise", args.noise, "STD")
     if any(v is None for v in noise.values()):

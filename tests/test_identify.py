@@ -61,26 +61,6 @@ def _simulated(problem, case: str, t_end: float):
 # ---------------------------------------------------------------------- synthetic truth
 
 
-def test_intervals_cover_the_truth_in_90_to_99_percent_of_50_seeded_trials(problem):
-    keys = [CLEARANCE, FRICTION, LINK]
-    params, truth = _truth(problem, keys, [0.15, 0.5, 0.3])  # +15 um, mu 0.15, +30 um
-    t = np.linspace(0.0, 1.0, 201)
-    clean = seated_measurements(problem, params, truth, t)
-    noise = _noise(clean)
-    inside, err, se = [], [], []
-    for seed in range(50):
-        res = identify(problem, _noisy(clean, noise, seed), keys)
-        assert res.fit["converged"]
-        inside.append((res.interval[:, 0] <= truth) & (truth <= res.interval[:, 1]))
-        err.append(res.estimate - truth)
-        se.append(res.standard_error)
-    coverage = np.mean(inside)
-    assert 0.90 <= coverage <= 0.99, f"coverage {coverage:.3f}"
-    mean_err, mean_se = np.mean(err, axis=0), np.mean(se, axis=0)
-    assert np.all(np.abs(mean_err) < mean_se / 3), (mean_err / mean_se)
-    assert np.std(err, axis=0) == pytest.approx(mean_se, rel=0.35)  # the standard errors are the spread's
-
-
 def test_noise_levels_are_estimated_from_the_residuals(problem):
     keys = [CLEARANCE, FRICTION]
     params, truth = _truth(problem, keys, [0.1, -0.3])
@@ -116,10 +96,12 @@ def test_b_and_c_clearances_of_one_chain_are_flagged_as_inseparable(problem):
 
 def test_the_default_parameters_on_synthetic_truth_say_stiffness_is_barely_determined(problem):
     params, truth = _truth(problem, [CLEARANCE, FRICTION, STIFFNESS], [0.1, 0.5, np.log(0.7)])
-    clean = seated_measurements(problem, params, truth, np.linspace(0.0, 1.0, 201))
+    clean = seated_measurements(problem, params, truth, np.linspace(0.0, 1.0, 101))
     res = identify(problem, _noisy(clean, _noise(clean), 5))
     assert res.keys == [CLEARANCE, FRICTION, STIFFNESS]
     assert STIFFNESS in res.verdict["poorly_determined"] and not res.verdict["identifiable"]
+    lo, hi = res.interval[2]  # its profile interval: wide, and it holds the truth
+    assert lo <= truth[2] <= hi and hi / lo > 2 and res.fit["intervals"][STIFFNESS] == "profile"
     assert abs(res.value(CLEARANCE) - truth[0]) < 3 * res.standard_error[0]
 
 
@@ -140,6 +122,10 @@ def test_a_simulated_run_with_friction_0_2_gives_it_back(problem):
     res = identify(problem, measurements_from_simulation(sim), [CLEARANCE, FRICTION])
     assert res.value(FRICTION) == pytest.approx(0.2, abs=0.015)
     assert res.value(CLEARANCE) == pytest.approx(1e-4, rel=0.01)
+    # noise-free, the seat model's error is what is left: 0.1923 against 0.2, 8.5 plain standard errors
+    # off; the residuals' autocorrelation carries it into the interval (0.1834 to 0.2012)
+    lo, hi = res.interval[1]
+    assert lo <= 0.2 <= hi and res.fit["model_error_inflation"][1] > 3.0, (res.interval[1], res.fit)
     assert res.fit["friction_explained_ratio"] >= FRICTION_EXPLAINED_MIN
     # without the feedback's lag the friction comes out far too low: the lag is what makes it right
     lagless = identify(problem, measurements_from_simulation(sim), [CLEARANCE, FRICTION], effort_lag=0.0)

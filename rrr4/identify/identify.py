@@ -17,17 +17,27 @@ from ..problem import Problem
 from ..scene import Scene
 from ..scene.vocabulary import IDENTIFICATION_METHODS
 from .dynamic import DynamicData
-from .least_squares import Z95, covariance, identifiability, levenberg_marquardt
+from .least_squares import Z95, covariance, identifiability, levenberg_marquardt, profile_interval
 from .measurements import Measurements, measurements_from_simulation, read_measurements
 from .multiple_shooting import WindowedData, check_windows, first_frame
 from .parameters import Parameter, identified_scene, resolve_parameters
-from .seated import SeatedData, check_friction_explained, noise_from_residuals
+from .seated import SeatedData, check_friction_explained, check_seated, noise_from_residuals
 
 __all__ = ["identify", "Identification", "METHODS"]
 
 METHODS = IDENTIFICATION_METHODS
 FIT_LIMIT = 10.0  # the reduced chi^2 with every noise level given beyond which a dynamic fit is refused
 POOR = 0.5  # a standard error above half a parameter's scale (a factor 1.6 in a stiffness): barely determined
+# a positive parameter (clearance, friction, stiffness) whose 95 % interval spans more than this factor is
+# poorly determined, unless it is fitted linearly and the interval's half-width is below SPAN_FLOOR of its scale (a
+# friction of 0.001 +- 0.001 is determined: it is nearly 0)
+SPAN_FACTOR, SPAN_FLOOR = 2.0, 0.1
+# the linearised (Wald) interval is replaced by the profile likelihood's where the standard error in the fitted
+# coordinate exceeds this, or where chi^2 at the Wald interval's ends misses its quadratic prediction by more than
+# QUADRATIC_TOL
+PROFILE_FRACTION, QUADRATIC_TOL = 0.25, 0.25
+INSEPARABLE = 0.995  # a correlation beyond which a parameter is not profiled (the verdict names its combination)
+POSITIVE = ("clearance", "friction", "stiffness")
 
 
 @dataclass(frozen=True)
@@ -35,17 +45,20 @@ class Identification:
     """The result of :func:`identify`. p parameters (``parameters``: keys, nominal values,
     bounds), M fitted residuals over N instants.
 
-    estimate, standard_error (p,) in the parameters' units; interval (p, 2): 95 % intervals
-    (estimate -+ 1.96 standard errors); covariance, correlation (p, p); at_bound: keys whose
-    estimate sits on a bound (their interval means little); noise {column: std} and
-    noise_estimated {column: True if estimated from the residuals}; fit: reduced chi^2,
-    RMS residual per column, iterations, convergence, wall time; verdict: the identifiability
-    verdict (:func:`rrr4.identify.least_squares.identifiability`); t (N,), measured,
+    estimate, standard_error (p,) in the parameters' units; interval (p, 2): 95 % intervals,
+    found in the coordinate each parameter is fitted in (log for a stiffness: asymmetric), from
+    the profile likelihood where the linearisation is poor (``fit['intervals']``), widened by
+    a model error the residuals' autocorrelation shows (``fit['model_error_inflation']``, method
+    'seated'); covariance, correlation (p, p); at_bound: keys whose estimate sits on a bound
+    (their interval means little); noise {column: std} and noise_estimated {column: True if
+    estimated from the residuals}; fit: reduced chi^2, RMS residual per column, iterations,
+    convergence, wall time; verdict: the identifiability verdict (:func:`_verdict`); t (N,), measured,
     prediction, residual: {column: (N,)}; explained: {column: (N,)} what the model explains
     (the pose's offset from the path, the friction efforts off the preload direction; the
     measured counterpart is explained + residual); scene: the nominal scene; identified: the scene
     with the estimates (None without the nominal scene's YAML; a parameter the verdict finds
-    barely determined keeps its nominal value there); identified_yaml: its data."""
+    not determined, ``verdict['poorly_determined']``, keeps its nominal value there);
+    identified_yaml: its data."""
     method: str
     parameters: tuple[Parameter, ...]
     estimate: np.ndarray
@@ -107,16 +120,18 @@ class Identification:
 
 
 def verdict_text(v: dict) -> str:
-    """The verdict in words (one line per combination the data cannot separate)."""
+    """The verdict in words (one line per combination the data cannot separate, one per
+    parameter the identified scene keeps at its nominal value, with the reason)."""
     if v["identifiable"]:
         return (f"verdict: identifiable (collinearity index {v['collinearity_index']:.3g} < "
-                f"{v['collinearity_limit']:g})")
+                f"{v['collinearity_limit']:g}; every 95 % interval within a factor {SPAN_FACTOR:g})")
     out = [f"verdict: NOT identifiable from these data (collinearity index {v['collinearity_index']:.3g}, limit "
-           f"{v['collinearity_limit']:g})"]
-    for k in v["not_seen"]:
-        out.append(f"  {k}: these data do not depend on it")
+           f"{v['collinearity_limit']:g}); the identified scene keeps the nominal value of what they do not "
+           "determine"]
+    reasons = v.get("reasons", {})
     for k in v.get("poorly_determined", []):
-        out.append(f"  {k}: barely determined (standard error above half its scale)")
+        out.append(f"  {k}: not determined ({reasons.get(k, 'standard error above half its scale')}); the "
+                   "identified scene keeps its nominal value")
     for c in v["not_identifiable"]:
         combo = " ".join(f"{w:+.2g} {k}" for k, w in c["combination"].items())
         out.append(f"  cannot separate: {combo} (singular value {c['singular_value']:.2g}); to excite it: "
@@ -192,13 +207,72 @@ def _fit(fun, u, lower, upper, sigma: dict, given: dict, first: dict, residuals,
     return u, sigma, iterations, converged
 
 
-def _verdict(J, params, relative_se) -> dict:
-    """The identifiability verdict of the scaled sensitivities J, with the parameters whose
-    standard error in their fitted coordinate exceeds POOR named poorly determined."""
+def _verdict(J, params, relative_se, interval=None) -> dict:
+    """The identifiability verdict of the scaled sensitivities J. 'poorly_determined': the
+    parameters these data do not determine, which the identified scene keeps at their nominal
+    values, and 'reasons' {key: why}: no dependence, a member of a combination the data cannot
+    separate, a standard error in the fitted coordinate above POOR, or (clearance, friction,
+    stiffness, with `interval` (p, 2)) a 95 % interval spanning more than SPAN_FACTOR."""
     keys = [q.key for q in params]
     verdict = identifiability(J, keys, _excite(dict(zip(keys, params, strict=True))))
-    poor = [k for k, s_u in zip(keys, relative_se, strict=True) if not s_u <= POOR]
-    return {**verdict, "poorly_determined": poor, "identifiable": verdict["identifiable"] and not poor}
+    inseparable = {k for c in verdict["not_identifiable"] for k in c["combination"]}
+    reasons = {}
+    for i, (q, s_u) in enumerate(zip(params, relative_se, strict=True)):
+        lo, hi = (np.nan, np.nan) if interval is None else interval[i]
+        if q.key in verdict["not_seen"]:
+            reasons[q.key] = "these data do not depend on it"
+        elif q.key in inseparable:
+            reasons[q.key] = "in a combination these data cannot separate"
+        elif not s_u <= POOR:
+            reasons[q.key] = f"standard error {s_u:.2g} of its scale, above {POOR:g}"
+        elif q.kind in POSITIVE and not (lo > 0 and hi <= SPAN_FACTOR * lo) and (q.log or
+                                                                              hi - lo > 2 * SPAN_FLOOR * q.scale):
+            span = f"a factor {hi / lo:.3g}" if lo > 0 else "down to 0"
+            reasons[q.key] = f"its 95 % interval [{lo:.3g}, {hi:.3g}] spans {span}, more than {SPAN_FACTOR:g}"
+    poor = [k for k in keys if k in reasons]
+    return {**verdict, "poorly_determined": poor, "reasons": reasons,
+            "identifiable": verdict["identifiable"] and not poor}
+
+
+def _intervals(params, u, lower, upper, se_u, inflation, cov_u, s2, fun, profile: bool):
+    """95 % intervals (p, 2) in the parameters' units, found in the coordinate each is fitted
+    in (a log-fitted stiffness gets an asymmetric interval), and how each was found ('wald' or
+    'profile'). se_u (p,), cov_u (p, p): standard errors and covariance in the fitted
+    coordinates, inflation (p,): their model-error factors (:func:`covariance`); fun(u,
+    jacobian) -> (whitened residuals, Jacobian) at the final noise levels. With `profile`,
+    a parameter whose se_u exceeds PROFILE_FRACTION or whose chi^2 at the linearised
+    interval's ends misses the quadratic prediction by more than QUADRATIC_TOL gets the
+    profile-likelihood interval (threshold Z95^2 s^2 inflation^2: the model error widens it
+    as it widens the standard error)."""
+    npar = len(params)
+    cost = lambda v: float(np.sum(fun(v, False)[0] ** 2))  # noqa: E731
+
+    def refit(v, i):
+        lo, hi = lower.copy(), upper.copy()
+        lo[i] = hi[i] = v[i]
+        return levenberg_marquardt(fun, v, lo, hi, max_iter=30)[0]
+
+    c0 = cost(u) if profile else 0.0
+    out, how = np.empty((npar, 2)), []
+    for i, q in enumerate(params):
+        a, b, kind = u[i] - Z95 * se_u[i], u[i] + Z95 * se_u[i], "wald"
+        threshold = Z95 ** 2 * s2 * inflation[i] ** 2
+        with np.errstate(invalid="ignore", divide="ignore"):
+            corr = np.abs(cov_u[i] / np.sqrt(cov_u[i, i] * np.diag(cov_u)))
+        corr[i] = 0.0
+        # a member of a combination the data cannot separate is not determined, whatever its profile
+        if profile and np.isfinite(se_u[i]) and se_u[i] > 0 and not np.nanmax(corr, initial=0.0) > INSEPARABLE:
+            direction = np.zeros(u.size)  # the others' conditional move along u_i (the plain covariance's)
+            direction[:npar] = cov_u[:, i] / cov_u[i, i] * inflation[i] / inflation
+            ends = [np.clip(u + direction * (e - u[i]), lower, upper) for e in (a, b)]
+            quadratic = all(abs((cost(v) - c0) / threshold - 1.0) <= QUADRATIC_TOL for v in ends)
+            if se_u[i] > PROFILE_FRACTION or not quadratic:
+                a, b = profile_interval(cost, u, i, lower, upper, se_u[i], threshold, refit)
+                kind = "profile"
+        a, b = max(a, lower[i]), min(b, upper[i])
+        out[i] = [q.value(a), q.value(b)]
+        how.append(kind)
+    return out, how
 
 
 def identify(scene, measurements, parameters=None, method: str = "seated", noise: dict | None = None,
@@ -227,9 +301,8 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
     if method != "dynamic" and not (isinstance(windows, int) and not isinstance(windows, bool) and windows == 1):
         raise SceneError(f"windows: {windows!r} is not allowed with method {method!r} (windows of multiple shooting "
                          "belong to method 'dynamic')")
-    if method == "seated" and not problem.has_preload:
-        raise SceneError(f"actuation.preload: method 'seated' needs the journals seated by a preload (scene "
-                         f"{problem.name!r} does not preload; method 'dynamic' shoots through the simulation)")
+    if method == "seated":
+        check_seated(problem)
     wall = time.perf_counter()
     m = _measurements(problem, measurements, arm, noise)
     nominal = scene if isinstance(scene, Scene) else problem.scene  # the one given is the one varied
@@ -279,7 +352,8 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
     if start.size:  # the start states are nuisance unknowns: the parameters' columns with theirs projected out
         J = J[:, :npar] - J[:, npar:] @ np.linalg.lstsq(J[:, npar:], J[:, :npar], rcond=None)[0]
     try:
-        cov = covariance(J, r, scale, dof=sum(float(np.sum(v)) for v in res["expected"].values()))
+        cov = covariance(J, r, scale, dof=sum(float(np.sum(v)) for v in res["expected"].values()),
+                         series=len(m) if method == "seated" else None)
     except np.linalg.LinAlgError as e:  # e.g. residuals of measurements in the wrong units overflow
         raise MeasurementError(f"{m.source or 'measurements'}: the fit's covariance cannot be computed ({e}); are "
                                "the columns in SI units (m, rad, N m)?") from None
@@ -292,7 +366,10 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
     friction = [q.key for q in params if q.kind == "friction"]
     explained = check_friction_explained(data, res, friction[0]) if method == "seated" and friction else None
     se = cov["standard_error"]
-    verdict = _verdict(J, params, se / scale)
+    interval, how = _intervals(params, u, lower, upper, se / scale, cov["inflation"],
+                               cov["covariance"] / np.outer(scale, scale), cov["reduced_chi2"],
+                               lambda v, jacobian: fun(v, jacobian, sigma), method == "seated")
+    verdict = _verdict(J, params, se / scale, interval)
     poor = verdict["poorly_determined"]
     at_bound = tuple(q.key for q, v in zip(params, p, strict=True)
                      if min(v - q.lower, q.upper - v) <= 1e-9 * (q.upper - q.lower))
@@ -314,9 +391,10 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
                                          "sensitivity_disagreement_nominal": chaos_nominal}
                                         if method == "dynamic" else {}),
            **(_continuity(data, res["defect"]) if start.size else {}),
-           "columns": data.columns()}
+           "columns": data.columns(), "intervals": dict(zip([q.key for q in params], how, strict=True)),
+           "model_error_inflation": [float(v) for v in cov["inflation"]]}
     return Identification(
-        method, tuple(params), p, se, np.column_stack([p - Z95 * se, p + Z95 * se]), cov["covariance"],
+        method, tuple(params), p, se, interval, cov["covariance"],
         cov["correlation"], at_bound, sigma, {c: c not in given for c in sigma}, fit, verdict, m.t,
         {c: m.columns[c] for c in data.columns()}, res["prediction"], res["raw"], res["explained"], problem.scene,
         identified,

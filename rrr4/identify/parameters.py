@@ -23,7 +23,7 @@ from ..errors import SceneError
 from ..problem import Problem
 from ..scene import Scene, get_key
 
-__all__ = ["Parameter", "resolve_parameters", "DEFAULT_PARAMETERS", "PATTERNS", "identified_scene"]
+__all__ = ["Parameter", "resolve_parameters", "DEFAULT_PARAMETERS", "PATTERNS", "identified_scene", "scene_keys"]
 
 DEFAULT_PARAMETERS = ("joints.radial_clearance", "effects.friction.coefficient", "effects.contact.stiffness")
 PATTERNS = ("joints.radial_clearance", "joints.per_joint.<J>.radial_clearance", "effects.friction.coefficient",
@@ -165,7 +165,20 @@ def identified_scene(scene: Scene, params, values, name: str = "identified") -> 
     scene holds no YAML data (built from dataclasses)."""
     if scene.data is None:
         return None
-    changes = {p.key: float(v) for p, v in zip(params, values, strict=True)}
+    changes = {}
+    for p, v in zip(params, values, strict=True):
+        changes.update({k: float(v) for k in scene_keys(scene, p)})
     if isinstance(scene.data.get("name"), str):
         changes["name"] = f"{scene.data['name']}_identified"
     return scene.with_values(changes, name=name)
+
+
+def scene_keys(scene: Scene, p: Parameter) -> list[str]:
+    """The dotted keys of `scene`'s YAML that hold parameter `p`: its own key, or on a graph
+    scene (which gives each joint's clearance in ``mechanism.joints``) a clearance's
+    ``mechanism.joints[i].clearance.radial_clearance`` for each of its joints."""
+    mech = (scene.data or {}).get("mechanism", {})
+    if p.kind != "clearance" or mech.get("kind") != "graph":
+        return [p.key]
+    index = {j.get("name"): i for i, j in enumerate(mech.get("joints", []))}
+    return [f"mechanism.joints[{index[j]}].clearance.radial_clearance" for j in p.joints]

@@ -27,7 +27,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from ..control.compensation import friction_feed_forward, nrrr_slip, seats
+from ..control.compensation import friction_feed_forward, nrrr_slip, seats, slip_rows
 from ..control.references import path_rows, tabulated
 from ..errors import MeasurementError, SceneError
 from ..problem import Problem
@@ -36,9 +36,10 @@ from .parameters import Parameter
 
 __all__ = ["seated_model", "SeatedData", "noise_from_residuals", "seated_measurements", "first_order_lag",
            "effort_lag_of", "GN_STEPS", "check_friction_explained", "FRICTION_EXPLAINED_MIN",
-           "SLIDING_MIN"]
+           "SLIDING_MIN", "check_seated"]
 
 GN_STEPS = 2  # Gauss-Newton steps of the forward kinematics from the reference pose
+GRAPH_ITERATIONS = 3  # chord iterations of a graph's closure around its seats (each gains ~1e-4)
 # the least ratio of the friction efforts the seated model explains to the systematic effort residual
 # it leaves (:func:`check_friction_explained`): 3.5, i.e. the model accounts for ~92 % of the efforts
 # off the preload. Measured on the reference run's with_preload arm (true friction 0.1), from t = 0 to
@@ -54,41 +55,104 @@ def _layout(params: list[Parameter]) -> tuple:
     return tuple((p.kind, p.joints, p.chain, p.axis) for p in params)
 
 
+def check_seated(problem: Problem) -> None:
+    """SceneError (one line, naming the reason) when method 'seated' cannot model `problem`:
+    a driven scene (no task: its motion is prescribed by drivers, nothing seats its journals in a
+    known direction) or one without a preload."""
+    if problem.model.task is None:
+        raise SceneError(f"mechanism.drivers: method 'seated' needs a task body or point that follows the path under "
+                         f"preload (scene {problem.name!r} is driven by its drivers): a driven scene needs method "
+                         "'dynamic'")
+    if not problem.has_preload:
+        raise SceneError(f"actuation.preload: method 'seated' needs the journals seated by a preload (scene "
+                         f"{problem.name!r} does not preload; method 'dynamic' shoots through the simulation)")
+
+
 def seated_model(problem: Problem, params: list[Parameter]) -> ca.Function:
     """The seated prediction as an SX Function 'seated_prediction' (see the module docstring),
-    built once per problem and parameter layout."""
-    if not problem.closed_form:
-        raise SceneError(f"mechanism.kind: method 'seated' is built for n-RRR scenes (scene {problem.name!r} is a "
-                         "graph)")
-    return problem.memo(("identify_seated", _layout(params)), lambda: _build(problem, params))
+    built once per problem and parameter layout: the n-RRR's closed form, or any graph with a
+    task body or point (:func:`_build_graph`)."""
+    check_seated(problem)
+    build = _build if problem.closed_form else _build_graph
+    return problem.memo(("identify_seated", _layout(params)), lambda: build(problem, params))
 
 
-def _build(problem: Problem, params: list[Parameter]) -> ca.Function:
-    mech = problem.mechanism
-    data, n = mech.data, mech.n
-    names, clear = problem.model.preload_joints, problem.clearance_joints
+def _contact(problem: Problem, params: list[Parameter], p) -> list:
+    """The contact vector (``Problem.contact_parameters``) with the parameters p set by name."""
     at = problem.parameter_layout.index
-    p = ca.SX.sym("p", len(params))
-    pose_ref, pose_d = ca.SX.sym("pose_ref", 3), ca.SX.sym("pose_d", 3)
-    theta, r = ca.SX.sym("theta", n), ca.SX.sym("r", 2, len(names))
     contact = [ca.SX(v) for v in problem.contact_parameters]
-    base = [[ca.SX(v) for v in c.base] for c in data.chains]
-    l1 = [ca.SX(c.driving.length) for c in data.chains]
-    l2 = [ca.SX(c.following.length) for c in data.chains]
     for i, q in enumerate(params):
         if q.kind == "clearance":
             for j in q.joints:
                 contact[at(f"joints.{j}.bearing_radius")] = contact[at(f"joints.{j}.journal_radius")] + p[i]
         elif q.kind == "stiffness":
-            for j in clear:
+            for j in problem.clearance_joints:
                 contact[at(f"joints.{j}.stiffness")] = p[i]
         elif q.kind == "friction":
             contact[at("contact.friction_coefficient")] = p[i]
-        elif q.kind == "base":
+    return ca.vertcat(*contact)
+
+
+def _build_graph(problem: Problem, params: list[Parameter]) -> ca.Function:
+    """Any graph with a task: the loops closed around the seats' gaps with the actuators at
+    theta, by chord iterations from the ideal coordinates q_ref at the path's pose (the
+    closure's Jacobian inverted there, Ainv, and the task's least-squares map from the
+    actuators G = pinv(S Ainv[:, task])) given per instant: the offsets are ~1e-4 of the
+    links, so each iteration gains ~1e-4. The friction efforts: -P f_t with P = J (J^T J)^-1
+    (W V)^T per instant (virtual power, as the graph controller's feed-forward)."""
+    model, mech = problem.model, problem.mechanism
+    nq, n, k = model.nq, mech.n, mech.n_task
+    names = model.preload_joints
+    p = ca.SX.sym("p", len(params))
+    q_ref, ainv, g = ca.SX.sym("q_ref", nq), ca.SX.sym("Ainv", nq, nq), ca.SX.sym("G", k, n)
+    theta, r = ca.SX.sym("theta", n), ca.SX.sym("r", 2, len(names))
+    slip, P = ca.SX.sym("slip", len(names)), ca.SX.sym("P", n, len(names))
+    friction = problem.scene.effects.friction.law != "none"
+    gaps, f_t = seats(problem, r, slip if friction else None, _contact(problem, params, p))
+    rows, offset = [], []
+    for name in mech.joint_names:
+        eq = model.joint_equations(ca.SX.sym("q", nq), name)
+        rows.append(eq.numel())
+        gap = gaps[:, names.index(name)] if name in problem.clearance_joints else ca.SX.zeros(eq.numel())
+        offset.append(gap if eq.numel() == 2 else ca.SX.zeros(eq.numel()))
+    offset = ca.vertcat(*offset)
+
+    def closure(q, target):
+        eqs = ca.vertcat(*[model.joint_equations(q, j) for j in mech.joint_names])
+        return ca.vertcat(eqs - offset, model.task_pose(q)[:k] - target)
+
+    q, target = q_ref, model.task_pose(q_ref)[:k]
+    to_task = ainv[:, sum(rows):]
+    for _ in range(GRAPH_ITERATIONS):
+        q = q - ainv @ closure(q, target)
+        d = model.actuator_coordinates_function(q)[0] - theta
+        step = -g @ ca.atan2(ca.sin(d), ca.cos(d))
+        target, q = target + step, q + to_task @ step
+    q = q - ainv @ closure(q, target)
+    pose = model.task_pose(q)
+    tau_f = -P @ f_t if friction else ca.SX.zeros(n)
+    return ca.Function("seated_prediction", [q_ref, ainv, g, slip, P, theta, r, p],
+                       [pose, tau_f, ca.jacobian(pose, p), ca.jacobian(tau_f, p)],
+                       ["q_ref", "Ainv", "G", "slip", "P", "theta", "r", "p"],
+                       ["pose", "tau_friction", "dpose_dp", "dtau_dp"])
+
+
+def _build(problem: Problem, params: list[Parameter]) -> ca.Function:
+    mech = problem.mechanism
+    data, n = mech.data, mech.n
+    names = problem.model.preload_joints
+    p = ca.SX.sym("p", len(params))
+    pose_ref, pose_d = ca.SX.sym("pose_ref", 3), ca.SX.sym("pose_d", 3)
+    theta, r = ca.SX.sym("theta", n), ca.SX.sym("r", 2, len(names))
+    base = [[ca.SX(v) for v in c.base] for c in data.chains]
+    l1 = [ca.SX(c.driving.length) for c in data.chains]
+    l2 = [ca.SX(c.following.length) for c in data.chains]
+    for i, q in enumerate(params):
+        if q.kind == "base":
             base[q.chain][q.axis] = p[i]
-        else:
+        elif q.kind in ("driving", "following"):
             (l1 if q.kind == "driving" else l2)[q.chain] = p[i]
-    contact = ca.vertcat(*contact)
+    contact = _contact(problem, params, p)
     slip = nrrr_slip(problem, pose_ref, pose_d)
     gaps, f_t = seats(problem, r, slip if problem.scene.effects.friction.law != "none" else None, contact)
 
@@ -163,7 +227,8 @@ class SeatedData:
         self.pose_cols = m.has(kinds["pose"])
         self.effort_cols = m.has(kinds["effort"])
         angles = m.has(kinds["angle"])
-        fam = problem.effort_family(self.pose_ref, self.pose_d, pose_dd)
+        q = None if problem.closed_form else problem.path_coordinates(self.pose_ref, self.pose_d, pose_dd)
+        fam = problem.effort_family(self.pose_ref, self.pose_d, pose_dd, q=q)
         n_m = fam.tau_n.shape[2]
         if self.effort_cols and len(self.effort_cols) <= n_m:
             raise MeasurementError(f"{m.source or 'measurements'}: efforts {', '.join(self.effort_cols)} alone carry "
@@ -194,18 +259,30 @@ class SeatedData:
         self.effort_index = idx
         self.tau_p = fam.tau_p[:, idx]
         self.tau_n = fam.tau_n[:, idx, :]
-        self.f = seated_model(problem, params).map(N)
+        f = seated_model(problem, params)
+        self.f = f.map(N)
+        self.f_value = problem.memo(("identify_seated_value", _layout(params)), lambda: ca.Function(
+            "seated_value", f.sx_in(), f.call(f.sx_in())[:2], f.name_in(), f.name_out()[:2])).map(N)
+        if problem.closed_form:
+            self.args, self.pose_nominal, self.slip = (self.pose_ref.T, self.pose_d.T, self.theta.T, self.r), \
+                self.pose_ref, None
+        else:
+            self.args, self.pose_nominal, self.slip = _graph_inputs(problem, q, self.pose_d, self.theta, self.r)
 
-    def predict(self, p: np.ndarray, efforts: str = "measured"):
+    def predict(self, p: np.ndarray, efforts: str = "measured", jacobian: bool = True):
         """(pose (N, 3), tau_friction (N, n_e), dpose (N, 3, np), dtau (N, n_e, np)) at parameters p,
-        for the measured efforts (n_e of them) or with efforts='all' every actuator's."""
+        for the measured efforts (n_e of them) or with efforts='all' every actuator's; without
+        `jacobian` dpose and dtau are None (a cheaper Function: trial steps, profiles)."""
         N, npar = len(self.m), len(self.params)
-        pose, tau, dpose, dtau = (np.array(v) for v in self.f(self.pose_ref.T, self.pose_d.T, self.theta.T, self.r,
-                                                                 np.asarray(p, float)))
+        idx = slice(None) if efforts == "all" else self.effort_index
+        if not jacobian:
+            pose, tau = (np.array(v) for v in self.f_value(*self.args, np.asarray(p, float)))
+            tau = first_order_lag(self.m.t, tau.T, self.lag) if self.lag > 0 else tau.T
+            return pose.T, tau[:, idx], None, None
+        pose, tau, dpose, dtau = (np.array(v) for v in self.f(*self.args, np.asarray(p, float)))
         tau, dtau = tau.T, dtau.reshape(-1, N, npar).transpose(1, 0, 2)
         if self.lag > 0:
             tau, dtau = first_order_lag(self.m.t, tau, self.lag), first_order_lag(self.m.t, dtau, self.lag)
-        idx = slice(None) if efforts == "all" else self.effort_index
         return pose.T, tau[:, idx], dpose.reshape(3, N, npar).transpose(1, 0, 2), dtau[:, idx, :]
 
     def columns(self) -> list[str]:
@@ -219,7 +296,7 @@ class SeatedData:
         'prediction': {column: (N,) model}, 'explained': {column: (N,) what the parameters
         explain: the pose's offset from the path, the friction efforts off the preload}}."""
         kinds = measurement_columns(self.problem)
-        pose, tau_f, dpose, dtau = self.predict(p)
+        pose, tau_f, dpose, dtau = self.predict(p, jacobian=jacobian)
         rs, js, raw, expected, pred, explained = [], [], {}, {}, {}, {}
         for c in self.pose_cols:
             i = kinds["pose"].index(c)
@@ -228,26 +305,29 @@ class SeatedData:
             if c == "theta_rad":
                 raw[c] = np.arctan2(np.sin(raw[c]), np.cos(raw[c]))
             expected[c], pred[c] = np.ones(len(raw[c])), pose[:, i]
-            explained[c] = pose[:, i] - self.pose_ref[:, i]
+            explained[c] = pose[:, i] - self.pose_nominal[:, i]
             rs.append(raw[c] / s)
-            js.append(-dpose[:, i, :] / s)
+            if jacobian:
+                js.append(-dpose[:, i, :] / s)
         if self.effort_cols:
             s = np.array([sigma[c] for c in self.effort_cols])
             meas = np.column_stack([self.m.columns[c] for c in self.effort_cols])
             z = (meas - self.tau_p - tau_f) / s
-            dz = -dtau / s[None, :, None]
             Q = np.linalg.qr(self.tau_n / s[None, :, None])[0]  # (N, ne, m): the whitened preload directions
             z = z - np.einsum("kim,kjm,kj->ki", Q, Q, z)
             zf = tau_f / s - np.einsum("kim,kjm,kj->ki", Q, Q, tau_f / s)  # the friction efforts off the preload
-            dz = dz - np.einsum("kim,kjm,kjp->kip", Q, Q, dz)
+            if jacobian:
+                dz = -dtau / s[None, :, None]
+                dz = dz - np.einsum("kim,kjm,kjp->kip", Q, Q, dz)
             left = 1.0 - np.einsum("kim,kim->ki", Q, Q)
             for i, c in enumerate(self.effort_cols):
                 raw[c], expected[c], explained[c] = z[:, i] * s[i], left[:, i], zf[:, i] * s[i]
                 pred[c] = meas[:, i] - raw[c]
                 rs.append(z[:, i])
-                js.append(dz[:, i, :])
-        return {"r": np.concatenate(rs), "J": np.vstack(js), "raw": raw, "expected": expected, "prediction": pred,
-                "explained": explained}
+                if jacobian:
+                    js.append(dz[:, i, :])
+        return {"r": np.concatenate(rs), "J": np.vstack(js) if jacobian else None, "raw": raw, "expected": expected,
+                "prediction": pred, "explained": explained}
 
     def initial_noise(self) -> dict:
         """A first guess of the noise levels, for the weights of the first fit: 1 um, 1e-5 rad,
@@ -257,6 +337,29 @@ class SeatedData:
             out[c] = 1e-5 if c == "theta_rad" else 1e-6 if c in ("x_m", "y_m") else \
                 max(0.01 * float(np.sqrt(np.mean(self.m.columns[c] ** 2))), 1e-9)
         return out
+
+
+def _graph_inputs(problem: Problem, q: np.ndarray, pose_d: np.ndarray, theta: np.ndarray, r: np.ndarray):
+    """A graph's per-instant inputs of :func:`_build_graph` (the mapped Function's argument
+    layout), its task pose at the ideal coordinates q (N, nq), and the slip velocities (N, nj)."""
+    mech, model = problem.mechanism, problem.model
+    N, k = len(q), mech.n_task
+    qd = mech.motion(q, pose_d[:, :k], np.zeros((N, k)))[0]
+    W = slip_rows(problem)
+    slip = qd @ W.T
+    Jf, _, _, S = (np.array(v).reshape(v.shape[0], N, v.shape[1] // N).transpose(1, 0, 2)
+                   for v in mech.constraint_jacobian_function.map(N)(q.T, np.zeros((mech.nq, N))))
+    ainv = np.linalg.inv(Jf)
+    V = ainv[:, :, -k:]
+    J = S @ V  # d theta = J d task
+    G = np.linalg.pinv(J)
+    P = J @ np.linalg.solve(np.swapaxes(J, 1, 2) @ J, np.swapaxes(W @ V, 1, 2))
+
+    def pack(a):  # (N, rows, cols) -> (rows, N * cols): a mapped Function's matrix input
+        return a.transpose(1, 0, 2).reshape(a.shape[1], -1)
+    qs = ca.SX.sym("q", mech.nq)
+    pose = np.array(ca.Function("task", [qs], [model.task_pose(qs)]).map(N)(q.T)).T
+    return (q.T, pack(ainv), pack(G), slip.T, pack(P), theta.T, r), pose, slip
 
 
 def noise_from_residuals(res: dict, n_par: int) -> dict:
@@ -315,10 +418,14 @@ def check_friction_explained(data: SeatedData, res: dict, key: str) -> tuple[flo
     white = float(np.mean(np.concatenate([np.diff(v) for v in left]) ** 2)) / 2.0
     systematic = np.sqrt(max(lag1 - 3.0 * white / np.sqrt(sum(v.size - 1 for v in left)), 0.0))
     ratio = float(np.sqrt(np.mean(explained ** 2)) / systematic) if systematic > 0 else float("inf")
-    pose, pose_d = ca.SX.sym("pose", 3), ca.SX.sym("pose_d", 3)
-    slip = ca.Function("slip", [pose, pose_d], [nrrr_slip(data.problem, pose, pose_d)]).map(len(data.m))
+    if data.slip is None:
+        pose, pose_d = ca.SX.sym("pose", 3), ca.SX.sym("pose_d", 3)
+        f = ca.Function("slip", [pose, pose_d], [nrrr_slip(data.problem, pose, pose_d)]).map(len(data.m))
+        slip = np.array(f(data.pose_ref.T, data.pose_d.T)).T
+    else:
+        slip = data.slip
     v1 = data.problem.scene.effects.friction.v1
-    sliding = float(np.mean(np.max(np.abs(np.array(slip(data.pose_ref.T, data.pose_d.T))), axis=0) > v1))
+    sliding = float(np.mean(np.max(np.abs(slip), axis=1) > v1))
     if not ratio >= FRICTION_EXPLAINED_MIN and sliding < SLIDING_MIN:
         raise MeasurementError(
             f"{key}: the seated model does not explain these efforts (its friction efforts, RMS "
