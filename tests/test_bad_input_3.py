@@ -86,7 +86,7 @@ def test_friction_from_a_50_ms_start_up_record_is_refused_not_reported(paper_sce
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "effects.friction.coefficient: the seated model does not explain" in err[0]
     assert not out.exists()
-    res = identify(paper_scene, csv, ["joints.radial_clearance"], arm="with_preload")
+    res = identify(paper_scene, csv, ["joints.radial_clearance"], arm="with_preload", method="seated")
     assert res.value("joints.radial_clearance") == pytest.approx(1e-4, rel=0.01)  # the scene's 0.1 mm
 
 

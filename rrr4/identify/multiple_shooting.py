@@ -102,7 +102,7 @@ class WindowedData:
     w = [p, s_1, .., s_{K-1}] (``nuisance_start``, ``nuisance_scale``: the states' initial
     values and scales)."""
 
-    def __init__(self, shooting: DynamicData, windows: int):
+    def __init__(self, shooting: DynamicData, windows: int, seed=None):
         self.shooting = s = shooting
         first = first_frame(s)
         self.windows = check_windows(windows, s.n_frames - first, s.dt)
@@ -115,8 +115,9 @@ class WindowedData:
         scale = np.r_[np.full(nq, STATE_SCALE), np.full(nq, STATE_SCALE / s.dt)]
         n_free = self.windows - 1 + self.free_first
         self.nuisance_scale = np.tile(scale, n_free)
-        # the states' first values: the nominal parameters' single-shooting run at the window starts
-        p0 = np.array([q.nominal for q in s.params])
+        # the states' first values: the single-shooting run at the window starts with the parameters
+        # `seed` (method 'staged': the seated fit's), else the nominal ones
+        p0 = np.array([q.nominal for q in s.params] if seed is None else seed, float)
         x, S = s.start(p0, sensitivities=False)
         if self.free_first:
             x, *_ = s.roll(x, S, 0, first)
