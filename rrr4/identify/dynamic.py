@@ -60,7 +60,9 @@ GEOMETRY_KINDS = ("driving", "following", "base")  # through the equations' geom
 CHAOS_LIMIT = 0.25  # relative disagreement of the sensitivities and central differences beyond which shooting fails
 FD_STEP = 1e-2  # finite-difference step in each parameter's scaled coordinate (the check, and the seated initial state)
 CHUNK = 256  # frames per call from Python
-DIRECTIONS = 4  # sensitivity directions per call of the compiled derivative (see sensitivity_frame)
+# sensitivity directions per call of the compiled derivative (see sensitivity_frame): its C grows with them
+# (reference scene: 1.3 MB for 1, 3.3 MB for 4, 28 MB for 39 unrolled), the work they share is one frame
+DIRECTIONS = 1
 
 
 def sensitivity_frame(problem: Problem, n_directions: int, interval: float, jit: bool | None = None,
@@ -279,7 +281,7 @@ class DynamicData:
 
     def frame(self, n_directions: int) -> ca.Function:
         """The compiled frame with `n_directions` sensitivity directions (see :func:`sensitivity_frame`)."""
-        return sensitivity_frame(self.problem, n_directions, self.dt)[0]
+        return sensitivity_frame(self.problem, n_directions, self.dt, inputs=self.inputs)[0]
 
     def start(self, p, sensitivities: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """(x0, S0 (nx, np), no columns without `sensitivities`): the run's initial state at the
