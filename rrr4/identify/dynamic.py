@@ -31,6 +31,7 @@ measures the disagreement at the nominal values and at the estimate and refuses 
 
 from __future__ import annotations
 
+import os
 from dataclasses import replace
 
 import casadi as ca
@@ -80,7 +81,7 @@ def sensitivity_frame(problem: Problem, n_directions: int, interval: float, jit:
     :data:`DIRECTIONS` directions ('sensitivity_directions'), once per problem structure and
     frame (and cached on disk); the frame with n directions calls the second on ceil(n /
     DIRECTIONS) blocks of directions (a CasADi map: a loop, not n copies of the derivative in
-    the generated C)."""
+    the generated C; in threads, one per core)."""
     jit = default_jit() if jit is None else bool(jit)
     scene = problem.scene
     held = scene.actuation.mode == "torque" and scene.actuation.control_rate is not None
@@ -101,7 +102,9 @@ def _with_directions(step: ca.Function, block: ca.Function, nd: int) -> ca.Funct
     if nd:
         blocks = -(-nd // DIRECTIONS)
         padded = ca.horzcat(S, ca.MX.zeros(nx, blocks * DIRECTIONS - nd))
-        S1 = block.map(blocks)(x, u, x1, padded, ca.MX.zeros(nu, blocks * DIRECTIONS))[:, :nd]
+        threads = min(blocks, os.cpu_count() or 1)  # the directions are independent: one per core
+        mapped = block.map(blocks, "thread", threads) if threads > 1 else block.map(blocks)
+        S1 = mapped(x, u, x1, padded, ca.MX.zeros(nu, blocks * DIRECTIONS))[:, :nd]
     else:
         S1 = ca.MX(nx, 0)
     return ca.Function("sensitivity_frame", [x, S, u], [x1, S1, o, do_x @ S], ["x", "S", "u"],
