@@ -2,7 +2,7 @@
 ten windows gave a sensitivity frame of 28 MB of C in one file, gcc -O3 still compiling after
 12 minutes).
 
-    .venv/bin/python benchmarks/bench_sensitivity_codegen.py [SCENE] [--directions N ...]
+    .venv/bin/python benchmarks/bench_sensitivity_codegen.py [SCENE] [--directions N ...] [--inputs geometry]
 
 What the method compiles since issue 46 does not depend on the direction count: the frame with
 its outputs ('sensitivity_step') and its forward derivative in DIRECTIONS directions
@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import subprocess
 import tempfile
 import time
@@ -39,31 +40,35 @@ def c_of(f: ca.Function) -> str:
     return cg.dump()
 
 
-def compile_seconds(text: str, name: str) -> float:
+def compile_seconds(text: str, name: str) -> tuple[float, float]:
+    """(wall, CPU) seconds of gcc on `text` (the CPU time counts on a loaded machine)."""
     with tempfile.TemporaryDirectory() as d:
         src = Path(d) / f"{name}.c"
         src.write_text(text)
-        t = time.perf_counter()
+        t, before = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
         subprocess.run(["gcc", *COMPILE_FLAGS, "-o", str(Path(d) / f"{name}.so"), str(src), "-lm"], check=True)
-        return time.perf_counter() - t
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return time.perf_counter() - t, (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("scene", nargs="?", default=str(ROOT / "problems" / "paper_circle.yaml"))
     ap.add_argument("--directions", type=int, nargs="*", default=[10, 39])
+    ap.add_argument("--inputs", choices=("contact", "geometry"), default="contact",
+                    help="geometry: the frames for link lengths and base positions")
     args = ap.parse_args()
     print(f"load average before: {os.getloadavg()[0]:.2f}")
     problem = rrr4.build(rrr4.load_scene(args.scene))
-    frame, system, loop, eqs, tree, method, dt = sensitivity_frame(problem, 1, 1e-3, jit=False)
-    step, block = problem.memo(("identify_sensitivity", dt, False), lambda: None)[:2]  # built just now
+    frame, system, loop, eqs, tree, method, dt = sensitivity_frame(problem, 1, 1e-3, jit=False, inputs=args.inputs)
+    step, block = problem.memo(("identify_sensitivity", dt, False, args.inputs), lambda: None)[:2]  # built just now
     print(f"scene {problem.name}: frame {1e3 * dt:g} ms, state {system.ny + system.nz + 1} entries, "
           f"DIRECTIONS = {DIRECTIONS}")
-    print(f"{'function':44s} {'C [MB]':>8s} {'lines':>9s} {'gcc [s]':>8s}")
+    print(f"{'function':44s} {'C [MB]':>8s} {'lines':>9s} {'gcc wall [s]':>13s} {'gcc CPU [s]':>12s}")
     for f in (step, block):
         text = c_of(f)
-        print(f"{f.name():44s} {len(text) / 1e6:8.2f} {text.count(chr(10)):9d} {compile_seconds(text, f.name()):8.1f}",
-              flush=True)
+        wall, cpu = compile_seconds(text, f.name())
+        print(f"{f.name():44s} {len(text) / 1e6:8.2f} {text.count(chr(10)):9d} {wall:13.1f} {cpu:12.1f}", flush=True)
     spf = max(int(round(dt / problem.scene.integrator.step)), 1)
     unit = method.frame_function(system, dt / spf, spf)
     nx, nu = unit.size1_in(0), unit.size1_in(1)
@@ -73,7 +78,7 @@ def main() -> None:
         old = ca.Function("sensitivity_frame", [x, S, u], [x1, unit.forward(nd)(x, u, x1, S, ca.MX.zeros(nu, nd))])
         text = c_of(old)
         print(f"{'before: forward(' + str(nd) + ') in one frame':44s} {len(text) / 1e6:8.2f} {text.count(chr(10)):9d} "
-              f"{'(not compiled)':>8s}", flush=True)
+              f"{'(not compiled)':>13s}", flush=True)
     print(f"load average after: {os.getloadavg()[0]:.2f}")
 
 
