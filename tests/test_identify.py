@@ -231,9 +231,6 @@ def test_bad_identification_arguments_end_in_one_line(problem):
         identify(problem, m, {FRICTION: [0.5, 0.2]}, method="seated")
     _one_line(e.value, FRICTION, "lower <= nominal <= upper")
     with pytest.raises(SceneError) as e:
-        identify(problem, m, [CLEARANCE, LINK], method="dynamic")
-    _one_line(e.value, LINK, "'dynamic'", "contact numbers only", "'seated'")
-    with pytest.raises(SceneError) as e:
         identify(problem, m, method="shooting")
     _one_line(e.value, "method", "seated")
     with pytest.raises(MeasurementError) as e:
