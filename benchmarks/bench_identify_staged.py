@@ -103,10 +103,14 @@ def figures(res, out: Path) -> list[Path]:
     ax[0].set_ylabel("error [um]")
     ax[0].set_ylim(-30, 30)
     ax[0].legend(fontsize=8, loc="lower left")
-    for a, k, scale, unit in ((ax[1], "effects.friction.coefficient", 1.0, ""),
-                              (ax[2], "effects.contact.stiffness", 1e-10, " [1e10 N/m^1.5]")):
+    for a, k, unit in ((ax[1], "effects.friction.coefficient", ""),
+                       (ax[2], "effects.contact.stiffness", " [N/m^1.5]")):
         j = keys.index(k)
-        e, (lo, hi) = res.estimate[j] * scale, res.interval[j] * scale
+        e, (lo, hi) = res.estimate[j], res.interval[j]
+        if k == "effects.contact.stiffness":  # fitted in log(K): its interval there, +-1.96 se / K
+            lo, hi = e * np.exp(-1.96 * res.standard_error[j] / e), e * np.exp(1.96 * res.standard_error[j] / e)
+            a.set_yscale("log")
+        scale = 1.0
         a.errorbar(0, e, yerr=[[e - lo], [hi - e]], fmt="o", color="C0", capsize=3)
         a.axhline(TRUTH[k] * scale, color="k", lw=0.8, label="truth")
         if k in seated:
