@@ -1,18 +1,22 @@
-"""Method 'dynamic': fit through the simulation itself (single shooting), for runs where the
-journals are not (only) seated: start-up, light preload.
+"""Method 'dynamic': fit through the simulation itself (single shooting), over a whole record
+(method 'staged' starts it from the seated fit) or where the journals are not (only) seated:
+start-up, light preload.
 
 The contact numbers are inputs of the compiled stepping: they sit in its discrete state
-(``Problem.equation_parameters``, see :func:`rrr4.simulation.system.system_of`), so a
-candidate parameter vector is an initial state, not a new scene. One Function steps a frame
+(``Problem.equation_parameters``, see :func:`rrr4.simulation.system.system_of`); with a link
+length or base position among the parameters so do the masses, inertias and joint points
+(the equations' geometry inputs, :data:`GEOMETRY_KINDS`). So a candidate parameter vector is
+an initial state, not a new scene. One Function steps a frame
 (the integrator's frame of :func:`rrr4.simulate`, with the nominal scene's controller) and,
 in CasADi forward mode (``Function.forward``, one direction per parameter), carries the
 sensitivities S = d(state)/d(p) along: S_0 holds d(contact numbers)/dp (a clearance moves the
 bearing radius and, with ``stiffness: auto``, the stiffness that follows from it), and the
 measured outputs (task pose, actuator angles, the controller's efforts) and their
-sensitivities are read off each frame's start. It is compiled once per scene structure,
-integrator setting and parameter count (cached on disk as any compiled stepping), once more
-without directions (Levenberg-Marquardt's trial steps and the check below: the cost of a
-simulation), and rolled in chunks of frames. An implicit method steps with full Newton there
+sensitivities are read off each frame's start. What is compiled (the frame, and its
+derivative in one direction, mapped over the directions: :func:`sensitivity_frame`) does not
+depend on the parameter count: once per scene structure, integrator setting and frame (cached
+on disk as any compiled stepping); a run without directions (Levenberg-Marquardt's trial
+steps and the check below) costs a simulation. Frames are rolled in chunks. An implicit method steps with full Newton there
 (a converged Newton step with exact Jacobians has the implicit function's derivative;
 simplified Newton's reused factors do not): the same solution to the Newton tolerance (on the
 reference scene 3e-12 m and 2e-7 N m from the simulation's). The jumps of a contact's onset

@@ -8,7 +8,8 @@ state s_0 that is an unknown too); each later window k starts at its own state s
 mechanism's continuous state there (the stepped coordinates and their rates: with clearance
 the tree coordinates, which place the journals in their clearances; not the energy
 quadratures, which no output reads), an extra unknown of the fit. The unknowns are
-w = [p, s_1, .., s_{K-1}]; they start from the nominal parameters' single-shooting run.
+w = [p, s_1, .., s_{K-1}]; they start from the single-shooting run with the parameters' start
+values (the nominal ones, or with method 'staged' the seated fit's).
 
 - **Journals keep their place in their clearance** (:func:`clearance_map`): s_k is the start
   state at the nominal clearances; a candidate's clearances scale each journal's eccentricity
