@@ -11,7 +11,7 @@ from . import __version__
 from .checks import argument, unknown_value
 from .errors import Rrr4Error, SceneError
 from .files import check_writable, request_stop
-from .scene.vocabulary import IDENTIFICATION_METHODS, OBJECTIVES
+from .scene.vocabulary import IDENTIFICATION_DEFAULT, IDENTIFICATION_METHODS, OBJECTIVES
 
 
 def _check(args) -> int:
@@ -427,15 +427,18 @@ def build_parser() -> argparse.ArgumentParser:
     idn.add_argument("--parameters", help="comma-separated scene keys, each optionally KEY=LOWER:UPPER (default "
                                           "joints.radial_clearance,effects.friction.coefficient,"
                                           "effects.contact.stiffness)")
-    idn.add_argument("--method", choices=IDENTIFICATION_METHODS, default="seated",
-                     help="seated (journals seated under preload, quasi-static; default) or dynamic (shooting through "
-                          "the simulation with its forward sensitivities; refuses a run whose journals rattle)")
+    idn.add_argument("--method", choices=IDENTIFICATION_METHODS, default=IDENTIFICATION_DEFAULT,
+                     help="staged (default: seated first where a preload seats the journals, then dynamic over the "
+                          "whole record from its estimates), seated (quasi-static, journals seated under preload) or "
+                          "dynamic (shooting through the simulation with its forward sensitivities; refuses a run "
+                          "whose journals rattle)")
     idn.add_argument("--arm", help="the arm prefix of a timeseries.csv with several arms, e.g. with_preload")
     idn.add_argument("--noise", help="noise levels COLUMN=STD, comma-separated (default: estimated from the "
                                      "residuals)")
     idn.add_argument("--window", help="fit only the rows with T0 <= t <= T1 [s], as T0:T1")
-    idn.add_argument("--windows", metavar="N", help="method dynamic: multiple shooting over N windows whose start "
-                                                    "states are extra unknowns (default 1: single shooting from t = 0)")
+    idn.add_argument("--windows", metavar="N", help="methods dynamic and staged: multiple shooting over N windows "
+                                                    "whose start states are extra unknowns (default 1: single "
+                                                    "shooting from t = 0)")
     idn.add_argument("--out", help="directory (default results/<scene name>_identified/); replaced atomically")
     idn.set_defaults(func=_identify)
     sw = sub.add_parser("sweep", help="run the study over a grid of scene values or a tolerance Monte Carlo, on "

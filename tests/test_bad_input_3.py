@@ -84,11 +84,12 @@ def test_friction_from_a_50_ms_start_up_record_is_refused_not_reported(paper_sce
     sim = rrr4.simulate(arm_scene(rrr4.build(paper_scene), "with_preload"), t_end=0.05)
     csv = measurements_from_simulation(sim).write_csv(tmp_path / "timeseries.csv", prefix="with_preload_")
     out = tmp_path / "ident"
-    assert main(["identify", str(PAPER), str(csv), "--arm", "with_preload", "--out", str(out)]) == 2
+    assert main(["identify", str(PAPER), str(csv), "--arm", "with_preload", "--method", "seated", "--out",
+                 str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "effects.friction.coefficient: the seated model does not explain" in err[0]
     assert not out.exists()
-    res = identify(paper_scene, csv, ["joints.radial_clearance"], arm="with_preload")
+    res = identify(paper_scene, csv, ["joints.radial_clearance"], arm="with_preload", method="seated")
     assert res.value("joints.radial_clearance") == pytest.approx(1e-4, rel=0.01)  # the scene's 0.1 mm
 
 

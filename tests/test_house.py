@@ -151,7 +151,7 @@ def test_identification_of_a_scene_built_in_python_recovers_the_truth_and_keeps_
     params = resolve_parameters(problem, keys)
     truth = np.array([1.15e-4, 0.12])
     m = seated_measurements(problem, params, truth, np.linspace(0.0, 1.0, 101))
-    res = identify(python_scene, m, keys)
+    res = identify(python_scene, m, keys, method="seated")
     assert np.allclose(res.estimate, truth, rtol=1e-6)
     ident = res.identified
     assert ident.joint("B2").radial_clearance == pytest.approx(truth[0], rel=1e-6)

@@ -66,12 +66,12 @@ def test_noise_levels_are_estimated_from_the_residuals(problem):
     params, truth = _truth(problem, keys, [0.1, -0.3])
     clean = seated_measurements(problem, params, truth, np.linspace(0.0, 1.0, 501))
     noise = _noise(clean)
-    res = identify(problem, _noisy(clean, noise, 7), keys)
+    res = identify(problem, _noisy(clean, noise, 7), keys, method="seated")
     for c, s in noise.items():
         assert res.noise[c] == pytest.approx(s, rel=0.1), c
         assert res.noise_estimated[c]
     assert res.fit["reduced_chi2"] == pytest.approx(1.0, abs=0.05)
-    given = identify(problem, _noisy(clean, noise, 7), keys, noise={"x_m": 1e-6})
+    given = identify(problem, _noisy(clean, noise, 7), keys, noise={"x_m": 1e-6}, method="seated")
     assert given.noise["x_m"] == 1e-6 and not given.noise_estimated["x_m"]
 
 
@@ -81,7 +81,7 @@ def test_b_and_c_clearances_of_one_chain_are_flagged_as_inseparable(problem):
     keys = ["joints.per_joint.B1.radial_clearance", "joints.per_joint.C1.radial_clearance", FRICTION]
     params, truth = _truth(problem, keys, [0.1, -0.1, 0.2])
     clean = seated_measurements(problem, params, truth, np.linspace(0.0, 1.0, 201))
-    res = identify(problem, _noisy(clean, _noise(clean), 3), keys)
+    res = identify(problem, _noisy(clean, _noise(clean), 3), keys, method="seated")
     v = res.verdict
     assert not v["identifiable"] and v["collinearity_index"] > 20
     combo = v["not_identifiable"][0]["combination"]
@@ -97,7 +97,7 @@ def test_b_and_c_clearances_of_one_chain_are_flagged_as_inseparable(problem):
 def test_the_default_parameters_on_synthetic_truth_say_stiffness_is_barely_determined(problem):
     params, truth = _truth(problem, [CLEARANCE, FRICTION, STIFFNESS], [0.1, 0.5, np.log(0.7)])
     clean = seated_measurements(problem, params, truth, np.linspace(0.0, 1.0, 101))
-    res = identify(problem, _noisy(clean, _noise(clean), 5))
+    res = identify(problem, _noisy(clean, _noise(clean), 5), method="seated")
     assert res.keys == [CLEARANCE, FRICTION, STIFFNESS]
     assert STIFFNESS in res.verdict["poorly_determined"] and not res.verdict["identifiable"]
     lo, hi = res.interval[2]  # its profile interval: wide, and it holds the truth
@@ -110,7 +110,7 @@ def test_the_default_parameters_on_synthetic_truth_say_stiffness_is_barely_deter
 
 def test_a_simulated_run_with_20_percent_more_clearance_gives_it_back(problem):
     sim = _simulated(problem, "clearance +20 %", 0.3)
-    res = identify(problem, measurements_from_simulation(sim), [CLEARANCE, FRICTION])
+    res = identify(problem, measurements_from_simulation(sim), [CLEARANCE, FRICTION], method="seated")
     assert res.value(CLEARANCE) == pytest.approx(1.2e-4, rel=0.01)
     assert res.value(FRICTION) == pytest.approx(0.1, abs=0.01)
     assert res.fit["angles"] == "measured" and res.fit["preload"] == "measured efforts"
@@ -119,7 +119,7 @@ def test_a_simulated_run_with_20_percent_more_clearance_gives_it_back(problem):
 
 def test_a_simulated_run_with_friction_0_2_gives_it_back(problem):
     sim = _simulated(problem, "friction 0.2", 1.0)
-    res = identify(problem, measurements_from_simulation(sim), [CLEARANCE, FRICTION])
+    res = identify(problem, measurements_from_simulation(sim), [CLEARANCE, FRICTION], method="seated")
     assert res.value(FRICTION) == pytest.approx(0.2, abs=0.015)
     assert res.value(CLEARANCE) == pytest.approx(1e-4, rel=0.01)
     # noise-free, the seat model's error is what is left: 0.1923 against 0.2, 8.5 plain standard errors
@@ -128,7 +128,8 @@ def test_a_simulated_run_with_friction_0_2_gives_it_back(problem):
     assert lo <= 0.2 <= hi and res.fit["model_error_inflation"][1] > 3.0, (res.interval[1], res.fit)
     assert res.fit["friction_explained_ratio"] >= FRICTION_EXPLAINED_MIN
     # without the feedback's lag the friction comes out far too low: the lag is what makes it right
-    lagless = identify(problem, measurements_from_simulation(sim), [CLEARANCE, FRICTION], effort_lag=0.0)
+    lagless = identify(problem, measurements_from_simulation(sim), [CLEARANCE, FRICTION], effort_lag=0.0,
+                       method="seated")
     assert lagless.value(FRICTION) < 0.17
 
 
@@ -138,7 +139,7 @@ def test_the_cli_writes_an_identified_scene_that_checks_and_resimulates_the_run(
     csv = measured.write_csv(tmp_path / "timeseries.csv", prefix="with_preload_")
     out = tmp_path / "ident"
     assert main(["identify", str(PAPER), str(csv), "--parameters", f"{CLEARANCE},{FRICTION}=0:0.5",
-                 "--out", str(out)]) == 0
+                 "--method", "seated", "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert "joints.radial_clearance" in text and "verdict: identifiable" in text
     assert {p.name for p in out.iterdir()} == {"identified.yaml", "identification.json", "fit.png", "residuals.png",
@@ -204,35 +205,32 @@ def test_bad_measurement_files_end_in_one_line(problem, tmp_path):
 def test_bad_identification_arguments_end_in_one_line(problem):
     m = Measurements(np.linspace(0, 0.1, 11), {"x_m": np.zeros(11), "y_m": np.zeros(11)})
     with pytest.raises(SceneError) as e:
-        identify(problem, m, ["joints.radial_clearence"])
+        identify(problem, m, ["joints.radial_clearence"], method="seated")
     _one_line(e.value, "joints.radial_clearence", "joints.radial_clearance")
     with pytest.raises(SceneError) as e:
-        identify(problem, m, ["joints.per_joint.A1.radial_clearance"])
+        identify(problem, m, ["joints.per_joint.A1.radial_clearance"], method="seated")
     _one_line(e.value, "A1", "B1")
     with pytest.raises(SceneError) as e:
-        identify(problem, m, ["mechanism.chains[7].base[0]"])
+        identify(problem, m, ["mechanism.chains[7].base[0]"], method="seated")
     _one_line(e.value, "chain 7", "0 to 3")
     with pytest.raises(SceneError) as e:
-        identify(problem, m, {FRICTION: [0.5, 0.2]})
+        identify(problem, m, {FRICTION: [0.5, 0.2]}, method="seated")
     _one_line(e.value, FRICTION, "lower <= nominal <= upper")
-    with pytest.raises(SceneError) as e:
-        identify(problem, m, [CLEARANCE, LINK], method="dynamic")
-    _one_line(e.value, LINK, "'dynamic'", "contact numbers only", "'seated'")
     with pytest.raises(SceneError) as e:
         identify(problem, m, method="shooting")
     _one_line(e.value, "method", "seated")
     with pytest.raises(MeasurementError) as e:
-        identify(problem, Measurements(np.linspace(0, 2, 11), {"x_m": np.zeros(11)}), [CLEARANCE])
+        identify(problem, Measurements(np.linspace(0, 2, 11), {"x_m": np.zeros(11)}), [CLEARANCE], method="seated")
     _one_line(e.value, "2 s", "1 s")
     with pytest.raises(MeasurementError) as e:
-        identify(problem, m, noise={"z_m": 1e-6})
+        identify(problem, m, noise={"z_m": 1e-6}, method="seated")
     _one_line(e.value, "noise", "z_m", "x_m")
     with pytest.raises(MeasurementError) as e:
-        identify(problem, Measurements(np.linspace(0, 0.1, 11), {"tau_A1_Nm": np.ones(11)}))
+        identify(problem, Measurements(np.linspace(0, 0.1, 11), {"tau_A1_Nm": np.ones(11)}), method="seated")
     _one_line(e.value, "tau_A1_Nm alone", "at least 2")
     no_preload = rrr4.build(rrr4.load_scene(PAPER.parent / "no_preload_circle.yaml"))
     with pytest.raises(SceneError) as e:
-        identify(no_preload, m)
+        identify(no_preload, m, method="seated")
     _one_line(e.value, "actuation.preload", "seated")
 
 

@@ -67,7 +67,7 @@ def _coverage(problem, seeds: int, instants: int):
     noise = _noise(clean)
     inside, z = [], []
     for seed in range(seeds):
-        res = identify(problem, _noisy(clean, noise, seed), keys)
+        res = identify(problem, _noisy(clean, noise, seed), keys, method="seated")
         assert res.fit["converged"]
         lo, hi = res.interval.T
         assert np.all(lo <= res.estimate) and np.all(res.estimate <= hi)
@@ -104,7 +104,7 @@ def stiffness_fit(problem):
     """The default parameters on the seated model's own data, the stiffness at K / 20."""
     params, truth = _truth(problem, [CLEARANCE, FRICTION, STIFFNESS], [0.1, 0.5, np.log(0.05)])
     clean = seated_measurements(problem, params, truth, np.linspace(0.0, 1.0, 101))
-    return params, identify(problem, _noisy(clean, _noise(clean), 2))
+    return params, identify(problem, _noisy(clean, _noise(clean), 2), method="seated")
 
 
 def test_a_log_fitted_stiffness_gets_an_interval_symmetric_in_its_log(stiffness_fit):
@@ -193,7 +193,7 @@ def test_the_seated_friction_interval_holds_the_truth_on_noise_free_simulated_da
     plant = rrr4.build(problem.scene.with_values({FRICTION: 0.15}, name="plant"))
     sim = rrr4.simulate(arm_scene(plant, "with_preload"), t_end=1.0, model=arm_scene(problem, "with_preload"),
                         output_rate=1000)
-    res = identify(problem, measurements_from_simulation(sim), [CLEARANCE, FRICTION])
+    res = identify(problem, measurements_from_simulation(sim), [CLEARANCE, FRICTION], method="seated")
     lo, hi = res.interval[1]
     assert lo <= 0.15 <= hi, res.interval[1]
     assert res.fit["model_error_inflation"][1] > 3.0  # the plain interval would miss it
@@ -207,7 +207,7 @@ def test_the_five_bar_synthetic_truth_comes_back_through_the_graph_seated_model(
     keys = [CLEARANCE, FRICTION]
     params, truth = _truth(five_bar, keys, [0.2, 0.5])
     clean = seated_measurements(five_bar, params, truth, np.linspace(0.0, 1.0, 101))
-    res = identify(five_bar, _noisy(clean, _noise(clean), 1), keys)
+    res = identify(five_bar, _noisy(clean, _noise(clean), 1), keys, method="seated")
     assert res.verdict["identifiable"]
     assert np.all((res.interval[:, 0] <= truth) & (truth <= res.interval[:, 1])), (res.interval, truth)
     assert res.identified.joint("B1").radial_clearance == pytest.approx(res.value(CLEARANCE))
@@ -243,14 +243,14 @@ def _five_bar_run(five_bar, t_end: float, clearance: float = 1.2e-4):
 
 def test_the_five_bar_identifies_its_clearance_from_a_simulated_run(five_bar):
     m = _five_bar_run(five_bar, 0.3)  # 120 um at its five joints, under the nominal controller
-    res = identify(five_bar, m, [CLEARANCE])
+    res = identify(five_bar, m, [CLEARANCE], method="seated")
     assert res.value(CLEARANCE) == pytest.approx(1.2e-4, abs=0.3e-6)  # 120.12 um measured
     assert res.fit["rms_residual"]["x_m"] < 0.5e-6
 
 
 @pytest.mark.slow
 def test_the_five_bar_identifies_clearance_and_friction_from_a_1_s_run(five_bar):
-    res = identify(five_bar, _five_bar_run(five_bar, 1.0), [CLEARANCE, FRICTION])
+    res = identify(five_bar, _five_bar_run(five_bar, 1.0), [CLEARANCE, FRICTION], method="seated")
     truth = np.array([1.2e-4, 0.1])
     assert np.all((res.interval[:, 0] <= truth) & (truth <= res.interval[:, 1])), res.interval
     assert res.value(CLEARANCE) == pytest.approx(1.2e-4, abs=0.2e-6)
@@ -261,12 +261,12 @@ def test_a_driven_scene_is_refused_by_the_seated_method_naming_the_dynamic_one(t
     crank = rrr4.build(rrr4.load_scene(PAPER.parent / "flores_slider_crank.yaml"))
     m = Measurements(np.linspace(0, 0.1, 11), {"x_m": np.zeros(11), "y_m": np.zeros(11)})
     with pytest.raises(SceneError) as e:
-        identify(crank, m)
+        identify(crank, m, method="seated")
     msg = str(e.value)
     assert "\n" not in msg and "driven" in msg and "'dynamic'" in msg and "arm" not in msg
     csv = m.write_csv(tmp_path / "m.csv")
-    assert main(["identify", str(PAPER.parent / "flores_slider_crank.yaml"), str(csv), "--out",
-                 str(tmp_path / "o")]) == 2
+    assert main(["identify", str(PAPER.parent / "flores_slider_crank.yaml"), str(csv), "--method", "seated",
+                 "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "'dynamic'" in err and "arm" not in err
     assert not (tmp_path / "o").exists()
@@ -279,7 +279,7 @@ def test_what_the_data_do_not_determine_keeps_its_nominal_value_in_the_identifie
     keys = ["joints.per_joint.B1.radial_clearance", "joints.per_joint.C1.radial_clearance", LINK]
     params, truth = _truth(problem, keys, [0.3, -0.3, 0.5])
     clean = seated_measurements(problem, params, truth, np.linspace(0.0, 1.0, 101))
-    res = identify(problem, _noisy(clean, _noise(clean), 3), keys)
+    res = identify(problem, _noisy(clean, _noise(clean), 3), keys, method="seated")
     assert not res.verdict["identifiable"]
     assert set(res.verdict["poorly_determined"]) == set(keys[:2])  # B1 and C1 trade against each other
     ident = res.identified

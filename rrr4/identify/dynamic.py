@@ -1,18 +1,23 @@
-"""Method 'dynamic': fit through the simulation itself (single shooting), for runs where the
-journals are not (only) seated: start-up, light preload.
+"""Method 'dynamic': fit through the simulation itself (single shooting), over a whole record
+(method 'staged' starts it from the seated fit) or where the journals are not (only) seated:
+start-up, light preload.
 
 The contact numbers are inputs of the compiled stepping: they sit in its discrete state
-(``Problem.equation_parameters``, see :func:`rrr4.simulation.system.system_of`), so a
-candidate parameter vector is an initial state, not a new scene. One Function steps a frame
+(``Problem.equation_parameters``, see :func:`rrr4.simulation.system.system_of`); with a link
+length or base position among the parameters so do the masses, inertias and joint points
+(the equations' geometry inputs, :data:`GEOMETRY_KINDS`). So a candidate parameter vector is
+an initial state, not a new scene. One Function steps a frame
 (the integrator's frame of :func:`rrr4.simulate`, with the nominal scene's controller) and,
 in CasADi forward mode (``Function.forward``, one direction per parameter), carries the
 sensitivities S = d(state)/d(p) along: S_0 holds d(contact numbers)/dp (a clearance moves the
 bearing radius and, with ``stiffness: auto``, the stiffness that follows from it), and the
 measured outputs (task pose, actuator angles, the controller's efforts) and their
-sensitivities are read off each frame's start. It is compiled once per scene structure,
-integrator setting and parameter count (cached on disk as any compiled stepping), once more
-without directions (Levenberg-Marquardt's trial steps and the check below: the cost of a
-simulation), and rolled in chunks of frames. An implicit method steps with full Newton there
+sensitivities are read off each frame's start. What is compiled (the frame, and its
+derivative in one direction, mapped over the directions: :func:`sensitivity_frame`) does not
+depend on the parameter count: once per scene structure, integrator setting and frame (cached
+on disk as any compiled stepping); a run without directions (Levenberg-Marquardt's trial
+steps and the check below) costs a simulation. Frames are rolled in chunks. An implicit
+method steps with full Newton there
 (a converged Newton step with exact Jacobians has the implicit function's derivative;
 simplified Newton's reused factors do not): the same solution to the Newton tolerance (on the
 reference scene 3e-12 m and 2e-7 N m from the simulation's). The jumps of a contact's onset
@@ -31,17 +36,19 @@ measures the disagreement at the nominal values and at the estimate and refuses 
 
 from __future__ import annotations
 
+import os
 from dataclasses import replace
 
 import casadi as ca
 import numpy as np
 
 from ..contact import joint_stiffness
-from ..control import path_rows
+from ..control import path_rows, step_inputs
 from ..errors import MeasurementError, SceneError, SimulationError
 from ..integrators import METHODS, FixedStepIntegrator
 from ..integrators.compiled import compiled
 from ..integrators.implicit import ImplicitIntegrator
+from ..mechanism import geometry_parameters
 from ..problem import Problem
 from ..scene import Scene
 from ..simulation import default_jit
@@ -54,32 +61,64 @@ from .parameters import Parameter, identified_scene
 
 __all__ = ["DynamicData", "DYNAMIC_KINDS", "CHAOS_LIMIT", "FD_STEP", "sensitivity_frame"]
 
-DYNAMIC_KINDS = ("clearance", "friction", "stiffness")  # contact numbers: inputs of the compiled stepping
+DYNAMIC_KINDS = ("clearance", "friction", "stiffness", "driving", "following", "base")  # inputs of the stepping
+GEOMETRY_KINDS = ("driving", "following", "base")  # through the equations' geometry inputs (masses, joint points)
 CHAOS_LIMIT = 0.25  # relative disagreement of the sensitivities and central differences beyond which shooting fails
 FD_STEP = 1e-2  # finite-difference step in each parameter's scaled coordinate (the check, and the seated initial state)
 CHUNK = 256  # frames per call from Python
+# sensitivity directions per call of the compiled derivative (see sensitivity_frame): its C grows with them
+# (reference scene: 1.3 MB for 1, 3.3 MB for 4, 28 MB for 39 unrolled), the work they share is one frame
+DIRECTIONS = 1
 
 
-def sensitivity_frame(problem: Problem, n_directions: int, interval: float, jit: bool | None = None):
+def sensitivity_frame(problem: Problem, n_directions: int, interval: float, jit: bool | None = None,
+                      inputs: str = "contact"):
     """(frame, system, loop, eqs, tree, integrator, frame length [s]) of the problem's run with its
     own controller: 'sensitivity_frame' (x, S (nx, n_directions), u) -> (x_next, S_next, o,
     dO): one frame and its forward sensitivities; o (n_out,): task pose, actuator angles,
     efforts at the frame's start, dO = do/dx S. A frame is a control period of a sampled
     controller, else the whole integrator steps nearest `interval` [s] (the measurements'
-    spacing). Built (and compiled, with `jit`, default as rrr4.simulate) once per problem,
-    direction count and frame."""
+    spacing). inputs: the equations' inputs ('geometry': masses, inertias and joint points are
+    state too, for link lengths and base positions).
+
+    What is compiled (with `jit`, default as rrr4.simulate) does not depend on the direction
+    count: the frame with its outputs ('sensitivity_step') and the frame's forward derivative in
+    :data:`DIRECTIONS` directions ('sensitivity_directions'), once per problem structure and
+    frame (and cached on disk); the frame with n directions calls the second on ceil(n /
+    DIRECTIONS) blocks of directions (a CasADi map: a loop, not n copies of the derivative in
+    the generated C; in threads, one per core)."""
     jit = default_jit() if jit is None else bool(jit)
     scene = problem.scene
     held = scene.actuation.mode == "torque" and scene.actuation.control_rate is not None
     dt = 1.0 / scene.actuation.control_rate if held else \
         scene.integrator.step * max(int(round(interval / scene.integrator.step)), 1)
-    return problem.memo(("identify_sensitivity", n_directions, dt, jit), lambda: _build(problem, n_directions, dt,
-                                                                                           jit))
+    parts = problem.memo(("identify_sensitivity", dt, jit, inputs), lambda: _build(problem, dt, jit, inputs))
+    frame = problem.memo(("identify_sensitivity_frame", n_directions, dt, jit, inputs),
+                         lambda: _with_directions(parts[0], parts[1], n_directions))
+    return (frame, *parts[2:])
 
 
-def _build(problem: Problem, nd: int, dt: float, jit: bool):
+def _with_directions(step: ca.Function, block: ca.Function, nd: int) -> ca.Function:
+    """The frame with nd directions from the compiled step and its block of DIRECTIONS directions
+    (zero directions pad the last block)."""
+    nx, nu = step.size1_in(0), step.size1_in(1)
+    x, u, S = ca.MX.sym("x", nx), ca.MX.sym("u", nu), ca.MX.sym("S", nx, nd)
+    x1, o, do_x = step(x, u)
+    if nd:
+        blocks = -(-nd // DIRECTIONS)
+        padded = ca.horzcat(S, ca.MX.zeros(nx, blocks * DIRECTIONS - nd))
+        threads = min(blocks, os.cpu_count() or 1)  # the directions are independent: one per core
+        mapped = block.map(blocks, "thread", threads) if threads > 1 else block.map(blocks)
+        S1 = mapped(x, u, x1, padded, ca.MX.zeros(nu, blocks * DIRECTIONS))[:, :nd]
+    else:
+        S1 = ca.MX(nx, 0)
+    return ca.Function("sensitivity_frame", [x, S, u], [x1, S1, o, do_x @ S], ["x", "S", "u"],
+                       ["x_next", "S_next", "o", "dO"])
+
+
+def _build(problem: Problem, dt: float, jit: bool, inputs: str):
     scene = problem.scene
-    eqs = problem.equations()
+    eqs = problem.equations(inputs=inputs)
     if eqs.mode != "torque":
         raise SceneError(f"actuation.mode: method 'dynamic' is not allowed with {eqs.mode!r} (it fits the run of "
                          "the scene's controller: torque)")
@@ -100,23 +139,24 @@ def _build(problem: Problem, nd: int, dt: float, jit: bool):
                          "of an implicit method's simplified Newton have none that are exact, an adaptive method "
                          "no fixed frame; model the run with rk4 at a step that keeps it stable, e.g. 1e-05 s)")
     tree = in_tree(problem, eqs)
-    system = system_of(problem, eqs, loop, None, tree)
+    system = system_of(problem, eqs, loop, None, tree, inputs)
     spf = max(int(round(dt / scene.integrator.step)), 1)
     unit = method.frame_function(system, dt / spf, spf)
     nx, nu = unit.size1_in(0), unit.size1_in(1)
-    x, u, S = ca.MX.sym("x", nx), ca.MX.sym("u", nu), ca.MX.sym("S", nx, nd)
+    x, u = ca.MX.sym("x", nx), ca.MX.sym("u", nu)
     x1 = unit(x, u)
-    S1 = unit.forward(nd)(x, u, x1, S, ca.MX.zeros(nu, nd)) if nd else ca.MX(nx, 0)
     out = _outputs(problem, eqs, loop, system, tree)
     xs = ca.SX.sym("x", nx)
     o = out(xs[:1 + system.ny + system.nz])  # an implicit method's memory follows [t, y, z]
     do = ca.Function("outputs", [xs], [o, ca.jacobian(o, xs)])
-    o_x, do_x = do(x)
-    f = ca.Function("sensitivity_frame", [x, S, u], [x1, S1, o_x, do_x @ S], ["x", "S", "u"],
-                    ["x_next", "S_next", "o", "dO"])
+    step = ca.Function("sensitivity_step", [x, u], [x1, *do(x)], ["x", "u"], ["x_next", "o", "do_dx"])
+    forward = unit.forward(DIRECTIONS)
+    dx, du, x_out = ca.MX.sym("dx", nx, DIRECTIONS), ca.MX.sym("du", nu, DIRECTIONS), ca.MX.sym("x_next", nx)
+    block = ca.Function("sensitivity_directions", [x, u, x_out, dx, du], [forward(x, u, x_out, dx, du)],
+                        ["x", "u", "x_next", "dx", "du"], ["dx_next"])
     if jit:
-        f = compiled(f, system.c_sources)
-    return f, system, loop, eqs, tree, method, dt
+        step, block = compiled(step, system.c_sources), compiled(block, system.c_sources)
+    return step, block, system, loop, eqs, tree, method, dt
 
 
 def _outputs(problem: Problem, eqs, loop, system, tree: bool) -> ca.Function:
@@ -138,11 +178,6 @@ class DynamicData:
 
     def __init__(self, problem: Problem, m: Measurements, params: list[Parameter], scene: Scene | None = None):
         where = m.source or "measurements"
-        bad = [q.key for q in params if q.kind not in DYNAMIC_KINDS]
-        if bad:
-            raise SceneError(f"parameters: {', '.join(bad)} is not allowed with method 'dynamic' (it shoots with "
-                             "contact numbers only: clearances, friction coefficient, contact stiffness; use "
-                             "'seated' for link lengths and base positions)")
         if m.t[0] < -1e-12 or m.t[-1] > problem.path.duration + 1e-9:
             raise MeasurementError(f"{where}: t runs from {m.t[0]:.6g} s to {m.t[-1]:.6g} s (the scene's path runs "
                                    f"from 0 to {problem.path.duration:g} s; times are path times)")
@@ -153,8 +188,12 @@ class DynamicData:
                              "clearances put them: method 'dynamic' varies the scene's data to place them; read it "
                              "with rrr4.load_scene or rrr4.scene.parse_scene)")
         self.problem, self.m, self.params, self.scene = problem, m, params, scene
+        self.inputs = "geometry" if any(q.kind in GEOMETRY_KINDS for q in params) else "contact"
+        if self.inputs == "geometry" and scene.data is None:
+            raise SceneError(f"scene: {problem.name!r} has no YAML data (method 'dynamic' varies the scene's data "
+                             "for link lengths and base positions; read it with rrr4.load_scene)")
         self.f, self.system, self.loop, self.eqs, self.tree, self.method, self.dt = sensitivity_frame(
-            problem, len(params), float(np.median(np.diff(m.t))))
+            problem, len(params), float(np.median(np.diff(m.t))), inputs=self.inputs)
         kinds = measurement_columns(problem)
         self.kinds = kinds
         self.pose_cols, self.angle_cols = m.has(kinds["pose"]), m.has(kinds["angle"])
@@ -164,18 +203,39 @@ class DynamicData:
         self.n_frames = int(np.ceil(m.t[-1] / self.dt - 1e-9)) + 1  # frame starts 0, dt, ... cover t
         self.runs, self.chaos, self._cache, self._rolls = 0, None, {}, {}
         self.u = self.frame_inputs(0, self.n_frames)
-        self.D = self._derivatives()
         self.seated = seated
+        self.G = self._geometry()
+        self.D = self._derivatives()
 
     def columns(self) -> list[str]:
         return self.pose_cols + self.angle_cols + self.effort_cols
 
     # ------------------------------------------------------------------ the runs
 
+    def _geometry(self) -> np.ndarray:
+        """d(geometry inputs)/dp (n_g, np): central differences of the scene's geometry numbers
+        (:func:`rrr4.mechanism.geometry_parameters`) for each link length or base position (none
+        without geometry inputs; they are linear in them but for an inertia's l^2)."""
+        if self.inputs != "geometry":
+            return np.zeros((0, len(self.params)))
+        G = np.zeros((self.problem.equation_parameters(geometry=True).size - self.problem.equation_parameters().size,
+                      len(self.params)))
+        for i, q in enumerate(self.params):
+            if q.kind in GEOMETRY_KINDS:
+                h = 1e-3 * q.scale
+                up, down = (geometry_parameters(self.scene.with_values({q.key: q.nominal + s}).graph) for s in (h, -h))
+                G[:, i] = (up - down) / (2 * h)
+        return G
+
     def contact_numbers(self, p) -> np.ndarray:
-        """The equations' parameters (contact numbers) at the parameter values p, each written
-        by its name in the equations' layout (:mod:`rrr4.dynamics.layout`)."""
-        pb, v, at = self.problem, self.problem.equation_parameters().copy(), self.eqs.layout.index
+        """The equations' parameters (contact numbers, and with geometry inputs masses, inertias
+        and joint points) at the parameter values p, each contact number written by its name in
+        the equations' layout (:mod:`rrr4.dynamics.layout`), the geometry to first order in the
+        link lengths and base positions."""
+        pb, at = self.problem, self.eqs.layout.index
+        v = pb.equation_parameters(geometry=self.inputs == "geometry").copy()
+        if self.G.size:
+            v[v.size - self.G.shape[0]:] += self.G @ (np.asarray(p, float) - [q.nominal for q in self.params])
         clear = self.eqs.clearance_joints
         auto = pb.scene.effects.contact.stiffness is None and not any(q.kind == "stiffness" for q in self.params)
         for q, value in zip(self.params, p, strict=True):
@@ -187,7 +247,7 @@ class DynamicData:
                         v[at(f"joints.{j}.stiffness")] = joint_stiffness(joint)
             elif q.kind == "stiffness":
                 v[[at(f"joints.{j}.stiffness") for j in clear]] = value
-            else:
+            elif q.kind == "friction":
                 v[at("contact.friction_coefficient")] = value
         return v
 
@@ -207,9 +267,9 @@ class DynamicData:
         """x0 at the parameter values p: the scene's initial state with p's contact numbers
         (journals seated where the candidate's clearances put them)."""
         pb, eqs = self.problem, self.eqs
-        if self.seated:  # the candidate's equations: its seats with its own contact numbers
+        if self.seated or self.inputs == "geometry":  # the candidate's equations: its seats, its assembly
             pb = Problem.from_scene(identified_scene(self.scene, self.params, p, name="candidate"))
-            eqs = pb.equations()
+            eqs = pb.equations(inputs=self.inputs)
         x0 = initial_state(pb, eqs, self._efforts, self.tree, self.loop.settings)
         x0[self.parameter_rows] = self.contact_numbers(p)
         x0 = self.system.started(x0, self.frame_inputs(0, 1)[0])
@@ -224,15 +284,12 @@ class DynamicData:
     def frame_inputs(self, a: int, b: int) -> np.ndarray:
         """(b - a, nu) inputs of frames a..b-1: [t_a, t_b] (and a held controller's path rows at t_a)."""
         t = np.arange(a, b + 1) * self.dt
-        cols = [t[:-1], t[1:]]
-        if self.loop.kind == "held":
-            cols.append(path_rows(self.problem.path, t[:-1]))
-        return np.column_stack(cols)
+        layout = self.loop.inputs  # rrr4.simulation.input_layout
+        return layout.rows(t, step=step_inputs(self.loop.control, self.problem.path, t[:-1]) if layout.step else None)
 
     def frame(self, n_directions: int) -> ca.Function:
         """The compiled frame with `n_directions` sensitivity directions (see :func:`sensitivity_frame`)."""
-        return self.f if n_directions == len(self.params) else \
-            sensitivity_frame(self.problem, n_directions, self.dt)[0]
+        return sensitivity_frame(self.problem, n_directions, self.dt, inputs=self.inputs)[0]
 
     def start(self, p, sensitivities: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """(x0, S0 (nx, np), no columns without `sensitivities`): the run's initial state at the
@@ -243,8 +300,9 @@ class DynamicData:
         S = np.zeros((x.size, nd))
         if sensitivities:
             S[self.parameter_rows] = self.D
-        if self.seated and sensitivities:  # the seated start moves with the clearances (only): forward differences
-            for i in (i for i, q in enumerate(self.params) if q.kind == "clearance"):
+        moved = ("clearance", *GEOMETRY_KINDS) if self.seated else GEOMETRY_KINDS
+        if sensitivities:  # the start moves with the seats' clearances and the geometry: forward differences
+            for i in (i for i, q in enumerate(self.params) if q.kind in moved):
                 up = self.shifted(p, i)
                 S[motion, i] = (self.initial(up)[motion] - x[motion]) / (up[i] - p[i])
         return x, S

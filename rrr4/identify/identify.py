@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -15,7 +15,7 @@ from ..checks import unknown_value
 from ..errors import MeasurementError, SceneError, SimulationError
 from ..problem import Problem
 from ..scene import Scene
-from ..scene.vocabulary import IDENTIFICATION_METHODS
+from ..scene.vocabulary import IDENTIFICATION_DEFAULT, IDENTIFICATION_METHODS
 from .dynamic import DynamicData
 from .least_squares import Z95, covariance, identifiability, levenberg_marquardt, profile_interval
 from .measurements import Measurements, measurements_from_simulation, read_measurements
@@ -26,6 +26,7 @@ from .seated import SeatedData, check_friction_explained, check_seated, noise_fr
 __all__ = ["identify", "Identification", "METHODS"]
 
 METHODS = IDENTIFICATION_METHODS
+DEFAULT_METHOD = IDENTIFICATION_DEFAULT
 FIT_LIMIT = 10.0  # the reduced chi^2 with every noise level given beyond which a dynamic fit is refused
 POOR = 0.5  # a standard error above half a parameter's scale (a factor 1.6 in a stiffness): barely determined
 # a positive parameter (clearance, friction, stiffness) whose 95 % interval spans more than this factor is
@@ -115,6 +116,7 @@ class Identification:
         rms = ", ".join(f"{c} {v:.3g}" for c, v in f["rms_residual"].items())
         lines.append(f"{f['samples']} instants, reduced chi^2 {f['reduced_chi2']:.3g}, RMS residuals: {rms}; "
                      f"{f['iterations']} iterations in {f['wall_time_s']:.2f} s")
+        lines += [f"stage {k + 1}, {st['said']}" for k, st in enumerate(self.fit.get("stages", []))]
         lines.append(verdict_text(self.verdict))
         return "\n".join(lines)
 
@@ -122,12 +124,16 @@ class Identification:
 def verdict_text(v: dict) -> str:
     """The verdict in words (one line per combination the data cannot separate, one per
     parameter the identified scene keeps at its nominal value, with the reason)."""
+    index = f"collinearity index {v['collinearity_index']:.3g}, limit {v['collinearity_limit']:g}"
     if v["identifiable"]:
-        return (f"verdict: identifiable (collinearity index {v['collinearity_index']:.3g} < "
-                f"{v['collinearity_limit']:g}; every 95 % interval within a factor {SPAN_FACTOR:g})")
-    out = [f"verdict: NOT identifiable from these data (collinearity index {v['collinearity_index']:.3g}, limit "
-           f"{v['collinearity_limit']:g}); the identified scene keeps the nominal value of what they do not "
-           "determine"]
+        out = [f"verdict: identifiable (every parameter determined, every 95 % interval within a factor "
+               f"{SPAN_FACTOR:g}; {index})"]
+        for c in v["not_identifiable"]:
+            combo = " ".join(f"{w:+.2g} {k}" for k, w in c["combination"].items())
+            out.append(f"  collinear but determined by these data: {combo} (singular value {c['singular_value']:.2g})")
+        return "\n".join(out)
+    out = [f"verdict: NOT identifiable from these data ({index}); the identified scene keeps the nominal value "
+           "of what they do not determine"]
     reasons = v.get("reasons", {})
     for k in v.get("poorly_determined", []):
         out.append(f"  {k}: not determined ({reasons.get(k, 'standard error above half its scale')}); the "
@@ -210,28 +216,32 @@ def _fit(fun, u, lower, upper, sigma: dict, given: dict, first: dict, residuals,
 def _verdict(J, params, relative_se, interval=None) -> dict:
     """The identifiability verdict of the scaled sensitivities J. 'poorly_determined': the
     parameters these data do not determine, which the identified scene keeps at their nominal
-    values, and 'reasons' {key: why}: no dependence, a member of a combination the data cannot
-    separate, a standard error in the fitted coordinate above POOR, or (clearance, friction,
-    stiffness, with `interval` (p, 2)) a 95 % interval spanning more than SPAN_FACTOR."""
+    values, and 'reasons' {key: why}: no dependence, a standard error in the fitted coordinate
+    above POOR, or (clearance, friction, stiffness, with `interval` (p, 2)) a 95 % interval
+    spanning more than SPAN_FACTOR; a member of a combination the singular values flag
+    (collinearity index above its limit) is named as such, but judged by its interval: with
+    enough data a collinear pair is determined all the same. 'identifiable': every parameter
+    determined."""
     keys = [q.key for q in params]
     verdict = identifiability(J, keys, _excite(dict(zip(keys, params, strict=True))))
     inseparable = {k for c in verdict["not_identifiable"] for k in c["combination"]}
     reasons = {}
     for i, (q, s_u) in enumerate(zip(params, relative_se, strict=True)):
         lo, hi = (np.nan, np.nan) if interval is None else interval[i]
+        wide = q.kind in POSITIVE and not (lo > 0 and hi <= SPAN_FACTOR * lo) and (
+            q.log or hi - lo > 2 * SPAN_FLOOR * q.scale)
         if q.key in verdict["not_seen"]:
             reasons[q.key] = "these data do not depend on it"
-        elif q.key in inseparable:
-            reasons[q.key] = "in a combination these data cannot separate"
-        elif not s_u <= POOR:
-            reasons[q.key] = f"standard error {s_u:.2g} of its scale, above {POOR:g}"
-        elif q.kind in POSITIVE and not (lo > 0 and hi <= SPAN_FACTOR * lo) and (q.log or
-                                                                              hi - lo > 2 * SPAN_FLOOR * q.scale):
+        elif not s_u <= POOR or wide:
             span = f"a factor {hi / lo:.3g}" if lo > 0 else "down to 0"
-            reasons[q.key] = f"its 95 % interval [{lo:.3g}, {hi:.3g}] spans {span}, more than {SPAN_FACTOR:g}"
+            why = (f"standard error {s_u:.2g} of its scale, above {POOR:g}" if not s_u <= POOR else
+                   f"its 95 % interval [{lo:.3g}, {hi:.3g}] spans {span}, more than {SPAN_FACTOR:g}")
+            # a combination the singular values flag is named; its members are kept only where their
+            # intervals say so (with enough data a collinear pair is determined all the same)
+            reasons[q.key] = f"in a combination these data cannot separate: {why}" if q.key in inseparable else why
     poor = [k for k in keys if k in reasons]
     return {**verdict, "poorly_determined": poor, "reasons": reasons,
-            "identifiable": verdict["identifiable"] and not poor}
+            "identifiable": not poor and not verdict["not_seen"]}
 
 
 def _intervals(params, u, lower, upper, se_u, inflation, cov_u, s2, fun, profile: bool):
@@ -275,16 +285,18 @@ def _intervals(params, u, lower, upper, se_u, inflation, cov_u, s2, fun, profile
     return out, how
 
 
-def identify(scene, measurements, parameters=None, method: str = "seated", noise: dict | None = None,
+def identify(scene, measurements, parameters=None, method: str = DEFAULT_METHOD, noise: dict | None = None,
              arm: str | None = None, effort_lag="controller", windows: int = 1) -> Identification:
     """Identify `parameters` of `scene` (the nominal model: a Scene, a scene file or a
     Problem) from `measurements` (a CSV file, :class:`Measurements` or a Simulation).
 
     parameters: dotted scene keys (:data:`rrr4.identify.parameters.PATTERNS`; default
     clearance, friction coefficient, contact stiffness), or a mapping key -> None |
-    [lower, upper] | {nominal, lower, upper}. method: 'seated' (journals seated under
-    preload; quasi-static) or 'dynamic' (single shooting through rrr4.simulate from the
-    scene's initial state; contact numbers only; refuses a run too chaotic to shoot).
+    [lower, upper] | {nominal, lower, upper}. method: 'staged' (the default: 'seated' first
+    where the journals are seated by a preload, then 'dynamic' over the whole record from
+    its estimates, see :func:`staged`), 'seated' (journals seated under preload;
+    quasi-static) or 'dynamic' (shooting through the compiled stepping from the scene's
+    initial state, from the nominal values; refuses a run too chaotic to shoot).
     noise: {column: standard deviation} (the rest is estimated from the residuals). arm:
     the arm prefix of a study's timeseries.csv with several arms. windows: with 'dynamic',
     the number of windows of multiple shooting (1: single shooting from the scene's initial
@@ -298,9 +310,9 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
     problem = Problem.from_scene(scene)
     if method not in METHODS:
         raise unknown_value("method", "identification method", method, METHODS)
-    if method != "dynamic" and not (isinstance(windows, int) and not isinstance(windows, bool) and windows == 1):
+    if method == "seated" and not (isinstance(windows, int) and not isinstance(windows, bool) and windows == 1):
         raise SceneError(f"windows: {windows!r} is not allowed with method {method!r} (windows of multiple shooting "
-                         "belong to method 'dynamic')")
+                         "belong to methods 'dynamic' and 'staged')")
     if method == "seated":
         check_seated(problem)
     wall = time.perf_counter()
@@ -309,12 +321,80 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
     if nominal.data is not None:
         nominal.with_values({})  # data a change in memory made stale: one line now, not after the fit
     params = resolve_parameters(problem, parameters, nominal.data)
+    if method == "staged":
+        return staged(problem, nominal, m, params, effort_lag, windows, wall)
+    return _one_method(problem, nominal, m, params, method, effort_lag, windows, wall)
+
+
+def staged(problem: Problem, nominal: Scene, m: Measurements, params: list[Parameter], effort_lag, windows: int,
+           wall: float) -> Identification:
+    """Method 'staged' (DESIGN section 11): 'seated' first where it applies (quick: a chain's
+    clearance sum, friction), then 'dynamic' over the whole record from its estimates (those
+    it determines; the rest from their nominal values), which sees what the seat model
+    cannot (a chain's two clearances apart, the link lengths with them). The result is the
+    dynamic fit's, with ``fit['stages']``: what each stage found and why it moved on."""
+    stages, seed = [], None
+    why = _no_seats(problem)
+    if why is None:
+        try:
+            first = _one_method(problem, nominal, m, params, "seated", effort_lag, 1, time.perf_counter())
+        except (SceneError, MeasurementError) as e:
+            why = str(e)
+    if why is None:
+        kept = set(first.verdict["poorly_determined"]) | set(first.at_bound)
+        seed = [q.nominal if q.key in kept else float(v) for q, v in zip(params, first.estimate, strict=True)]
+        used = [q.key for q in params if q.key not in kept]
+        stages.append({"method": "seated", "wall_time_s": first.fit["wall_time_s"],
+                       "identifiable": first.verdict["identifiable"],
+                       "collinearity_index": first.verdict["collinearity_index"],
+                       "estimate": dict(zip(first.keys, first.estimate.tolist(), strict=True)), "seeded": used,
+                       "said": (f"seated ({first.fit['wall_time_s']:.1f} s): "
+                                + (f"{', '.join(_short(k) for k in used)} determined"
+                                   if used else "nothing determined")
+                                + (f", {len(kept)} poorly determined or at a bound (nominal kept)" if kept else "")
+                                + f", collinearity index {first.verdict['collinearity_index']:.3g}; moving on: the "
+                                "dynamics over the whole record separate what the seat model sees only together "
+                                "(a chain's two clearances, the link lengths with them), starting from these")})
+    else:
+        stages.append({"method": "seated", "skipped": why, "said": f"seated skipped: {why}"})
+    second = _one_method(problem, nominal, m, params, "dynamic", effort_lag, windows, time.perf_counter(), seed)
+    stages.append({"method": "dynamic", "wall_time_s": second.fit["wall_time_s"],
+                   "identifiable": second.verdict["identifiable"],
+                   "collinearity_index": second.verdict["collinearity_index"],
+                   "said": (f"dynamic over {m.t[0]:g} to {m.t[-1]:g} s ({second.fit['wall_time_s']:.1f} s, "
+                            f"{second.fit['simulations']} simulations, {second.fit['iterations']} iterations): "
+                            f"reduced chi^2 {second.fit['reduced_chi2']:.3g}, collinearity index "
+                            f"{second.verdict['collinearity_index']:.3g}")})
+    fit = {**second.fit, "stages": stages, "wall_time_s": time.perf_counter() - wall}
+    return replace(second, method="staged", fit=fit)
+
+
+def _short(key: str) -> str:
+    """A parameter's key without the common prefixes (for one line)."""
+    return key.replace("joints.per_joint.", "").replace(".radial_clearance", " clearance").replace(
+        "effects.", "").replace("mechanism.", "")
+
+
+def _no_seats(problem: Problem) -> str | None:
+    """Why method 'seated' does not apply to `problem` (None: it does)."""
+    if not problem.closed_form:
+        return f"scene {problem.name!r} is a graph (the seat model is built for n-RRR scenes)"
+    if not problem.has_preload:
+        return f"scene {problem.name!r} does not preload (its journals are not seated)"
+    return None
+
+
+def _one_method(problem: Problem, nominal: Scene, m: Measurements, params: list[Parameter], method: str, effort_lag,
+                windows: int, wall: float, seed=None) -> Identification:
+    """One method's fit (see :func:`identify`); seed: the parameters' start values (default
+    their nominal ones); a seeded 'dynamic' fit skips the sensitivity check at its start (the
+    one at the estimate stays)."""
     if method == "seated":
         data = SeatedData(problem, m, params, effort_lag)
     else:
         data = DynamicData(problem, m, params, nominal)
         if check_windows(windows, data.n_frames - first_frame(data), data.dt) > 1:
-            data = WindowedData(data, windows)
+            data = WindowedData(data, windows, seed)
     npar = len(params)
     # a windowed fit's start states: nuisance unknowns, unbounded, in the scaled coordinates (s - start) / scale
     start, scale_s = (data.nuisance_start, data.nuisance_scale) if isinstance(data, WindowedData) else \
@@ -338,8 +418,10 @@ def identify(scene, measurements, parameters=None, method: str = "seated", noise
         return res["r"], res["J"] * derivative(u)
 
     u = np.zeros(npar + start.size)
+    if seed is not None:
+        u[:npar] = np.clip([q.coordinate(v) for q, v in zip(params, seed, strict=True)], lower[:npar], upper[:npar])
     chaos_nominal = None
-    if method == "dynamic":  # a run too chaotic to shoot is refused before fitting, and again at the end
+    if method == "dynamic" and seed is None:  # a run too chaotic to shoot is refused before fitting, again at the end
         chaos_nominal = data.check_sensitivities(values(u), sigma, data.residuals(values(u), sigma)["J"])
     u, sigma, iterations, converged = _fit(fun, u, lower, upper, sigma, given, first,
                                            lambda u, sigma: data.residuals(values(u), sigma, jacobian=False), npar)

@@ -8,7 +8,8 @@ state s_0 that is an unknown too); each later window k starts at its own state s
 mechanism's continuous state there (the stepped coordinates and their rates: with clearance
 the tree coordinates, which place the journals in their clearances; not the energy
 quadratures, which no output reads), an extra unknown of the fit. The unknowns are
-w = [p, s_1, .., s_{K-1}]; they start from the nominal parameters' single-shooting run.
+w = [p, s_1, .., s_{K-1}]; they start from the single-shooting run with the parameters' start
+values (the nominal ones, or with method 'staged' the seated fit's).
 
 - **Journals keep their place in their clearance** (:func:`clearance_map`): s_k is the start
   state at the nominal clearances; a candidate's clearances scale each journal's eccentricity
@@ -102,7 +103,7 @@ class WindowedData:
     w = [p, s_1, .., s_{K-1}] (``nuisance_start``, ``nuisance_scale``: the states' initial
     values and scales)."""
 
-    def __init__(self, shooting: DynamicData, windows: int):
+    def __init__(self, shooting: DynamicData, windows: int, seed=None):
         self.shooting = s = shooting
         first = first_frame(s)
         self.windows = check_windows(windows, s.n_frames - first, s.dt)
@@ -115,8 +116,9 @@ class WindowedData:
         scale = np.r_[np.full(nq, STATE_SCALE), np.full(nq, STATE_SCALE / s.dt)]
         n_free = self.windows - 1 + self.free_first
         self.nuisance_scale = np.tile(scale, n_free)
-        # the states' first values: the nominal parameters' single-shooting run at the window starts
-        p0 = np.array([q.nominal for q in s.params])
+        # the states' first values: the single-shooting run at the window starts with the parameters
+        # `seed` (method 'staged': the seated fit's), else the nominal ones
+        p0 = np.array([q.nominal for q in s.params] if seed is None else seed, float)
         x, S = s.start(p0, sensitivities=False)
         if self.free_first:
             x, *_ = s.roll(x, S, 0, first)

@@ -39,7 +39,8 @@ def write_identification(ident, out) -> list[str]:
     def fill(tmp: Path) -> None:
         if ident.identified_yaml is not None:
             head = (f"# {ident.scene.name} with the parameters identified by rrr4 identify (method "
-                    f"{ident.method}): {', '.join(ident.keys)}\n")
+                    f"{ident.method}): {', '.join(ident.keys)}\n"
+                    + "".join(f"# stage {k + 1}, {st['said']}\n" for k, st in enumerate(ident.fit.get("stages", []))))
             (tmp / "identified.yaml").write_text(head + yaml.safe_dump(_plain(ident.identified_yaml),
                                                                        sort_keys=False))
             files.append("identified.yaml")

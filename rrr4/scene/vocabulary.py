@@ -13,7 +13,7 @@ __all__ = ["MECHANISM_KINDS", "JOINT_TYPES", "PATH_TYPES", "TIME_LAWS", "DRIVER_
            "CONTACT_LAW_KEYS", "FRICTION_LAW_KEYS",
            "LUBRICATION_LAW_KEYS", "WEAR_SURFACES", "FORCE_ELEMENTS", "LOAD_FRAMES", "INTEGRATORS",
            "ERROR_CONTROLLED", "NEWTON", "COORDINATES", "PRELOAD_METHODS", "COMPENSATIONS", "QP_SOLVERS",
-           "JOURNAL_STARTS", "OBJECTIVES", "IDENTIFICATION_METHODS", "MATERIALS",
+           "JOURNAL_STARTS", "OBJECTIVES", "IDENTIFICATION_METHODS", "IDENTIFICATION_DEFAULT", "MATERIALS",
            "GROUND", "choices", "registry"]
 
 GROUND = "ground"  # the fixed frame's name in a graph
@@ -64,7 +64,8 @@ COMPENSATIONS = ("none", "clearance")  # actuation.compensation
 SEAT_MODELS = ("quasi_static", "rolling")  # actuation.seat_model: how the compensation's seats follow friction
 QP_SOLVERS = ("qrqp", "osqp", "daqp", "qpoases")  # actuation.preload.qp_solver (CasADi conic plugins)
 JOURNAL_STARTS = ("centred", "seated")  # initial.journals
-IDENTIFICATION_METHODS = ("seated", "dynamic")  # rrr4.identify(method=...), rrr4 identify --method
+IDENTIFICATION_METHODS = ("staged", "seated", "dynamic")  # rrr4.identify(method=...), rrr4 identify --method
+IDENTIFICATION_DEFAULT = "staged"  # seated first, then dynamic over the whole record from its estimates
 OBJECTIVES = ("time", "effort", "time+effort")  # of an optimal time law (rrr4 optimize --objective)
 MATERIALS = {  # name: (Young's modulus [Pa], Poisson ratio)
     "steel": (207e9, 0.3),

@@ -355,21 +355,13 @@ def _references(problem: Problem, ctrl: Problem, eqs, loop: Loop, given, t_end: 
 
 def _frame_inputs(problem: Problem, loop: Loop, refs_at, n_frames: int, t_grid) -> FrameInputs:
     """The frame inputs of a run, made a block of frames at a time while the run steps them:
-    [t_a, t_b] and the references of each frame (see :class:`~rrr4.simulation.system.Loop`)."""
-    held = loop.kind == "held"
-
+    [t_a, t_b] and the references of each frame (their layout: ``loop.inputs``)."""
     def rows(a: int, b: int) -> np.ndarray:  # the inputs of frames a..b-1
         t = t_grid(np.arange(a, b + 1))
-        cols = [t[:-1], t[1:]]
-        if refs_at is not None:
-            at = refs_at(t)
-            cols += ([at["th"][:-1], at["thd"][:-1], at["ff"][:-1]] if held else
-                     [v for key in ("th", "thd", "thdd", "ff", "ffd") for v in (at[key][:-1], at[key][1:])])
-        elif held:  # pointwise controller: the path and its derivatives (or the time) at each control instant
-            cols += [v.T for v in step_inputs(loop.control, problem.path, t[:-1])]
-        return np.column_stack(cols)
+        step = step_inputs(loop.control, problem.path, t[:-1]) if loop.inputs.step else None
+        return loop.inputs.rows(t, refs_at(t) if refs_at is not None else None, step)
 
-    return FrameInputs(n_frames, rows(0, 1).shape[1], rows)
+    return FrameInputs(n_frames, loop.inputs.width, rows)
 
 
 def _failure_message(failure: dict, method: str, eqs, outputs: Outputs) -> str:

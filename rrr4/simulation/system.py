@@ -11,7 +11,7 @@ compiled code.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import casadi as ca
 import numpy as np
@@ -32,6 +32,7 @@ from ..mechanism import Model
 from ..problem import Problem
 from ..scene import PathSpec
 from ..trajectory import trajectory_function
+from .input_layout import HELD, SAMPLED, TIMES, InputLayout
 from .state_layout import StateLayout
 
 __all__ = ["Loop", "loop_of", "system_of", "state_layout", "problem_system", "measured", "in_tree", "extremes",
@@ -69,6 +70,7 @@ class Loop:
     sources: tuple = ()
     settings: tuple = ()
     key: tuple = ()  # what `control` is built from (a structure key or the generated C), for the system cache
+    inputs: InputLayout | None = None  # the frame inputs' layout (set by loop_of)
 
 
 def measured(model: Model, q, qd, eqs: Equations | None = None, parameters=None):
@@ -108,8 +110,8 @@ def _build_system(eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bo
     n = eqs.n_actuators
     L = state_layout(eqs, loop, tree)
     t, y, z = ca.SX.sym("t"), ca.SX.sym("y", L.ny), ca.SX.sym("z", L.nz)
-    width = {"exact": 0, "sampled": 10 * n, "held": n}[loop.kind]
-    u = ca.SX.sym("u", 2 + width)
+    U = loop.inputs
+    u = ca.SX.sym("u", U.ode_width)
     dd0, inc, losses = z[L.delta_dot0], z[L.in_contact], z[L.losses]
     parameters, settings, peaks = z[L.parameters], z[L.settings], z[L.peaks]
 
@@ -121,12 +123,12 @@ def _build_system(eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bo
     zeros = ca.SX.zeros(n)
     th, th_d, th_dd, effort = zeros, zeros, zeros, zeros
     if loop.kind == "held":
-        effort = u[2:2 + n]
+        effort = u[U.effort]
     elif loop.kind == "sampled":
         h = ca.fmax(u[1] - u[0], 1e-300)
         s = ca.fmin(ca.fmax((t - u[0]) / h, 0.0), 1.0)
         th_a, th_b, thd_a, thd_b, thdd_a, thdd_b, ff_a, ff_b, ffd_a, ffd_b = (
-            u[2 + n * k:2 + n * (k + 1)] for k in range(10))
+            u[U.reference(name, end)] for name in SAMPLED for end in (0, 1))
         th = hermite(s, h, th_a, th_b, thd_a, thd_b)
         th_d = hermite(s, h, thd_a, thd_b, thdd_a, thdd_b)
         th_dd = (1 - s) * thdd_a + s * thdd_b
@@ -161,17 +163,14 @@ def _build_system(eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bo
     peak_values = ca.Function("peaks", [t, y, z, u], [values], ["t", "y", "z", "u"], ["peaks"])
     control = None
     if loop.kind == "held":
-        # the inputs before theta, theta_d: the pose and its rates (3 each), the actuator
-        # references (n each) or the time (1), see rrr4.control.step_inputs
-        sizes = [loop.control.size1_in(i) for i in range(loop.control.n_in() - 3)]
-        ym, zm, uf = ca.MX.sym("y", y.shape[0]), ca.MX.sym("z", z.shape[0]), ca.MX.sym("u_frame", 2 + sum(sizes))
+        # the inputs before theta, theta_d (the frame's row: see rrr4.simulation.input_layout)
+        ym, zm, uf = ca.MX.sym("y", y.shape[0]), ca.MX.sym("z", z.shape[0]), ca.MX.sym("u_frame", U.width)
         pm = zm[L.parameters]
         meas = measured(model, *configuration(ym, pm), par, pm)
-        ends = [int(e) for e in np.cumsum([2, *sizes])]
-        args = [uf[a:b] for a, b in zip(ends[:-1], ends[1:], strict=True)]
+        args = [uf[b] for b in U.step_inputs()] if U.step else [uf[U.reference(name)] for name in HELD]
         eff = loop.control(*args, *meas, zm[L.settings])
         eff = eff[0] if isinstance(eff, (list, tuple)) else eff
-        control = ca.Function("control", [ym, zm, uf], [ca.vertcat(uf[:2], eff)], ["y", "z", "u_frame"], ["u"])
+        control = ca.Function("control", [ym, zm, uf], [ca.vertcat(uf[TIMES], eff)], ["y", "z", "u_frame"], ["u"])
     return System(ode, disc, control, loop.sources, n_events=L.events,
                   peaks=peak_values if L.n_peaks else None, layout=L)
 
@@ -200,6 +199,13 @@ def extremes(eqs: Equations, maxima) -> dict:
 
 
 def loop_of(problem: Problem, eqs: Equations, controller: str, references: str, given) -> Loop:
+    """How this run's efforts are made (see :class:`Loop`), with its frame inputs' layout."""
+    loop = _loop(problem, eqs, controller, references, given)
+    step = [loop.control.size1_in(i) for i in range(loop.control.n_in() - 3)] if loop.pointwise else []
+    return replace(loop, inputs=InputLayout(loop.kind, eqs.n_actuators, tuple(step) if loop.kind == "held" else ()))
+
+
+def _loop(problem: Problem, eqs: Equations, controller: str, references: str, given) -> Loop:
     """How this run's efforts are made (see :class:`Loop`) by the controller of `problem` (the
     controller's model); raises SceneError for a combination that does not exist (a
     generated controller without a closed form or rate)."""

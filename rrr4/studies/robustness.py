@@ -117,7 +117,7 @@ def _closed_loop(problem: Problem, plant: Problem, case: str, measured, t_end, p
     arm = "with_preload_compensated"
     say(f"{case}: identify from the uncompensated run")
     wall = time.perf_counter()
-    ident = identify(problem, measurements_from_simulation(measured), list(IDENTIFIED))
+    ident = identify(problem, measurements_from_simulation(measured), list(IDENTIFIED), method="seated")
     estimates = {k: ident.value(k) for k in ident.keys}
     sim = simulate(arm_scene(plant, arm), t_end=t_end, model=arm_scene(Problem.from_scene(ident.identified), arm),
                    progress=progress)
