@@ -108,3 +108,21 @@ def test_the_import_graph_has_no_circle():
         if m not in index:
             visit(m)
     assert not circles, circles
+
+
+def test_no_function_outside_the_command_line_is_over_100_lines_of_code():
+    """Functions stay readable: at most 100 lines each, not counting the docstring (cli.py's
+    argument tables are exempt)."""
+    long = {}
+    for path, tree in _modules():
+        if path.name == "cli.py":
+            continue
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                first = node.body[0]
+                doc = first.end_lineno - first.lineno + 1 if (
+                    isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant)
+                    and isinstance(first.value.value, str)) else 0
+                if (n := node.end_lineno - node.lineno + 1 - doc) > 100:
+                    long[f"{path.relative_to(PACKAGE.parent)}:{node.name}"] = n
+    assert not long, long
