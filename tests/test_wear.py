@@ -103,6 +103,18 @@ def test_contact_on_a_worn_profile_is_continuous_and_uses_the_worn_clearance():
     assert np.max(np.abs(turn)) < 0.01
 
 
+def test_energy_audit_closes_with_friction_over_the_arc():
+    """Friction at every point of the arc with its own slip (the shaft turning under the
+    sleeve): the audit counts the points' friction power and still closes."""
+    data = read_yaml(JOURNAL)
+    set_key(data, "effects.friction", {"law": "ambrosio", "coefficient": 0.1, "v0": 1.0e-4, "v1": 2.0e-4})
+    rng = np.random.default_rng(4)
+    worn = {"S": {"bearing": rng.uniform(0, 3e-6, 36), "journal": rng.uniform(0, 2e-6, 36)}}
+    sim = rrr4.simulate(parse_scene(data), t_end=0.02, wear=worn)
+    assert sim.energy["dissipated_friction"][-1] > 0.5 * 0.1 * W * R_J * OMEGA * 0.02  # friction did work
+    assert sim.energy_audit_residual < 1e-5
+
+
 def test_energy_audit_closes_on_a_rough_worn_profile():
     """The normal force acts along the gradient of the worn penetration, so it derives from the
     contact potential: the energy audit closes to the integrator's error on a rough profile

@@ -47,10 +47,11 @@ class Arc:
     out: dict | None = None
 
     def generalized(self, normal, turn_load):
-        """The generalised force (nq,) of the normal force on the journal (2,) in the frame and
-        the torque turning the other surface's profile [N m]: -(d d_k / dq) . dF_k summed."""
+        """The generalised force (nq,) -sum_k dF_k d d_k / dq of the normal force on the journal
+        (2,) in the frame and of sum_k dF_k d w_other / d angle [N m] (d_k falls by the other
+        surface's depth, read at the points' angle in its frame)."""
         out = self.e_jacobian.T @ normal
-        return out if self.turn_gradient is None else out - turn_load * self.turn_gradient
+        return out if self.turn_gradient is None else out + turn_load * self.turn_gradient
 
 
 def _rotation(angle):
@@ -65,8 +66,7 @@ class WearTerm(Term):
         self.worn = dict(worn_joints(a.model, a.effects))
         self.rates = []
         for on in sorted({w.surfaces for w in self.worn.values()}):
-            a.labels.append(f"wear (Archard, {on}, conformal contact) at "
-                            f"{' '.join(j for j, w in self.worn.items() if w.surfaces == on)}")
+            a.labels.append(f"wear (Archard, {on}) at {' '.join(j for j, w in self.worn.items() if w.surfaces == on)}")
 
     def shape(self, a: Assembly, c: ClearanceJoint) -> None:
         if c.name not in self.worn:
