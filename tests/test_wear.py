@@ -317,6 +317,15 @@ def test_bad_wear_is_refused_in_one_line(key, value, says):
     assert str(err.value).startswith(says) and "\n" not in str(err.value)
 
 
+def test_kelvin_voigt_with_wear_is_refused_in_one_line():
+    data = read_yaml(JOURNAL)
+    set_key(data, "effects.contact", {"law": "kelvin-voigt", "exponent": 1.5, "stiffness": "auto", "damping": 100.0})
+    with pytest.raises(SceneError) as err:
+        Problem.from_scene(parse_scene(data)).equations()
+    assert str(err.value).startswith("effects.contact.law: 'kelvin-voigt' is not allowed with effects.wear")
+    assert "\n" not in str(err.value)
+
+
 def test_bad_profiles_are_refused_in_one_line():
     eqs = Problem.from_scene(JOURNAL).equations()
     with pytest.raises(SceneError, match=r"^wear: unknown worn surface 'S.rim'"):
