@@ -55,7 +55,7 @@ from .normal import power
 from .wear import depth_at
 
 __all__ = ["MIN_POINTS", "arc_points", "sampling_matrix", "layer_exponent", "arc_factor", "foundation_modulus",
-           "foundation_force", "layer_energy", "turned_samples",
+           "turned_samples",
            "turned_deposit", "arc_function", "arc_energy", "ARC_NUMBERS", "FRICTION_NUMBERS"]
 
 # the scalar inputs ``numbers`` of :func:`arc_function`, in order
@@ -97,21 +97,6 @@ def foundation_modulus(stiffness, exponent: float, length, bearing_radius, clear
     for delta << c0: K / (L R_B sqrt(2 / c0) B(m)), L the bearing length [m], R_B [m], c0 [m]."""
     m = layer_exponent(exponent)
     return stiffness / (length * bearing_radius * ca.sqrt(2.0 / clearance) * arc_factor(m))
-
-
-def foundation_force(overlap, overlap_rate, delta_dot0, modulus, exponent: float, chi, v_min: float):
-    """The pressure p >= 0 [Pa] at each point and its elastic part K_w d^m [Pa], from the
-    overlaps d (N,) [m], their rates (N,) [m/s], the approach velocity delta_dot0 [m/s]
-    (floored at v_min) and the hysteresis factor chi (0: elastic)."""
-    m = layer_exponent(exponent)
-    elastic = modulus * power(ca.fmax(overlap, 0.0), m)
-    return ca.fmax(elastic * (1.0 + chi * overlap_rate / ca.fmax(delta_dot0, v_min)), 0.0), elastic
-
-
-def layer_energy(overlap, modulus, exponent: float):
-    """K_w max(d, 0)^(m+1) / (m+1) [Pa m] at each point (integrate over L R_B dpsi for [J])."""
-    m = layer_exponent(exponent)
-    return modulus * power(ca.fmax(overlap, 0.0), m + 1.0) / (m + 1.0)
 
 
 def _barrel_shift(values, shift, n: int, direction: int):

@@ -21,60 +21,23 @@ which makes a journal resting in a groove chatter). Its depth at the nodes is
 direction psi is c(psi) = c0 + w_bearing(psi - theta_B) + w_journal(psi - theta_J), each
 profile read in its body's frame.
 
-Every function works on floats, numpy arrays and CasADi SX alike (except where noted).
+Numpy; the equations read the profile at the arc's points through
+:func:`rrr4.contact.conformal.sampling_matrix`.
 """
 
 from __future__ import annotations
 
 import math
 
-import casadi as ca
 import numpy as np
 
-__all__ = ["spline_weights", "spline_slopes", "profile_depth", "depth_at", "node_depths",
+__all__ = ["depth_at", "node_depths",
            "point_depth_rates", "profile_volume", "line_contact_pressure", "node_angles"]
 
 
 def node_angles(nodes: int) -> np.ndarray:
     """psi_i = 2 pi i / M [rad] of a profile of M nodes."""
     return 2.0 * math.pi * np.arange(nodes) / nodes
-
-
-def _offsets(psi, nodes: int):
-    """d_i = (psi - psi_i) / (2 pi / M), wrapped to [-M/2, M/2): the distance to node i in nodes."""
-    u = psi * (nodes / (2.0 * math.pi))
-    out = []
-    for i in range(nodes):
-        d = u - i
-        out.append(d - nodes * ca.floor(d / nodes + 0.5))
-    return out
-
-
-def spline_weights(psi, nodes: int):
-    """The M periodic cubic B-spline weights B(d_i) at angle psi [rad] (any real): >= 0, sum 1,
-    non-zero at the four nodes around psi, C2 in psi. CasADi SX in, SX (M,) out."""
-    out = []
-    for d in _offsets(psi, nodes):
-        a = ca.fabs(d)
-        out.append(ca.if_else(a < 1.0, (4.0 - 6.0 * a**2 + 3.0 * a**3) / 6.0,
-                              ca.if_else(a < 2.0, (2.0 - a) ** 3 / 6.0, 0.0)))
-    return ca.vertcat(*out)
-
-
-def spline_slopes(psi, nodes: int):
-    """d B(d_i) / d psi [1/rad] (M,) of :func:`spline_weights` (continuous). CasADi SX."""
-    out = []
-    for d in _offsets(psi, nodes):
-        a = ca.fabs(d)
-        out.append(ca.if_else(a < 1.0, -2.0 * d + 1.5 * d * a,
-                              ca.if_else(a < 2.0, -0.5 * ca.sign(d) * (2.0 - a) ** 2, 0.0)) * (nodes / (2.0 * math.pi)))
-    return ca.vertcat(*out)
-
-
-def profile_depth(coefficients, weights):
-    """w(psi) = sum c_i B_i(psi) [m] from the profile's coefficients (M,) and :func:`spline_weights`
-    (or, with :func:`spline_slopes`, its slope dw/dpsi [m/rad])."""
-    return ca.dot(coefficients, weights)
 
 
 def depth_at(coefficients, psi) -> np.ndarray:
