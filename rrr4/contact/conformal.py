@@ -39,6 +39,12 @@ the points, and its depths at them are interpolated from its own points' (:func:
 a circular shift by a symbolic whole number of points, as one conditional roll per bit, and a
 linear interpolation), its wear shared back the same way (:func:`turned_deposit`). The
 integral sums a continuous, piecewise-smooth integrand, so the force is continuous in the motion.
+
+The whole arc is one CasADi Function per (nodes, surfaces, exponent, friction law)
+(:func:`arc_function`, and :func:`arc_energy` for the energy) that the equations call rather
+than inline: their derivatives (the implicit methods' Newton Jacobian) then differentiate it
+once in its few inputs instead of once per coordinate, and neither the equations nor the
+generated code grow with the profile's nodes beyond the sparse sampling matrix.
 """
 
 from __future__ import annotations
@@ -55,8 +61,7 @@ from .normal import power
 from .wear import depth_at
 
 __all__ = ["MIN_POINTS", "arc_points", "sampling_matrix", "layer_exponent", "arc_factor", "foundation_modulus",
-           "turned_samples",
-           "turned_deposit", "arc_function", "arc_energy", "ARC_NUMBERS", "FRICTION_NUMBERS"]
+           "turned_samples", "turned_deposit", "arc_function", "arc_energy", "ARC_NUMBERS", "FRICTION_NUMBERS"]
 
 # the scalar inputs ``numbers`` of :func:`arc_function`, in order
 ARC_NUMBERS = ("clearance", "modulus", "area", "damping_rate", "slip_offset")
@@ -176,7 +181,7 @@ def arc_function(nodes: int, turned: bool, exponent: float, friction: str) -> ca
     chi / delta_dot0 [s/m], R_J omega_J - R_B omega_B [m/s]) then :data:`FRICTION_NUMBERS`.
     Outputs: ``normal`` (2,) the normal force on the journal [N]; ``friction`` (2,) its
     friction force [N] and ``friction_sum`` the points' sum of f_t [N]; ``turn_load``
-    sum dF_k d w_other / d angle [N m / rad... N m] (the torque that turns the other surface);
+    sum dF_k d w_other / d angle [N m] (the other profile's share of the generalised force);
     ``power_damping``, ``power_friction`` [W]; ``deepest`` max_k d_k [m];
     ``wear_first``, ``wear_other`` (M,): sampling^T (dF |v|) on each profile [W]
     (:func:`rrr4.contact.wear.point_depth_rates`)."""
