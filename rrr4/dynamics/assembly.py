@@ -32,7 +32,8 @@ class ClearanceJoint:
     """One clearance joint while the terms visit it: its geometry, its kinematics ``kin`` (a
     shaping term may change the gap) and what the terms have added: the normal and friction
     force [N], the force on the journal ``f`` (2,) [N], the film's share ``film`` (2,) [N],
-    and a worn surface's gradient (``grad`` d depth/dq, ``tilt``) and profiles."""
+    and at a worn joint the quadrature of its contact arc ``arc``
+    (:class:`rrr4.dynamics.wear_term.Arc`)."""
     index: int
     name: str
     spec: object
@@ -51,9 +52,7 @@ class ClearanceJoint:
     ft: ca.SX = None
     f: ca.SX = None
     film: ca.SX = None
-    grad: ca.SX = None
-    tilt: ca.SX = None
-    profiles: list = field(default_factory=list)
+    arc: object = None
 
 
 @dataclass

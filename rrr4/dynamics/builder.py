@@ -19,9 +19,9 @@ constraints (:mod:`.constraints`) and the tree coordinates (:mod:`.tree_equation
   force (:mod:`rrr4.contact.lubrication`) only at the clearance joints whose lubrication
   law is not 'none': w(eps) F(min(eps, threshold), eps_dot, whirl), acting at the joint
   centres, handed over to the dry laws between the threshold and eps = 1; the wear profiles
-  (:mod:`rrr4.contact.wear`) only at the clearance joints that wear: the penetration is
-  |e| - c0 - w(psi) and the normal force acts along its gradient, with the profiles' node
-  depths among the input ``parameters``; with no clearance joint there is no contact code at all;
+  (:mod:`rrr4.contact.wear`) only at the clearance joints that wear, whose contact is then
+  conformal: an elastic layer over the worn arc (:mod:`rrr4.contact.conformal`), with the
+  profiles' node depths among the input ``parameters``; with no clearance joint there is no contact code at all;
 - tau (actuator efforts, generalised force S^T tau with S = ds/dq): 'free' -> 0 (no
   effort inputs in the graph); 'torque' -> the input ``effort``, what the controller
   (:mod:`rrr4.control`) commands; 'prescribed' -> tau = -lambda of the driving

@@ -2,11 +2,17 @@
 
 Per clearance joint the scene's normal law F_n(delta, delta_dot, delta_dot0) (Flores &
 Ambrosio 2004) and, unless the friction law is 'none', the friction force f_t(v_t, F_n),
-acting on the journal and the bearing body (:func:`rrr4.contact.contact_generalized_forces`;
-along a worn surface's normal where a shaping term has worn it). Its numbers: the joint's
-``joints.<joint>.*`` and ``contact.*`` (:mod:`rrr4.dynamics.layout`). Potential: the
-elastic energy K delta^(n+1)/(n+1); power_damping: (F_n - K delta^n) delta_dot (none for
-the purely elastic 'hertz'); power_friction: -f_t v_t (dissipated). The common outputs
+acting on the journal and the bearing body (:func:`rrr4.contact.contact_generalized_forces`).
+At a worn joint (a shaping term has left the quadrature of its arc, ``joint.arc``) the
+contact is conformal instead: the elastic foundation of :mod:`rrr4.contact.conformal`, each
+point's pressure, damping and friction with its own overlap and slip, the stiffness matched
+to the scene's law (:func:`rrr4.contact.conformal.foundation_modulus`); the joint's
+normal_force output is the resultant's component along the line of centres, its
+friction_force the points' sum. Its numbers: the joint's ``joints.<joint>.*`` and
+``contact.*`` (:mod:`rrr4.dynamics.layout`). Potential: the elastic energy
+K delta^(n+1)/(n+1) (the layer's integral at a worn joint); power_damping:
+(F_n - K delta^n) delta_dot (none for the purely elastic 'hertz'); power_friction:
+-f_t v_t (dissipated); all summed over the points at a worn joint. The common outputs
 contact_force, normal_force, friction_force, penetration, delta_dot, eccentricity, and the
 discrete ``contact_update`` (see :mod:`rrr4.dynamics.builder`).
 """
@@ -16,11 +22,14 @@ from __future__ import annotations
 from dataclasses import replace
 
 import casadi as ca
+import numpy as np
 
 from ..contact import clearance_kinematics, contact_generalized_forces, elastic_force, friction_force, normal_force
-from ..contact.normal import power
+from ..contact.conformal import ARC_NUMBERS, FRICTION_NUMBERS, arc_energy, arc_function, arc_points, foundation_modulus
+from ..contact.normal import hysteresis_factor, power
+from ..errors import SceneError
 from .assembly import Assembly, ClearanceJoint, Term
-from .layout import EFFECT_PARAMETERS, JOINT_PARAMETERS
+from .layout import EFFECT_PARAMETERS, JOINT_PARAMETERS, worn_joints
 
 __all__ = ["ContactTerm", "clearance_joint", "contact_update", "CONTACT_OUTPUTS"]
 
@@ -55,6 +64,10 @@ class ContactTerm(Term):
         self.friction = replace(self.friction, coefficient=numbers["friction_coefficient"],
                                 static_coefficient=numbers["static_coefficient"], v0=numbers["v0"],
                                 v1=numbers["v1"], stribeck_velocity=numbers["stribeck_velocity"])
+        if self.law.law == "kelvin-voigt" and worn_joints(a.model, a.effects):
+            raise SceneError("effects.contact.law: 'kelvin-voigt' is not allowed with effects.wear (the conformal "
+                             "contact over the worn arc damps by hysteresis: hertz, hunt-crossley, "
+                             "lankarani-nikravesh, flores or gonthier)")
         a.labels.append(f"contact ({self.law.law}) at {' '.join(a.model.clearance_joints)}")
         if self.friction.law != "none":
             a.labels.append(f"friction ({self.friction.law})")
@@ -62,20 +75,56 @@ class ContactTerm(Term):
     def at_joint(self, a: Assembly, c: ClearanceJoint) -> None:
         ce, fe, kin, K = self.law, self.friction, c.kin, c.stiffness
         dd0_eff = ca.if_else(a.inc[c.index] > 0.5, a.dd0[c.index], ca.fmax(kin.delta_dot, a.v_min))
+        if c.arc is not None:
+            self._conformal(a, c, dd0_eff)
+            return
         c.fn = normal_force(ce.law, kin.penetration, kin.delta_dot, dd0_eff, K, ce.exponent, self.restitution,
                             self.damping, a.v_min)
         f_el = elastic_force(kin.penetration, K, ce.exponent)
         c.ft = friction_force(fe, kin.v_t, c.fn) if fe.law != "none" else ca.SX(0)
         Qc, c.f = contact_generalized_forces(kin, c.fn, c.ft, c.g_b, c.g_j, c.i_b, c.i_j, c.r_j, c.r_b, a.model.nq)
         a.Q = a.Q + Qc
-        if c.profiles:  # the normal along the worn surface's: -F_n d delta / dq
-            a.Q = a.Q + c.fn * c.grad
-            c.f = c.f + c.fn * c.tilt * kin.tangent
         a.potential += K * power(ca.fmax(kin.penetration, 0.0), ce.exponent + 1) / (ce.exponent + 1)
         if ce.law != "hertz":
             a.power_damping += (c.fn - f_el) * kin.delta_dot
         if fe.law != "none":
             a.power_friction += -c.ft * kin.v_t
+
+    def _conformal(self, a: Assembly, c: ClearanceJoint, dd0_eff) -> None:
+        """The distributed contact over the arc of a worn joint (see the module docstring)."""
+        ce, fe, arc = self.law, self.friction, c.arc
+        length = a.number(f"wear.{c.name}.length")
+        modulus = foundation_modulus(c.stiffness, ce.exponent, length, c.r_b, c.r_b - c.r_j)
+        numbers = {"clearance": c.r_b - c.r_j, "modulus": modulus,
+                   "area": length * c.r_b * 2.0 * np.pi / len(arc_points(arc.nodes)),
+                   "damping_rate": hysteresis_factor(ce.law, self.restitution) / ca.fmax(dd0_eff, a.v_min),
+                   "slip_offset": c.r_j * c.w_j - c.r_b * c.w_b}
+        friction = [getattr(fe, k) for k in FRICTION_NUMBERS]
+        f = arc_function(arc.nodes, arc.turn_gradient is not None,
+                         float(ce.exponent), fe.law)
+        arc.out = f.call({**arc.inputs, "numbers": ca.vertcat(*[numbers[k] for k in ARC_NUMBERS], *friction)})
+        a.Q = a.Q + arc.generalized(arc.out["normal"], arc.out["turn_load"])
+        c.f = arc.turn @ arc.out["normal"]
+        c.fn = -ca.dot(c.f, c.kin.normal)
+        c.kin = replace(c.kin, penetration=arc.out["deepest"])
+        energy = arc_energy(arc.nodes, arc.turn_gradient is not None, float(ce.exponent))
+        a.potential += energy(arc.inputs["e"], arc.inputs["turn"], arc.inputs["first"], arc.inputs["other"],
+                              ca.vertcat(*[numbers[k] for k in ("clearance", "modulus", "area")]))
+        if ce.law != "hertz":
+            a.power_damping += arc.out["power_damping"]
+        if fe.law == "none":
+            c.ft = ca.SX(0)
+            return
+        f_t = arc.turn @ arc.out["friction"]
+        c.ft = arc.out["friction_sum"]
+        arm = ca.SX.zeros(a.model.nq)
+        if c.i_j is not None:
+            arm[c.i_j] += c.r_j
+        if c.i_b is not None:
+            arm[c.i_b] -= c.r_b
+        a.Q = a.Q + (c.g_j - c.g_b).T @ f_t + arm * c.ft
+        c.f = c.f + f_t
+        a.power_friction += arc.out["power_friction"]
 
     def finish(self, a: Assembly) -> None:
         js = a.joints

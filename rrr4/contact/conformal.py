@@ -1,0 +1,220 @@
+"""Conformal contact of a journal in its (worn) bore: an elastic foundation over the arc.
+
+A journal in a bore of small clearance touches it over an arc, tens of degrees wide once the
+bore has worn to the journal's shape. The pressure over that arc is modelled as a Winkler
+(elastic-foundation) layer: at each angle psi of the bore the local overlap of the journal's
+circle with the worn profile,
+
+    d(psi) = e . u(psi) - c0 - w_B(psi - theta_B) - w_J(psi - theta_J),   u = (cos psi, sin psi),
+
+(e the eccentricity, c0 = R_B - R_J, w_s the surfaces' wear profiles, :mod:`.wear`; e . u is
+the journal's surface along u to O(e^2 / R)) presses with p = K_w max(d, 0)^m, the layer's
+exponent m = n - 1/2 for the scene's exponent n (m = 1, the linear Winkler layer, for Hertz's
+1.5) (Bei & Fregly 2004, Med. Eng. Phys. 26; Flores 2009, Mech. Mach. Theory 44, for
+revolute joints). The normal force on the journal is the integral -L R_B int p u dpsi, its
+direction and point of action follow from that integral.
+
+Stiffness. On an unworn bore with delta = |e| - c0 << c0 the overlap is
+d = delta - c0 a^2 / 2 (a = psi - phi from the line of centres), positive over
+|a| < a0 = sqrt(2 delta / c0), and the integral is
+
+    F = K_w L R_B sqrt(2 / c0) B(m) delta^(m + 1/2),   B(m) = int_-1^1 (1 - s^2)^m ds
+      = sqrt(pi) Gamma(m + 1) / Gamma(m + 3/2)     (4/3 for m = 1),
+
+the scene's dry law K delta^n exactly when m = n - 1/2 and
+K_w = K / (L R_B sqrt(2 / c0) B(m)) (:func:`foundation_modulus`): the unworn joint's
+force-penetration curve is the scene's wherever delta << c0.
+
+Damping follows each point: p = K_w d^m (1 + chi d_dot / delta_dot0) >= 0 with the scene's
+hysteresis factor chi (:func:`rrr4.contact.normal.hysteresis_factor`; 0 for Hertz) and the
+joint's captured approach velocity delta_dot0; friction too, f_t(v_slip(psi), dF(psi)) with
+the slip of each point. The layer's energy is L R_B int K_w d^(m+1) / (m+1) dpsi.
+
+Quadrature: points fixed on the first wearing surface at a spacing of at most 2.5 deg
+(:data:`MIN_POINTS` a revolution, a whole number per profile node, :func:`arc_points`), so the
+arc is resolved whatever the profile's node count (an unworn contact under the reference
+loads is several degrees wide); the profile at those points is a constant combination of its
+coefficients (:func:`sampling_matrix`); the other surface, where both wear, turns under
+the points, and its depths at them are interpolated from its own points' (:func:`turned_samples`,
+a circular shift by a symbolic whole number of points, as one conditional roll per bit, and a
+linear interpolation), its wear shared back the same way (:func:`turned_deposit`). The
+integral sums a continuous, piecewise-smooth integrand, so the force is continuous in the motion.
+
+The whole arc is one CasADi Function per (nodes, surfaces, exponent, friction law)
+(:func:`arc_function`, and :func:`arc_energy` for the energy) that the equations call rather
+than inline: their derivatives (the implicit methods' Newton Jacobian) then differentiate it
+once in its few inputs instead of once per coordinate, and neither the equations nor the
+generated code grow with the profile's nodes beyond the sparse sampling matrix.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import casadi as ca
+import numpy as np
+
+from ..scene import FrictionEffect
+from .friction import friction_force
+from .normal import power
+from .wear import depth_at
+
+__all__ = ["MIN_POINTS", "arc_points", "sampling_matrix", "layer_exponent", "arc_factor", "foundation_modulus",
+           "turned_samples", "turned_deposit", "arc_function", "arc_energy", "ARC_NUMBERS", "FRICTION_NUMBERS"]
+
+# the scalar inputs ``numbers`` of :func:`arc_function`, in order
+ARC_NUMBERS = ("clearance", "modulus", "area", "damping_rate", "slip_offset")
+# the friction law's numbers among them (after ARC_NUMBERS)
+FRICTION_NUMBERS = ("coefficient", "static_coefficient", "v0", "v1", "stribeck_velocity")
+
+# the arc's quadrature points a revolution, at least (2.5 deg apart)
+MIN_POINTS = 144
+
+
+def arc_points(nodes: int) -> np.ndarray:
+    """The quadrature angles [rad] over a surface of a profile of M nodes: N = r M points evenly
+    spaced, r = ceil(MIN_POINTS / M) (so N >= MIN_POINTS and each node interval holds r)."""
+    n = nodes * math.ceil(MIN_POINTS / nodes)
+    return 2.0 * math.pi * np.arange(n) / n
+
+
+def sampling_matrix(nodes: int) -> ca.DM:
+    """S (N, M), sparse: the profile's depths at :func:`arc_points` are S c (c its M coefficients)."""
+    psi = arc_points(nodes)
+    s = np.column_stack([depth_at(np.eye(nodes)[i], psi) for i in range(nodes)])
+    s[np.abs(s) < 1e-15] = 0.0
+    return ca.sparsify(ca.DM(s))
+
+
+def layer_exponent(exponent):
+    """m = n - 1/2: the layer's pressure exponent for the joint's exponent n."""
+    return exponent - 0.5
+
+
+def arc_factor(m: float) -> float:
+    """B(m) = int_-1^1 (1 - s^2)^m ds = sqrt(pi) Gamma(m + 1) / Gamma(m + 3/2)."""
+    return math.sqrt(math.pi) * math.gamma(m + 1.0) / math.gamma(m + 1.5)
+
+
+def foundation_modulus(stiffness, exponent: float, length, bearing_radius, clearance):
+    """K_w [Pa / m^m] of the layer whose unworn force is K delta^n (K [N/m^n], n the exponent)
+    for delta << c0: K / (L R_B sqrt(2 / c0) B(m)), L the bearing length [m], R_B [m], c0 [m]."""
+    m = layer_exponent(exponent)
+    return stiffness / (length * bearing_radius * ca.sqrt(2.0 / clearance) * arc_factor(m))
+
+
+def _barrel_shift(values, shift, n: int, direction: int):
+    """values (N,) shifted circularly by the integer `shift` in [0, N) (a symbol): out_k =
+    values_(k + shift) for direction +1, values_(k - shift) for -1; one conditional roll per bit."""
+    out, b = values, 0
+    while (1 << b) < n:
+        bit = ca.fmod(ca.floor(shift / (1 << b)), 2.0) > 0.5
+        s = (1 << b) % n if direction > 0 else n - (1 << b) % n
+        out = ca.if_else(bit, ca.vertcat(out[s:], out[:s]), out)
+        b += 1
+    return out
+
+
+def _split(angle, n: int):
+    u = angle * (n / (2.0 * math.pi))
+    whole = ca.floor(u)
+    return whole - n * ca.floor(whole / n), u - whole
+
+
+def turned_samples(values, angle, n: int):
+    """A surface's values (N,) at its own points 2 pi k / N, read at the points 2 pi k / N + angle
+    [rad] (a symbol: a surface turning under the other's points), linearly interpolated
+    (continuous in the angle), and their slopes d / d angle [1/rad] (N,)."""
+    shift, f = _split(angle, n)
+    s = _barrel_shift(values, shift, n, +1)
+    step = ca.vertcat(s[1:], s[:1]) - s
+    return s + f * step, step * (n / (2.0 * math.pi))
+
+
+def turned_deposit(values, angle, n: int):
+    """The transpose of :func:`turned_samples`: quantities (N,) at the points 2 pi k / N + angle
+    of a surface, shared onto its own points with the same weights (their sum is kept)."""
+    shift, f = _split(angle, n)
+    h = (1.0 - f) * values + f * ca.vertcat(values[n - 1:], values[:n - 1])
+    return _barrel_shift(h, shift, n, -1)
+
+
+def _overlap(nodes: int, turned: bool, e, turn, first, other, clearance):
+    """The overlaps d_k (N,) [m] at :func:`arc_points` and the other surface's slopes (N,)."""
+    n = len(arc_points(nodes))
+    u = np.vstack([np.cos(arc_points(nodes)), np.sin(arc_points(nodes))])
+    sampled = sampling_matrix(nodes)
+    overlap = ca.DM(u.T) @ e - clearance - sampled @ first
+    if not turned:
+        return overlap, ca.SX.zeros(n)
+    depths, slopes = turned_samples(sampled @ other, turn[0], n)
+    return overlap - depths, slopes
+
+
+@functools.cache
+def arc_energy(nodes: int, turned: bool, exponent: float) -> ca.Function:
+    """The layer's energy L R_B h sum_k K_w d_k^(m+1) / (m+1) [J] over the arc, called like
+    :func:`arc_function` (inputs e, turn, first, other and numbers = (c0, K_w, area))."""
+    e, turn = ca.SX.sym("e", 2), ca.SX.sym("turn", 2)
+    first, other, numbers = ca.SX.sym("first", nodes), ca.SX.sym("other", nodes), ca.SX.sym("numbers", 3)
+    overlap, _ = _overlap(nodes, turned, e, turn, first, other, numbers[0])
+    m = layer_exponent(exponent)
+    energy = numbers[2] * ca.sum1(numbers[1] * power(ca.fmax(overlap, 0.0), m + 1.0) / (m + 1.0))
+    name = f"conformal_energy_{nodes}{'_turned' if turned else ''}_n{exponent:g}".replace(".", "p")
+    return ca.Function(name, [e, turn, first, other, numbers], [energy], ["e", "turn", "first", "other", "numbers"],
+                       ["potential"], {"never_inline": True})
+
+
+@functools.cache
+def arc_function(nodes: int, turned: bool, exponent: float, friction: str) -> ca.Function:
+    """The conformal contact over the arc of one worn joint as one Function, called (not
+    inlined) from the equations, so that their derivatives differentiate it once, in its few
+    inputs, instead of once per coordinate. Points fixed on the first wearing surface
+    (:func:`arc_points`); everything in its frame.
+
+    Inputs: ``e`` (2,) the eccentricity [m]; ``e_rate`` (2,) its rate in the turning frame
+    [m/s]; ``e_dot`` (2,) the world rate seen in the frame [m/s]; ``turn`` (2,) the other
+    surface's angle under the points and its rate [rad, rad/s] (`turned`); ``first``,
+    ``other`` (M,) the profiles' coefficients [m] (``other`` zeros unless `turned`);
+    ``numbers``: :data:`ARC_NUMBERS` (c0 [m], K_w, a point's area L R_B h [m^2],
+    chi / delta_dot0 [s/m], R_J omega_J - R_B omega_B [m/s]) then :data:`FRICTION_NUMBERS`.
+    Outputs: ``normal`` (2,) the normal force on the journal [N]; ``friction`` (2,) its
+    friction force [N] and ``friction_sum`` the points' sum of f_t [N]; ``turn_load``
+    sum dF_k d w_other / d angle [N m] (the other profile's share of the generalised force);
+    ``power_damping``, ``power_friction`` [W]; ``deepest`` max_k d_k [m];
+    ``wear_first``, ``wear_other`` (M,): sampling^T (dF |v|) on each profile [W]
+    (:func:`rrr4.contact.wear.point_depth_rates`)."""
+    n = len(arc_points(nodes))
+    u = np.vstack([np.cos(arc_points(nodes)), np.sin(arc_points(nodes))])
+    t = np.vstack([-u[1], u[0]])
+    e, e_rate, e_dot, turn = (ca.SX.sym(k, 2) for k in ("e", "e_rate", "e_dot", "turn"))
+    first, other = ca.SX.sym("first", nodes), ca.SX.sym("other", nodes)
+    numbers = ca.SX.sym("numbers", len(ARC_NUMBERS) + len(FRICTION_NUMBERS))
+    clearance, modulus, area, damping_rate, slip_offset = ca.vertsplit(numbers[:len(ARC_NUMBERS)])
+    sampled = sampling_matrix(nodes)
+    overlap, slopes = _overlap(nodes, turned, e, turn, first, other, clearance)
+    rate = ca.DM(u.T) @ e_rate - slopes * turn[1]
+    m = layer_exponent(exponent)
+    elastic = modulus * power(ca.fmax(overlap, 0.0), m)
+    loads = ca.fmax(elastic * (1.0 + damping_rate * rate), 0.0) * area
+    slips = ca.DM(t.T) @ e_dot + slip_offset
+    if friction == "none":
+        ft = ca.SX.zeros(n)
+    else:
+        fe = FrictionEffect(friction, *ca.vertsplit(numbers[len(ARC_NUMBERS):]))
+        ft = friction_force(fe, slips, loads)
+    worn = loads * ca.fabs(slips)
+    outputs = {
+        "normal": -ca.DM(u) @ loads, "friction": ca.DM(t) @ ft, "friction_sum": ca.sum1(ft),
+        "turn_load": ca.dot(slopes, loads),
+        "power_damping": ca.dot(loads - elastic * area, rate), "power_friction": -ca.dot(ft, slips),
+        "deepest": ca.mmax(overlap),
+        "wear_first": sampled.T @ worn,
+        "wear_other": sampled.T @ turned_deposit(worn, turn[0], n) if turned else ca.SX.zeros(nodes)}
+    inputs = {"e": e, "e_rate": e_rate, "e_dot": e_dot, "turn": turn, "first": first, "other": other,
+              "numbers": numbers}
+    name = f"conformal_arc_{nodes}{'_turned' if turned else ''}_{friction}_n{exponent:g}"
+    return ca.Function(name.replace("-", "_").replace(".", "p"),
+                       list(inputs.values()), list(outputs.values()), list(inputs), list(outputs),
+                       {"never_inline": True})
