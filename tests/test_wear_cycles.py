@@ -52,13 +52,15 @@ def test_a_deeper_profile_keeps_the_continued_journal_in_its_seat(first_cycle):
     run ended (no drop onto the bore, no impact): its force stays the static load."""
     a = first_cycle
     e = a.eccentricity[-1, 0]
-    groove = np.zeros(36)
-    groove[9] = 2e-6  # a node of the bore's profile near the top (90 deg), where the shaft presses it
+    # a groove as steady wear makes it: depth d cos(psi - 90 deg) over the half the shaft presses
+    # (the bore's surface there moved rigidly by d: a uniform sink, DESIGN.md section 12)
+    psi = 2 * np.pi * np.arange(36) / 36
+    groove = 2e-6 * np.maximum(np.cos(psi - np.pi / 2), 0.0)
     b = rrr4.simulate(JOURNAL, t_end=0.02, start=a, wear={"S": {"bearing": groove, "journal": np.zeros(36)}})
     deeper = float(depth_at(groove, math.atan2(e[1], e[0]) - a.q[-1, 5]))  # in the sleeve's frame
     assert deeper > 1e-6
     assert np.linalg.norm(b.eccentricity[0, 0]) == pytest.approx(np.linalg.norm(e) + deeper, rel=1e-6)
-    assert b.penetration[0, 0] == pytest.approx(a.penetration[-1, 0], rel=1e-3)
+    assert b.penetration[0, 0] == pytest.approx(a.penetration[-1, 0], rel=1e-2)
     assert b.extremes["normal_force_max"][0] == pytest.approx(W, rel=5e-3)
 
 
@@ -82,7 +84,9 @@ def test_the_start_transient_is_run_once_and_reported_apart_from_the_steady_peak
     assert start["periodic"] and start["periodicity"][-1] <= PERIODIC
     assert start["joints"]["S"]["peak_contact_force_N"] > 3 * W  # the drop
     steady = arm["joints"]["S"]
-    assert steady["peak_contact_force_N"] == pytest.approx(W, rel=5e-3)  # the steady cycle: the weight alone
+    # the steady cycle: the weight alone, to 3 % (after a jump the conformal seat settles within the
+    # cycle: the groove deepens as a lune, not as a uniform sink by its deepest depth)
+    assert steady["peak_contact_force_N"] == pytest.approx(W, rel=3e-2)
     assert steady["peak_pressure_Pa"] < start["joints"]["S"]["peak_pressure_Pa"]
     a = dropped.arms["with_clearance"]
     assert a.cycles[0] == len(a.transient) and a.cycles[-1] == 1000  # the jumps begin after the transient
