@@ -72,8 +72,9 @@ def wear_summary(study: WearStudy) -> dict:
     volume, deepest depth and where (the bearing angle of the deepest node of the bearing's
     profile, else the journal's), depth over the radial clearance, concentration (the profile's
     largest depth over its mean: 1 for even wear), life_cycles (N plus the cycles until the
-    deepest point is one radial clearance deep at the last cycle's rate), the peak Hertzian
-    pressure of the last cycle's peak contact force."""
+    deepest point is one radial clearance deep at the last cycle's rate), the Hertzian line-contact
+    pressure of the last cycle's peak contact force on the unworn geometry (an upper bound: the
+    worn bore conforms to the journal and spreads the force over a wider arc)."""
     scene = study.scene
     out = {"scene": scene.name, "task": scene.graph.task is not None, "cycles": study.cycles,
            "cycle_time_s": study.cycle_time, "max_change": study.max_change, "jump_error": study.jump_error, "arms": {}}
@@ -198,7 +199,8 @@ def _report(summary: dict) -> str:
                   f"{arm['contact_loss_events_per_cycle']['first']} -> {arm['contact_loss_events_per_cycle']['last']}.",
                   "",
                   "| joint | volume [m^3] | deepest [um] | at [deg] | deepest / c | peak / mean depth | "
-                  "life [cycles] | peak pressure [MPa] |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+                  "life [cycles] | Hertz pressure of the peak force [MPa] |",
+                  "| --- | --- | --- | --- | --- | --- | --- | --- |"]
         for j, r in arm["joints"].items():
             lines.append(f"| {j} | {r['volume_m3']:.3g} | {r['deepest_m'] * 1e6:.3g} | {r['deepest_at_deg']:g} | "
                          f"{r['deepest_over_clearance']:.3g} | "
@@ -211,9 +213,10 @@ def _report(summary: dict) -> str:
                       "differ, so the jump error measures their variability as well as the jump; smaller jumps "
                       "(--max-change) simulate and average more of them.", ""]
     lines += ["life: the cycles until the deepest point of the profile is one radial clearance deep, extrapolated "
-              "at the last cycle's wear rate. Peak pressure: of the last cycle, a steady one (each cycle starts where "
-              "the last ended; the start transient is reported apart). Angles: the bearing angle in the bearing "
-              "body's frame.", ""]
+              "at the last cycle's wear rate. Hertz pressure: the line-contact pressure of the last cycle's peak force "
+              "on the unworn geometry, an upper bound once the bore conforms to the journal (the last cycle is a "
+              "steady one: each cycle starts where the last ended; the start transient is reported apart). "
+              "Angles: the bearing angle in the bearing body's frame.", ""]
     return "\n".join(lines)
 
 
