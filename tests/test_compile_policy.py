@@ -39,7 +39,7 @@ def test_a_run_moves_to_the_library_when_it_is_ready_with_the_same_states(method
     machine's and the compiled run's, bit for bit."""
     monkeypatch.setenv("RRR4_CACHE", str(tmp_path))
     started = []
-    monkeypatch.setattr(build, "spawn", started.append)
+    monkeypatch.setattr(build, "spawn", lambda args, alive: started.append(args))
     rows = []
 
     def sink(k0, kept):
@@ -90,10 +90,59 @@ def test_the_environment_forces_either_way(monkeypatch):
 
 def test_simulate_records_how_it_stepped(tmp_path, monkeypatch):
     monkeypatch.setenv("RRR4_CACHE", str(tmp_path))
-    monkeypatch.setattr(build, "spawn", lambda args: None)  # no compiler: the VM to the end
+    monkeypatch.setattr(build, "spawn", lambda args, alive: None)  # no compiler: the VM to the end
     sim = rrr4.simulate(rrr4.load_scene(Path(__file__).resolve().parents[1] / "problems" / "ideal_circle.yaml"),
                         t_end=0.01, jit=BACKGROUND)
     assert sim.stats["jit"] == BACKGROUND
     assert sim.stats["stepping"] == {"compiled": False, "compiled_from_frame": None, "compiled_from_s": None}
     from rrr4.results.metrics import stepping_text
     assert stepping_text(sim) == "virtual machine"
+
+
+_TINY = {"tiny.c": "double tiny(double x) { return 2.0 * x + 1.0; }\n"}
+
+
+def test_a_library_compiling_in_the_background_is_waited_for_not_compiled_twice(tmp_path, monkeypatch):
+    """An urgent background compile (a real process), then the same library asked for at once:
+    the caller waits for that process's library instead of running the compiler itself."""
+    monkeypatch.setenv("RRR4_CACHE", str(tmp_path))
+    lib = build.library_in_background("tiny", _TINY, urgent=True)
+    assert build.pending(lib) or lib.exists()
+    before = build.compilations()
+    assert build.library("tiny", _TINY) == lib and lib.exists()
+    assert build.compilations() == before  # not compiled by this process
+    assert not build.pending(lib) and not list(tmp_path.glob("*.staged"))
+
+
+def test_a_background_compiler_that_died_is_not_waited_for(tmp_path, monkeypatch):
+    """A staged directory whose compiler was killed outright (its lock file held by nobody) is
+    not a compile in progress: the library is compiled by the caller."""
+    monkeypatch.setenv("RRR4_CACHE", str(tmp_path))
+    lib = build.library_path("tiny", _TINY)
+    staged = tmp_path / f"{lib.stem}.dead.staged"
+    staged.mkdir()
+    (staged / build.ALIVE).write_text("")
+    assert not build.pending(lib)
+    before = build.compilations()
+    assert build.library("tiny", _TINY) == lib and build.compilations() == before + 1
+
+
+def test_a_mapped_function_lives_as_long_as_the_function_it_maps():
+    """functions.mapped_function keeps f.map(m) exactly as long as f: the map evaluates f column
+    by column (checked against f itself) and goes when f goes."""
+    import gc
+    import weakref
+
+    import casadi as ca
+
+    from rrr4 import functions
+    x = ca.SX.sym("x", 2)
+    f = ca.Function("f", [x], [ca.vertcat(ca.sin(x[0]) * x[1], x[0] ** 2)])
+    cols = np.array([[0.1, 0.5, -1.0], [2.0, -3.0, 0.25]])
+    mapped = np.array(functions.mapped_function(f, 3)(cols))
+    assert np.array_equal(mapped, np.column_stack([np.array(f(cols[:, j])).ravel() for j in range(3)]))
+    kept = weakref.ref(functions.mapped_function(f, 3))
+    assert functions.mapped_function(f, 3) is kept()  # built once
+    del f
+    gc.collect()
+    assert kept() is None  # gone with f

@@ -29,6 +29,7 @@ compiles with :data:`PORTABLE_FLAGS` instead. :func:`machine` names the same CPU
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import functools
 import hashlib
@@ -46,13 +47,15 @@ import casadi as ca
 
 from ..files import BuildError, c_compiler, run_c_compiler
 
-__all__ = ["library", "library_path", "library_in_background", "compile_staged", "spawn", "load", "cache_dir",
-           "compilations", "compile_time", "compile_notice", "cpu", "machine",
+__all__ = ["library", "library_path", "library_in_background", "pending", "compile_staged", "spawn", "load",
+           "cache_dir", "compilations", "compile_time", "compile_notice", "cpu", "machine",
            "COMPILE_FLAGS", "PORTABLE_FLAGS", "BuildError"]
 
 PORTABLE_FLAGS = ("-O2", "-fPIC", "-shared")
 COMPILE_FLAGS = ("-O3", "-march=native", "-ffp-contract=off", "-fno-math-errno", "-fno-semantic-interposition",
                  "-fPIC", "-shared")
+NICE = 10  # niceness of a background compiler: the run it serves, and everyone else's, go first
+ALIVE = ".alive"  # the file of a staged directory its background compiler holds locked while it lives
 _loaded: dict[tuple[str, str], ca.Function] = {}
 _compilations = [0]  # libraries this process built (not found in the cache)
 _compile_time = [0.0]  # [s] this process spent compiling them (and waiting for another's compiler)
@@ -125,19 +128,27 @@ def library(stem: str, sources: Mapping[str, str], extra: Sequence = (), keep_so
     hashes the texts of both, the flags and the CPU. keep_sources: keep `sources` in the
     directory ``<stem>_<key>/`` next to the library (its path without the suffix).
 
-    Compiled with :data:`COMPILE_FLAGS`, or :data:`PORTABLE_FLAGS` where the compiler refuses
-    them. Raises BuildError (an Rrr4Error) if no C compiler ($CC, cc or gcc) is available or
-    compilation fails.
+    A library that a background compiler (:func:`library_in_background`) is making now is
+    waited for, not compiled a second time. Compiled with :data:`COMPILE_FLAGS`, or
+    :data:`PORTABLE_FLAGS` where the compiler refuses them. Raises BuildError (an Rrr4Error)
+    if no C compiler ($CC, cc or gcc) is available or compilation fails.
     """
     flags = tuple(COMPILE_FLAGS)  # read at call time: benchmarks/bench_flags.py swaps it
     extra = [Path(p).resolve() for p in extra]
     lib = library_path(stem, sources, extra)
     if lib.exists():
         return lib
-    if _notice[0] is not None:
-        _notice[0](stem)
     start = time.perf_counter()
     try:
+        if pending(lib):
+            if _notice[0] is not None:
+                _notice[0](f"{stem} (started in the background; waiting for it)")
+            while pending(lib) and not lib.exists():
+                time.sleep(0.05)
+            if lib.exists():
+                return lib
+        if _notice[0] is not None:
+            _notice[0](stem)
         return _compile(lib, sources, extra, flags, keep_sources)
     finally:
         _compile_time[0] += time.perf_counter() - start
@@ -151,19 +162,23 @@ def library_path(stem: str, sources: Mapping[str, str], extra: Sequence = ()) ->
     return cache_dir() / f"{stem}_{key}.so"
 
 
-def library_in_background(stem: str, sources: Mapping[str, str], extra: Sequence = ()) -> Path:
+def library_in_background(stem: str, sources: Mapping[str, str], extra: Sequence = (), keep_sources: bool = False,
+                          urgent: bool = False) -> Path:
     """The path of :func:`library`'s library for these sources, compiled by a process of its own
     if it is not in the cache yet: the caller goes on at once and finds the library there
-    (``path.exists()``) once it is done, later in its run or in a later run. The process
-    outlives the caller (an interrupted run still leaves the library for the next one); one
-    such compiler runs at a time per cache directory (the others wait their turn), and a
-    library another process is compiling already is left to it. Raises BuildError without a
-    C compiler."""
+    (``path.exists()``) once it is done, later in its run or in a later run; :func:`library`
+    asked for it meanwhile waits for that process instead of compiling it again. The process
+    outlives the caller (an interrupted run still leaves the library for the next one). It
+    runs at a lower priority (:data:`NICE`) and one such compiler at a time per cache
+    directory (the others wait their turn), unless `urgent` (a library the caller will wait
+    for soon, e.g. a generated controller: at once, at the normal priority). A library
+    another process is compiling already is left to it. keep_sources: as in :func:`library`.
+    Raises BuildError without a C compiler."""
     if c_compiler() is None:
         raise BuildError("cc: no C compiler found (set CC or install gcc)")
     extra = [str(Path(p).resolve()) for p in extra]
     lib = library_path(stem, sources, extra)
-    if lib.exists():
+    if lib.exists() or pending(lib):
         return lib
     with open(lib.with_suffix(".lock"), "a") as lock:
         try:
@@ -171,33 +186,61 @@ def library_in_background(stem: str, sources: Mapping[str, str], extra: Sequence
         except BlockingIOError:  # another process compiles it now
             return lib
         if _notice[0] is not None:
-            _notice[0](f"{stem} in the background (CasADi's virtual machine steps until it is ready)")
+            _notice[0](f"{stem} in the background (CasADi's virtual machine steps until it is ready)" if not urgent
+                       else f"{stem} in the background")
         staged = Path(tempfile.mkdtemp(prefix=f"{lib.stem}.", suffix=".staged", dir=lib.parent))
+        alive = open(staged / ALIVE, "w")  # locked as long as the compiler lives (see pending)
+        fcntl.flock(alive, fcntl.LOCK_EX)
         for name, text in sources.items():
             (staged / name).write_text(text)
         fcntl.flock(lock, fcntl.LOCK_UN)
-    spawn([str(lib), str(staged), *extra])
+    with alive:  # the compiler inherits the locked descriptor; ours closes, its lock stays
+        spawn([str(lib), str(staged), ",".join(o for o, on in (("keep", keep_sources), ("urgent", urgent)) if on),
+               *extra], alive.fileno())
     return lib
 
 
-def spawn(args: list[str]) -> None:
-    """Start :func:`compile_staged` (args: the library, the staged sources, extra C files) in
-    a detached process of its own, which outlives this one."""
+def pending(lib: Path) -> bool:
+    """Whether a background compiler (:func:`library_in_background`) is compiling, or waits
+    its turn to compile, the library `lib`: a staged directory of it whose :data:`ALIVE` file
+    a living process holds locked (a compiler killed outright leaves one nobody holds)."""
+    for staged in lib.parent.glob(f"{lib.stem}.*.staged"):
+        try:
+            with open(staged / ALIVE) as alive:
+                try:
+                    fcntl.flock(alive, fcntl.LOCK_SH | fcntl.LOCK_NB)
+                except BlockingIOError:
+                    return True
+        except FileNotFoundError:  # being staged or being removed
+            with contextlib.suppress(FileNotFoundError):
+                if time.time() - staged.stat().st_mtime < 10.0:
+                    return True
+    return False
+
+
+def spawn(args: list[str], alive: int) -> None:
+    """Start :func:`compile_staged` (args: the library, the staged sources, its options, extra
+    C files) in a detached process of its own, which outlives this one and inherits the
+    locked descriptor `alive` (see :func:`pending`)."""
     subprocess.Popen([sys.executable, "-c", "import sys; from rrr4.codegen.build import compile_staged; "
                       "compile_staged(*sys.argv[1:])", *args], stdin=subprocess.DEVNULL,
-                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True, pass_fds=(alive,))
 
 
-def compile_staged(lib: str, staged: str, *extra: str) -> None:
+def compile_staged(lib: str, staged: str, options: str = "", *extra: str) -> None:
     """The background compiler of :func:`library_in_background`: the sources staged in the
-    directory `staged` into `lib`, one such compiler at a time per cache directory; the
-    staged directory is removed whatever happens."""
-    lib_path, src = Path(lib), Path(staged)
+    directory `staged` into `lib`; options: 'keep' (keep the sources beside the library),
+    'urgent' (at once, at the normal priority; otherwise at :data:`NICE` and one such compiler
+    at a time per cache directory). The staged directory is removed whatever happens."""
+    lib_path, src, opts = Path(lib), Path(staged), options.split(",")
     try:
         with open(lib_path.parent / "background.lock", "a") as turn:
-            fcntl.flock(turn, fcntl.LOCK_EX)  # one background compiler at a time
-            sources = {p.name: p.read_text() for p in sorted(src.iterdir()) if p.is_file()}
-            _compile(lib_path, sources, [Path(p) for p in extra], tuple(COMPILE_FLAGS), False)
+            if "urgent" not in opts:
+                with contextlib.suppress(OSError):
+                    os.nice(NICE)
+                fcntl.flock(turn, fcntl.LOCK_EX)  # one background compiler at a time
+            sources = {p.name: p.read_text() for p in sorted(src.iterdir()) if p.is_file() and p.name != ALIVE}
+            _compile(lib_path, sources, [Path(p) for p in extra], tuple(COMPILE_FLAGS), "keep" in opts)
     finally:
         shutil.rmtree(src, ignore_errors=True)
 

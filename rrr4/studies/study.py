@@ -47,6 +47,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..checks import argument, unknown_value
+from ..codegen import start_generated_controller
 from ..codegen.build import compile_time
 from ..errors import Rrr4Error, SceneError
 from ..files import c_compiler
@@ -189,10 +190,14 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
     else:
         names = (("with_preload", "with_preload_compensated") if preload is not None and scene.clearance_joints
                  else ("with_preload",) if preload is not None else ())
+        controllers = {name: study_controller(Problem.from_scene(arm_scene(problem, name))) for name in names}
+        for name in names:  # their C compiles in the background while the arm without it steps first
+            if controllers[name] == "generated":
+                start_generated_controller(Problem.from_scene(arm_scene(problem, name)))
+        last = arm("without_preload", arm_scene(problem, "without_preload"))
         for name in names:
-            sc = arm_scene(problem, name)
-            arms[name] = arm(name, sc, controller=study_controller(Problem.from_scene(sc)))
-        arms["without_preload"] = arm("without_preload", arm_scene(problem, "without_preload"))
+            arms[name] = arm(name, arm_scene(problem, name), controller=controllers[name])
+        arms["without_preload"] = last
     return Study(scene=scene, t_path=t_path, tau_min_norm=tau_min_norm, preload=preload,
                  preload_warning=preload_warning, arms=arms, t_end=t_end, step=h, refinement=refinement, skip=skip,
                  overrides={k: v for k, v in given.items() if v is not None}, foresight=foresight)
