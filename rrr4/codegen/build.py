@@ -35,6 +35,7 @@ import functools
 import hashlib
 import os
 import platform
+import resource
 import shutil
 import subprocess
 import sys
@@ -46,10 +47,11 @@ from pathlib import Path
 import casadi as ca
 
 from ..files import BuildError, c_compiler, run_c_compiler
+from .policy import level, remember_compile
 
-__all__ = ["library", "library_path", "library_in_background", "pending", "compile_staged", "spawn", "load",
-           "cache_dir", "compilations", "compile_time", "compile_notice", "cpu", "machine",
-           "COMPILE_FLAGS", "PORTABLE_FLAGS", "BuildError"]
+__all__ = ["library", "library_path", "source_bytes", "flags_for", "library_in_background", "pending",
+           "compile_staged", "spawn", "load", "cache_dir", "compilations", "compile_time", "compile_notice",
+           "decision_notice", "say", "cpu", "machine", "COMPILE_FLAGS", "PORTABLE_FLAGS", "BuildError"]
 
 PORTABLE_FLAGS = ("-O2", "-fPIC", "-shared")
 COMPILE_FLAGS = ("-O3", "-march=native", "-ffp-contract=off", "-fno-math-errno", "-fno-semantic-interposition",
@@ -60,6 +62,7 @@ _loaded: dict[tuple[str, str], ca.Function] = {}
 _compilations = [0]  # libraries this process built (not found in the cache)
 _compile_time = [0.0]  # [s] this process spent compiling them (and waiting for another's compiler)
 _notice: list = [None]  # called with the library's stem before the compiler runs
+_said: list = [None]  # called with a compile policy's decision that runs no compiler
 
 
 def compilations() -> int:
@@ -79,6 +82,19 @@ def compile_notice(notice=None):
     previous one, to restore."""
     previous, _notice[0] = _notice[0], notice
     return previous
+
+
+def decision_notice(say=None):
+    """Set the callable say(text) that :func:`say` calls with a compile policy's decision that
+    runs no compiler (e.g. the command line's line); None for silence. Returns the previous one."""
+    previous, _said[0] = _said[0], say
+    return previous
+
+
+def say(text: str) -> None:
+    """Tell the user, through :func:`decision_notice`'s callable, what the compile policy decided."""
+    if _said[0] is not None:
+        _said[0](text)
 
 
 def cache_dir() -> Path:
@@ -133,8 +149,8 @@ def library(stem: str, sources: Mapping[str, str], extra: Sequence = (), keep_so
     :data:`PORTABLE_FLAGS` where the compiler refuses them. Raises BuildError (an Rrr4Error)
     if no C compiler ($CC, cc or gcc) is available or compilation fails.
     """
-    flags = tuple(COMPILE_FLAGS)  # read at call time: benchmarks/bench_flags.py swaps it
     extra = [Path(p).resolve() for p in extra]
+    flags = flags_for(sources)
     lib = library_path(stem, sources, extra)
     if lib.exists():
         return lib
@@ -154,16 +170,28 @@ def library(stem: str, sources: Mapping[str, str], extra: Sequence = (), keep_so
         _compile_time[0] += time.perf_counter() - start
 
 
+def source_bytes(sources: Mapping[str, str]) -> int:
+    """Bytes of the C files (not the headers) among `sources`."""
+    return sum(len(text) for name, text in sources.items() if name.endswith(".c"))
+
+
+def flags_for(sources: Mapping[str, str]) -> tuple:
+    """:data:`COMPILE_FLAGS` (read at call time: benchmarks swap it) with the -O level that
+    :func:`rrr4.codegen.policy.level` gives the size of `sources` (-O1 beyond it, when forced)."""
+    lv = level(source_bytes(sources)) or "-O1"
+    return tuple(lv if f == "-O3" else f for f in COMPILE_FLAGS)
+
+
 def library_path(stem: str, sources: Mapping[str, str], extra: Sequence = ()) -> Path:
     """Where :func:`library` keeps the library of these sources (it may not exist yet)."""
-    flags = tuple(COMPILE_FLAGS)
+    flags = flags_for(sources)
     key = hashlib.sha256("\n".join([*sources.values(), " ".join(flags), cpu(),
                                     *(Path(p).read_text() for p in extra)]).encode()).hexdigest()[:24]
     return cache_dir() / f"{stem}_{key}.so"
 
 
 def library_in_background(stem: str, sources: Mapping[str, str], extra: Sequence = (), keep_sources: bool = False,
-                          urgent: bool = False) -> Path:
+                          urgent: bool = False, about: str = "") -> Path:
     """The path of :func:`library`'s library for these sources, compiled by a process of its own
     if it is not in the cache yet: the caller goes on at once and finds the library there
     (``path.exists()``) once it is done, later in its run or in a later run; :func:`library`
@@ -172,8 +200,9 @@ def library_in_background(stem: str, sources: Mapping[str, str], extra: Sequence
     runs at a lower priority (:data:`NICE`) and one such compiler at a time per cache
     directory (the others wait their turn), unless `urgent` (a library the caller will wait
     for soon, e.g. a generated controller: at once, at the normal priority). A library
-    another process is compiling already is left to it. keep_sources: as in :func:`library`.
-    Raises BuildError without a C compiler."""
+    another process is compiling already is left to it. keep_sources: as in :func:`library`;
+    about: what the caller's policy decided, for the notice. Raises BuildError without a C
+    compiler."""
     if c_compiler() is None:
         raise BuildError("cc: no C compiler found (set CC or install gcc)")
     extra = [str(Path(p).resolve()) for p in extra]
@@ -186,8 +215,8 @@ def library_in_background(stem: str, sources: Mapping[str, str], extra: Sequence
         except BlockingIOError:  # another process compiles it now
             return lib
         if _notice[0] is not None:
-            _notice[0](f"{stem} in the background (CasADi's virtual machine steps until it is ready)" if not urgent
-                       else f"{stem} in the background")
+            _notice[0](f"{stem} in the background ({about + '; ' if about else ''}CasADi's virtual machine steps "
+                       "until it is ready)" if not urgent else f"{stem} in the background")
         staged = Path(tempfile.mkdtemp(prefix=f"{lib.stem}.", suffix=".staged", dir=lib.parent))
         alive = open(staged / ALIVE, "w")  # locked as long as the compiler lives (see pending)
         fcntl.flock(alive, fcntl.LOCK_EX)
@@ -240,7 +269,7 @@ def compile_staged(lib: str, staged: str, options: str = "", *extra: str) -> Non
                     os.nice(NICE)
                 fcntl.flock(turn, fcntl.LOCK_EX)  # one background compiler at a time
             sources = {p.name: p.read_text() for p in sorted(src.iterdir()) if p.is_file() and p.name != ALIVE}
-            _compile(lib_path, sources, [Path(p) for p in extra], tuple(COMPILE_FLAGS), "keep" in opts)
+            _compile(lib_path, sources, [Path(p) for p in extra], flags_for(sources), "keep" in opts)
     finally:
         shutil.rmtree(src, ignore_errors=True)
 
@@ -261,8 +290,11 @@ def _compile(lib: Path, sources: Mapping[str, str], extra: list, flags: tuple, k
             tmp_lib = Path(tmp) / lib.name
             files = [*(str(src / n) for n in sources if n.endswith(".c")), *map(str, extra), "-o", str(tmp_lib),
                      "-lm"]
+            cpu_before = _children_cpu()
             try:
                 run_c_compiler([*flags, *files], src)
+                remember_compile(source_bytes(sources) + sum(Path(p).stat().st_size for p in extra),
+                                 next((f for f in flags if f.startswith("-O")), ""), _children_cpu() - cpu_before)
             except BuildError:  # e.g. a compiler without -march=native: the same code, portable
                 run_c_compiler([*PORTABLE_FLAGS, *files], src)
             if keep_sources:  # in place before the library, which marks a complete entry
@@ -273,6 +305,13 @@ def _compile(lib: Path, sources: Mapping[str, str], extra: list, flags: tuple, k
             os.replace(tmp_lib, lib)  # atomic: never a half-written cache entry
         _compilations[0] += 1
     return lib
+
+
+def _children_cpu() -> float:
+    """CPU seconds [user + system] of this process's finished children (the compiler's time on
+    one core, hardly changed by the machine's load)."""
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
 
 
 def load(name: str, lib) -> ca.Function:
