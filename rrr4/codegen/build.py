@@ -56,7 +56,7 @@ __all__ = ["library", "library_path", "source_bytes", "flags_for", "library_in_b
 PORTABLE_FLAGS = ("-O2", "-fPIC", "-shared")
 COMPILE_FLAGS = ("-O3", "-march=native", "-ffp-contract=off", "-fno-math-errno", "-fno-semantic-interposition",
                  "-fPIC", "-shared")
-NICE = 10  # niceness of a background compiler: the run it serves, and everyone else's, go first
+NICE = 5  # niceness of a background compiler: the run it serves, and everyone else's, go first
 ALIVE = ".alive"  # the file of a staged directory its background compiler holds locked while it lives
 _loaded: dict[tuple[str, str], ca.Function] = {}
 _compilations = [0]  # libraries this process built (not found in the cache)
