@@ -5,7 +5,10 @@ on it; a wear scene's frames are those ``rrr4 wear`` steps), in a new empty comp
 the background compiler replaced by a recorder, so every library the runs ask for is staged and
 none compiled there. Then each staged source is compiled by itself, one compiler at a time (one
 core), with the project's flags at each -O level; the compiler's CPU time (user + system of the
-child, so the machine's load hardly enters) and the source's size are reported. The
+child, so the machine's load hardly enters), the source's size (with the C files compiled in,
+e.g. a generated controller's) and the level the compile policy gives that size
+(:func:`rrr4.codegen.policy.level`; 'not compiled': the policy steps it in the virtual machine)
+are reported. The
 controllers (``controller``) are the generated C in the loop, the frames (``frame``,
 ``interval``) the compiled stepping. The issue's limit: no generated file over a minute.
 
@@ -30,7 +33,7 @@ def _staged(scene: str, cache: Path) -> list[tuple[str, Path, list[str]]]:
     """(library stem, staged source directory, extra C files) of every library the scene's runs ask for."""
     os.environ["RRR4_CACHE"] = str(cache)
     import rrr4
-    from rrr4.codegen import build
+    from rrr4.codegen import build, policy
     from rrr4.studies.study import run_study
     seen = []
 
@@ -42,11 +45,13 @@ def _staged(scene: str, cache: Path) -> list[tuple[str, Path, list[str]]]:
         shutil.rmtree(staged)
 
     build.spawn, spawn = record, build.spawn
+    pays, policy.PAYBACK_RUNS = policy.PAYBACK_RUNS, 1e12  # every library staged, however short the run
+    big, policy.O1_MAX_BYTES = policy.O1_MAX_BYTES, 1e12  # even those the policy leaves to the VM
     try:
         sc = rrr4.load_scene(ROOT / scene)
         run_study(sc, t_end=0.002)  # a wear scene's frames are those `rrr4 wear` steps (profiles are inputs)
     finally:
-        build.spawn = spawn
+        build.spawn, policy.PAYBACK_RUNS, policy.O1_MAX_BYTES = spawn, pays, big
     return seen
 
 
@@ -70,17 +75,20 @@ def main() -> None:
     sys.path.insert(0, str(ROOT))
     from rrr4.codegen.build import machine
     print(f"machine: {machine()}, load {os.getloadavg()[0]:.1f}")
-    print(f"| scene | library | C source [MB] | {' | '.join(f'compile {lv} [s CPU]' for lv in args.levels)} |")
-    print(f"|---|---|---|{'---|' * len(args.levels)}")
+    from rrr4.codegen.policy import level
+    print(f"| scene | library | C source [MB] | the policy's level | "
+          f"{' | '.join(f'compile {lv} [s CPU]' for lv in args.levels)} |")
+    print(f"|---|---|---|---|{'---|' * len(args.levels)}")
     with tempfile.TemporaryDirectory() as tmp:
         for scene in args.scenes:
             cache = Path(tmp) / Path(scene).stem
             cache.mkdir()
             for stem, src, extra in _staged(scene, cache):
-                size = sum(p.stat().st_size for p in src.glob("*.c")) / 1e6
+                nbytes = sum(p.stat().st_size for p in [*src.glob("*.c"), *map(Path, extra)])
                 times = [_compile_cpu(src, extra, lv) for lv in args.levels]
-                print(f"| {Path(scene).stem} | {stem} | {size:.2f} | {' | '.join(f'{t:.1f}' for t in times)} |",
-                      flush=True)
+                own = sum(p.stat().st_size for p in src.glob("*.c"))  # what the level follows
+                print(f"| {Path(scene).stem} | {stem} | {nbytes / 1e6:.2f} | {level(own) or 'not compiled'} | "
+                      f"{' | '.join(f'{t:.1f}' for t in times)} |", flush=True)
     print(f"load at the end {os.getloadavg()[0]:.1f}")
 
 
