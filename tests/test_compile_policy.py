@@ -123,7 +123,9 @@ def test_the_policy_compiles_what_pays_back_within_its_runs(tmp_path, monkeypatc
     assert not short.compile and long.compile and long.level == "-O3"
     assert long.compile_s == pytest.approx(10.0) and long.vm_s == pytest.approx(int(even * 1.1) * 3e-4)
     # another machine (CPU) shares nothing of it
-    monkeypatch.setattr(build, "cpu", lambda: "another CPU")
+    from rrr4.codegen import host
+    monkeypatch.setattr(policy, "cpu", lambda: "another CPU")
+    assert host.cpu() != "another CPU"
     assert policy.decide("frame_x.so", nbytes, 1).compile_s == pytest.approx(nbytes * policy.FIRST_COMPILE["-O3"])
 
 

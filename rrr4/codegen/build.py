@@ -31,10 +31,8 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
-import functools
 import hashlib
 import os
-import platform
 import resource
 import shutil
 import subprocess
@@ -47,6 +45,7 @@ from pathlib import Path
 import casadi as ca
 
 from ..files import BuildError, c_compiler, run_c_compiler
+from .host import cache_dir, cpu, machine
 from .policy import level, remember_compile
 
 __all__ = ["library", "library_path", "source_bytes", "flags_for", "library_in_background", "pending",
@@ -95,44 +94,6 @@ def say(text: str) -> None:
     """Tell the user, through :func:`decision_notice`'s callable, what the compile policy decided."""
     if _said[0] is not None:
         _said[0](text)
-
-
-def cache_dir() -> Path:
-    """Directory of the compiled libraries (created if needed)."""
-    d = Path(os.environ.get("RRR4_CACHE") or Path.home() / ".cache" / "rrr4")
-    d.mkdir(parents=True, exist_ok=True)
-    return d
-
-
-@functools.cache
-def _cpuinfo() -> str:
-    """/proc/cpuinfo, read once ('' where there is none)."""
-    try:
-        return Path("/proc/cpuinfo").read_text()
-    except OSError:
-        return ""
-
-
-@functools.cache
-def cpu() -> str:
-    """What identifies this machine's CPU for -march=native (part of every library's key): the
-    model and feature flags of its first processor (Linux), else what the platform module knows."""
-    first = _cpuinfo().split("\n\n")[0]
-    keep = [line for line in first.splitlines() if line.split(":")[0].strip() in ("vendor_id", "model name",
-                                                                                "flags", "Features", "CPU part")]
-    if keep:
-        return "\n".join(keep)
-    return f"{platform.machine()} {platform.processor()}"
-
-
-def machine() -> str:
-    """'AMD EPYC 7B13 (x86_64 Linux), 2 cores': the CPU where times are measured."""
-    name = platform.processor() or platform.machine()
-    for line in _cpuinfo().splitlines():
-        if line.startswith("model name"):
-            name = line.split(":", 1)[1].strip()
-            break
-    return f"{name} ({platform.machine()} {platform.system()}), {os.cpu_count()} cores"
 
 
 def library(stem: str, sources: Mapping[str, str], extra: Sequence = (), keep_sources: bool = False) -> Path:

@@ -7,8 +7,8 @@ machine has measured.
   :data:`O3_MAX_BYTES`, -O1 up to :data:`O1_MAX_BYTES`, a larger source not at all by the policy
   (forced with ``RRR4_JIT=1``, at -O1). Measured on the reference scene
   (``benchmarks/bench_opt_level.py``): -O1 compiles 1.8x faster than -O3 and steps 1.7x
-  slower (still 7.7x faster than the virtual machine); -O2 compiles and steps as -O3 does. The level depends on the size alone, so a library's cache key
-  does not move between runs.
+  slower (still 7.7x faster than the virtual machine); -O2 compiles and steps as -O3 does.
+  The level depends on the size alone, so a library's cache key does not move between runs.
 - **Compile time** [s of one core]: the source's size times this machine's seconds per byte at
   that level, the median of its last compiles (:func:`remember_compile`), or before any
   :data:`FIRST_COMPILE` (``benchmarks/bench_compile_time.py``).
@@ -21,8 +21,8 @@ machine has measured.
   steps) when the stepping time it saves over :data:`PAYBACK_RUNS` runs of this length covers
   the compile time; else step in the virtual machine and compile nothing.
 
-The measurements live in ``costs.json`` in the compile cache (:func:`rrr4.codegen.build.cache_dir`),
-one section per CPU (:func:`rrr4.codegen.build.cpu`), written atomically under a lock.
+The measurements live in ``costs.json`` in the compile cache (:func:`rrr4.codegen.host.cache_dir`),
+one section per CPU (:func:`rrr4.codegen.host.cpu`), written atomically under a lock.
 """
 
 from __future__ import annotations
@@ -36,6 +36,8 @@ import statistics
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+
+from .host import cache_dir, cpu
 
 __all__ = ["Decision", "decide", "level", "remember_compile", "remember_stepping", "estimated_compile",
            "O3_MAX_BYTES", "O1_MAX_BYTES", "PAYBACK_RUNS", "FIRST_COMPILE", "FIRST_VM_PER_BYTE", "FIRST_SPEEDUP"]
@@ -132,12 +134,10 @@ def _rate(costs: dict, lv: str) -> float:
 
 
 def _file() -> Path:
-    from .build import cache_dir
     return cache_dir() / "costs.json"
 
 
 def _section() -> str:
-    from .build import cpu
     return hashlib.sha256(cpu().encode()).hexdigest()[:16]
 
 
