@@ -117,11 +117,19 @@ def test_the_policy_compiles_what_pays_back_within_its_runs(tmp_path, monkeypatc
     policy.remember_stepping("frame_x.so", "vm", 3e-4)
     policy.remember_stepping("frame_x.so", "compiled", 1e-4)
     nbytes = 500_000  # 10 s of compiling; break-even at 10 / (PAYBACK_RUNS * 2e-4) steps
-    even = 10.0 / (policy.PAYBACK_RUNS * 2e-4)
+    PAYBACK = policy.PAYBACK_RUNS
+    even = 10.0 / (PAYBACK * 2e-4)
     short, long = policy.decide("frame_x.so", nbytes, int(even * 0.9)), policy.decide("frame_x.so", nbytes,
                                                                                      int(even * 1.1))
     assert not short.compile and long.compile and long.level == "-O3"
     assert long.compile_s == pytest.approx(10.0) and long.vm_s == pytest.approx(int(even * 1.1) * 3e-4)
+    # runs too short to pay, again and again: compiled once their losses in the VM add up to it
+    lost = 0.0
+    while not policy.decide("frame_x.so", nbytes, int(even * 0.1)).compile:
+        policy.remember_stepping("frame_x.so", "vm", 3e-4, int(even * 0.1) * 3e-4)
+        lost += int(even * 0.1) * 2e-4
+    short_gain = PAYBACK * int(even * 0.1) * 2e-4  # what the payback runs of one short run would save
+    assert 10.0 - short_gain - 1e-9 <= lost < 10.0 - short_gain + int(even * 0.1) * 2e-4 + 1e-9
     # another machine (CPU) shares nothing of it
     from rrr4.codegen import host
     monkeypatch.setattr(policy, "cpu", lambda: "another CPU")

@@ -18,8 +18,11 @@ machine has measured.
   :data:`FIRST_VM_PER_BYTE` seconds per byte and step in the virtual machine,
   :data:`FIRST_SPEEDUP` times faster compiled.
 - **The decision** (:func:`decide`): compile (in the background, while the virtual machine
-  steps) when the stepping time it saves over :data:`PAYBACK_RUNS` runs of this length covers
-  the compile time; else step in the virtual machine and compile nothing.
+  steps) when the stepping time it saves over :data:`PAYBACK_RUNS` runs of this length, plus
+  what the runs of this library have already lost stepping in the virtual machine on this
+  machine, covers the compile time; else step in the virtual machine and compile nothing. So
+  many short runs alike (a sweep's cases, a test) end up compiled once their losses add up to
+  the compile (the rent-or-buy rule, never worse than twice the best choice in hindsight).
 
 The measurements live in ``costs.json`` in the compile cache (:func:`rrr4.codegen.host.cache_dir`),
 one section per CPU (:func:`rrr4.codegen.host.cpu`), written atomically under a lock.
@@ -97,7 +100,8 @@ def decide(name: str, nbytes: int, steps: int) -> Decision:
     vm = per_step.get("vm") or nbytes * FIRST_VM_PER_BYTE
     compiled = per_step.get("compiled") or vm / FIRST_SPEEDUP
     vm_s, compiled_s = steps * vm, steps * min(compiled, vm)
-    pays = lv is not None and PAYBACK_RUNS * (vm_s - compiled_s) >= compile_s
+    lost = per_step.get("vm_spent", 0.0) * (1.0 - min(compiled, vm) / vm)  # by the earlier runs in the VM
+    pays = lv is not None and PAYBACK_RUNS * (vm_s - compiled_s) + lost >= compile_s
     return Decision(pays, lv, nbytes, compile_s, vm_s, compiled_s)
 
 
@@ -116,12 +120,15 @@ def remember_compile(nbytes: int, lv: str, seconds: float) -> None:
         _update(put)
 
 
-def remember_stepping(name: str, how: str, seconds_per_step: float) -> None:
+def remember_stepping(name: str, how: str, seconds_per_step: float, seconds: float = 0.0) -> None:
     """Record the seconds per step the library `name` took stepping in the virtual machine
-    (`how` 'vm') or compiled ('compiled')."""
+    (`how` 'vm') or compiled ('compiled'), and (virtual machine) the `seconds` it stepped there."""
     def put(c):
         table = c.setdefault("stepping", {})
-        table.setdefault(name, {})[how] = seconds_per_step
+        entry = table.setdefault(name, {})
+        entry[how] = seconds_per_step
+        if how == "vm":
+            entry["vm_spent"] = entry.get("vm_spent", 0.0) + seconds
         for old in list(table)[:-STEPPING]:
             del table[old]
     if seconds_per_step > 0:

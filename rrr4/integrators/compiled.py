@@ -82,7 +82,7 @@ def remember_stepping(lib: Path, timed: dict) -> None:
     stretch (under 0.2 s) is not a measurement."""
     for compiled_c, (seconds, steps) in timed.items():
         if steps and seconds > 0.2:
-            remember(lib.name, "compiled" if compiled_c else "vm", seconds / steps)
+            remember(lib.name, "compiled" if compiled_c else "vm", seconds / steps, seconds)
 
 
 def _sources(f: ca.Function) -> dict[str, str]:
