@@ -12,7 +12,7 @@ are reported. The
 controllers (``controller``) are the generated C in the loop, the frames (``frame``,
 ``interval``) the compiled stepping. The issue's limit: no generated file over a minute.
 
-    .venv/bin/python benchmarks/bench_compile_time.py [SCENE ...] [--levels -O1 -O3]
+    .venv/bin/python benchmarks/bench_compile_time.py [SCENE ...] [--levels -O0 -O1 -O3]
 """
 
 import argparse
@@ -46,12 +46,12 @@ def _staged(scene: str, cache: Path) -> list[tuple[str, Path, list[str]]]:
 
     build.spawn, spawn = record, build.spawn
     pays, policy.PAYBACK_RUNS = policy.PAYBACK_RUNS, 1e12  # every library staged, however short the run
-    big, policy.O1_MAX_BYTES = policy.O1_MAX_BYTES, 1e12  # even those the policy leaves to the VM
+    big, policy.O0_MAX_BYTES = policy.O0_MAX_BYTES, 1e12  # even those the policy leaves to the VM
     try:
         sc = rrr4.load_scene(ROOT / scene)
         run_study(sc, t_end=0.002)  # a wear scene's frames are those `rrr4 wear` steps (profiles are inputs)
     finally:
-        build.spawn, policy.PAYBACK_RUNS, policy.O1_MAX_BYTES = spawn, pays, big
+        build.spawn, policy.PAYBACK_RUNS, policy.O0_MAX_BYTES = spawn, pays, big
     return seen
 
 
@@ -70,7 +70,7 @@ def _compile_cpu(src: Path, extra: list[str], level: str) -> float:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scenes", nargs="*", default=list(SCENES))
-    ap.add_argument("--levels", nargs="+", default=["-O1", "-O3"])
+    ap.add_argument("--levels", nargs="+", default=["-O0", "-O1", "-O3"])
     args = ap.parse_args()
     sys.path.insert(0, str(ROOT))
     from rrr4.codegen.build import machine

@@ -138,10 +138,11 @@ def test_the_policy_compiles_what_pays_back_within_its_runs(tmp_path, monkeypatc
 
 
 def test_the_level_follows_the_source_size():
-    """-O3 up to O3_MAX_BYTES, -O1 up to O1_MAX_BYTES, nothing beyond; the flags (and so the
-    library's key) of a large source carry -O1, those of a small one the project's flags."""
+    """-O3 up to O3_MAX_BYTES, -O1 up to O1_MAX_BYTES, -O0 up to O0_MAX_BYTES, nothing beyond;
+    the flags (and so the library's key) of a large source carry -O1, those of a small one the
+    project's flags."""
     assert policy.level(policy.O3_MAX_BYTES) == "-O3" and policy.level(policy.O3_MAX_BYTES + 1) == "-O1"
-    assert policy.level(policy.O1_MAX_BYTES + 1) is None
+    assert policy.level(policy.O1_MAX_BYTES + 1) == "-O0" and policy.level(policy.O0_MAX_BYTES + 1) is None
     assert build.flags_for({"a.c": "x"}) == tuple(build.COMPILE_FLAGS)
     big = build.flags_for({"a.c": "x" * (policy.O3_MAX_BYTES + 1)})
     assert "-O1" in big and "-O3" not in big

@@ -138,8 +138,8 @@ def source_bytes(sources: Mapping[str, str]) -> int:
 
 def flags_for(sources: Mapping[str, str]) -> tuple:
     """:data:`COMPILE_FLAGS` (read at call time: benchmarks swap it) with the -O level that
-    :func:`rrr4.codegen.policy.level` gives the size of `sources` (-O1 beyond it, when forced)."""
-    lv = level(source_bytes(sources)) or "-O1"
+    :func:`rrr4.codegen.policy.level` gives the size of `sources` (-O0 beyond it, when forced)."""
+    lv = level(source_bytes(sources)) or "-O0"
     return tuple(lv if f == "-O3" else f for f in COMPILE_FLAGS)
 
 

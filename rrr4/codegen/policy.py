@@ -4,8 +4,10 @@ machine has measured.
 
 - **The -O level** (:func:`level`) follows the size of the C source, so that no generated file
   keeps the compiler busy for more than about a minute on one core: -O3 up to
-  :data:`O3_MAX_BYTES`, -O1 up to :data:`O1_MAX_BYTES`, a larger source not at all by the policy
-  (forced with ``RRR4_JIT=1``, at -O1). Measured on the reference scene
+  :data:`O3_MAX_BYTES`, -O1 up to :data:`O1_MAX_BYTES`, -O0 up to :data:`O0_MAX_BYTES`, a
+  larger source not at all by the policy (forced with ``RRR4_JIT=1``, at -O0). The wear scene's
+  frames (4.8 MB of C) took 99 s of one core at -O1 and 19 s at -O0 (over 114 s at -O3,
+  ``benchmarks/bench_compile_time.py``). Measured on the reference scene
   (``benchmarks/bench_opt_level.py``): -O1 compiles 1.8x faster than -O3 and steps 1.7x
   slower (still 7.7x faster than the virtual machine); -O2 compiles and steps as -O3 does.
   The level depends on the size alone, so a library's cache key does not move between runs.
@@ -43,13 +45,16 @@ from pathlib import Path
 from .host import cache_dir, cpu
 
 __all__ = ["Decision", "decide", "level", "remember_compile", "remember_stepping", "estimated_compile",
-           "O3_MAX_BYTES", "O1_MAX_BYTES", "PAYBACK_RUNS", "FIRST_COMPILE", "FIRST_VM_PER_BYTE", "FIRST_SPEEDUP"]
+           "O3_MAX_BYTES", "O1_MAX_BYTES", "O0_MAX_BYTES", "PAYBACK_RUNS", "FIRST_COMPILE", "FIRST_VM_PER_BYTE",
+           "FIRST_SPEEDUP"]
 
 # [s of one core per byte of C] at each level, before this machine has measured its own: the
 # reference scene's frames and controllers (0.2-0.6 MB), benchmarks/bench_compile_time.py
-FIRST_COMPILE = {"-O3": 1.6e-5, "-O1": 8.5e-6}
-O3_MAX_BYTES = 2_000_000  # about 30 s at -O3 by FIRST_COMPILE
-O1_MAX_BYTES = 6_000_000  # about 50 s at -O1
+# (-O1 and -O0: the wear scene's frames, 4.8 MB: 99 s and 19 s; -O3 over 114 s, stopped there)
+FIRST_COMPILE = {"-O3": 1.6e-5, "-O1": 2e-5, "-O0": 4e-6}
+O3_MAX_BYTES = 1_500_000  # about 25 s at -O3 by FIRST_COMPILE
+O1_MAX_BYTES = 2_500_000  # about 50 s at -O1
+O0_MAX_BYTES = 12_000_000  # about 50 s at -O0
 # [s per step and byte of C] in the virtual machine, and how many times faster compiled stepping
 # is: the reference scene's frame (0.6 MB of C; 1 s at 1e-4 s: 3.8 s in the VM, 0.30 s at -O3,
 # on a loaded machine, benchmarks/bench_opt_level.py)
@@ -63,7 +68,10 @@ STEPPING = 200  # libraries whose stepping is remembered
 def level(nbytes: int) -> str | None:
     """The -O level a C source of `nbytes` bytes is compiled at (None: too large for the
     policy to compile, see the module docstring)."""
-    return "-O3" if nbytes <= O3_MAX_BYTES else "-O1" if nbytes <= O1_MAX_BYTES else None
+    for lv, most in (("-O3", O3_MAX_BYTES), ("-O1", O1_MAX_BYTES), ("-O0", O0_MAX_BYTES)):
+        if nbytes <= most:
+            return lv
+    return None
 
 
 @dataclass(frozen=True)
@@ -95,7 +103,7 @@ def decide(name: str, nbytes: int, steps: int) -> Decision:
     its compile over a run of `steps` steps (see the module docstring)."""
     lv = level(nbytes)
     costs = _read()
-    compile_s = nbytes * _rate(costs, lv or "-O1")
+    compile_s = nbytes * _rate(costs, lv or "-O0")
     per_step = costs.get("stepping", {}).get(name, {})
     vm = per_step.get("vm") or nbytes * FIRST_VM_PER_BYTE
     compiled = per_step.get("compiled") or vm / FIRST_SPEEDUP
@@ -107,7 +115,7 @@ def decide(name: str, nbytes: int, steps: int) -> Decision:
 
 def estimated_compile(nbytes: int) -> float:
     """Seconds of one core the compiler is estimated to take on `nbytes` of C at its level."""
-    return nbytes * _rate(_read(), level(nbytes) or "-O1")
+    return nbytes * _rate(_read(), level(nbytes) or "-O0")
 
 
 def remember_compile(nbytes: int, lv: str, seconds: float) -> None:
