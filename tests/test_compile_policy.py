@@ -62,7 +62,7 @@ def test_a_run_that_ends_first_leaves_the_library_for_the_next(tmp_path, monkeyp
     """A real background compiler: the first run steps in the virtual machine to its end (it
     never waits), a process of its own compiles the library, and a later run steps in it."""
     monkeypatch.setenv("RRR4_CACHE", str(tmp_path))
-    monkeypatch.setattr(policy, "PAYBACK_RUNS", 1e9)
+    monkeypatch.setattr(policy, "FIRST_VM_PER_BYTE", 1.0)  # as if it paid within the run: compiled at NICE
     first = _frames(RK4(jit=BACKGROUND), oscillator(5.0))
     assert first.stats["stepping"]["compiled"] is False or first.stats["stepping"]["compiled_from_frame"] > 0
     for _ in range(3000):  # the compiler runs in its own process, niced: wait for its library
@@ -122,6 +122,9 @@ def test_the_policy_compiles_what_pays_back_within_its_runs(tmp_path, monkeypatc
     short, long = policy.decide("frame_x.so", nbytes, int(even * 0.9)), policy.decide("frame_x.so", nbytes,
                                                                                      int(even * 1.1))
     assert not short.compile and long.compile and long.level == "-O3"
+    # it pays within this run only when one run saves the compile: then the run moves to it, else later runs do
+    assert not long.now and "for later runs" in long.text()
+    assert policy.decide("frame_x.so", nbytes, int(even * PAYBACK * 1.01)).now
     assert long.compile_s == pytest.approx(10.0) and long.vm_s == pytest.approx(int(even * 1.1) * 3e-4)
     # runs too short to pay, again and again: compiled once their losses in the VM add up to it
     lost = 0.0

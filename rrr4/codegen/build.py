@@ -46,7 +46,8 @@ import casadi as ca
 
 from ..files import BuildError, c_compiler, run_c_compiler
 from .host import cache_dir, cpu, machine
-from .policy import level, remember_compile
+from .policy import level as level_for
+from .policy import remember_compile
 
 __all__ = ["library", "library_path", "source_bytes", "flags_for", "library_in_background", "pending",
            "compile_staged", "spawn", "load", "cache_dir", "compilations", "compile_time", "compile_notice",
@@ -56,6 +57,7 @@ PORTABLE_FLAGS = ("-O2", "-fPIC", "-shared")
 COMPILE_FLAGS = ("-O3", "-march=native", "-ffp-contract=off", "-fno-math-errno", "-fno-semantic-interposition",
                  "-fPIC", "-shared")
 NICE = 5  # niceness of a background compiler: the run it serves, and everyone else's, go first
+NICE_LATER = 19  # of one whose library serves later runs only: it takes what nobody else wants
 ALIVE = ".alive"  # the file of a staged directory its background compiler holds locked while it lives
 _loaded: dict[tuple[str, str], ca.Function] = {}
 _compilations = [0]  # libraries this process built (not found in the cache)
@@ -96,14 +98,16 @@ def say(text: str) -> None:
         _said[0](text)
 
 
-def library(stem: str, sources: Mapping[str, str], extra: Sequence = (), keep_sources: bool = False) -> Path:
+def library(stem: str, sources: Mapping[str, str], extra: Sequence = (), keep_sources: bool = False,
+            level: str | None = None) -> Path:
     """The shared library ``<stem>_<key>.so`` in :func:`cache_dir` built from `sources`; its path.
 
     sources: file name -> C text, written side by side; the ``.c`` files are compiled, the
     others (headers) only included. extra: further C files (paths) compiled into the same
     library, e.g. the generated code of an external Function that the sources call. The key
     hashes the texts of both, the flags and the CPU. keep_sources: keep `sources` in the
-    directory ``<stem>_<key>/`` next to the library (its path without the suffix).
+    directory ``<stem>_<key>/`` next to the library (its path without the suffix). level: the
+    -O level (default the one :func:`rrr4.codegen.policy.level` gives the sources' size).
 
     A library that a background compiler (:func:`library_in_background`) is making now is
     waited for, not compiled a second time. Compiled with :data:`COMPILE_FLAGS`, or
@@ -111,8 +115,8 @@ def library(stem: str, sources: Mapping[str, str], extra: Sequence = (), keep_so
     if no C compiler ($CC, cc or gcc) is available or compilation fails.
     """
     extra = [Path(p).resolve() for p in extra]
-    flags = flags_for(sources)
-    lib = library_path(stem, sources, extra)
+    flags = flags_for(sources, level)
+    lib = library_path(stem, sources, extra, level)
     if lib.exists():
         return lib
     start = time.perf_counter()
@@ -136,38 +140,41 @@ def source_bytes(sources: Mapping[str, str]) -> int:
     return sum(len(text) for name, text in sources.items() if name.endswith(".c"))
 
 
-def flags_for(sources: Mapping[str, str]) -> tuple:
+def flags_for(sources: Mapping[str, str], level: str | None = None) -> tuple:
     """:data:`COMPILE_FLAGS` (read at call time: benchmarks swap it) with the -O level that
-    :func:`rrr4.codegen.policy.level` gives the size of `sources` (-O0 beyond it, when forced)."""
-    lv = level(source_bytes(sources)) or "-O0"
+    :func:`rrr4.codegen.policy.level` gives the size of `sources` (-O0 beyond it, when forced),
+    or `level` if given."""
+    lv = level or level_for(source_bytes(sources)) or "-O0"
     return tuple(lv if f == "-O3" else f for f in COMPILE_FLAGS)
 
 
-def library_path(stem: str, sources: Mapping[str, str], extra: Sequence = ()) -> Path:
+def library_path(stem: str, sources: Mapping[str, str], extra: Sequence = (), level: str | None = None) -> Path:
     """Where :func:`library` keeps the library of these sources (it may not exist yet)."""
-    flags = flags_for(sources)
+    flags = flags_for(sources, level)
     key = hashlib.sha256("\n".join([*sources.values(), " ".join(flags), cpu(),
                                     *(Path(p).read_text() for p in extra)]).encode()).hexdigest()[:24]
     return cache_dir() / f"{stem}_{key}.so"
 
 
 def library_in_background(stem: str, sources: Mapping[str, str], extra: Sequence = (), keep_sources: bool = False,
-                          urgent: bool = False, about: str = "") -> Path:
+                          urgent: bool = False, about: str = "", level: str | None = None, later: bool = False) -> Path:
     """The path of :func:`library`'s library for these sources, compiled by a process of its own
     if it is not in the cache yet: the caller goes on at once and finds the library there
     (``path.exists()``) once it is done, later in its run or in a later run; :func:`library`
     asked for it meanwhile waits for that process instead of compiling it again. The process
     outlives the caller (an interrupted run still leaves the library for the next one). It
-    runs at a lower priority (:data:`NICE`) and one such compiler at a time per cache
-    directory (the others wait their turn), unless `urgent` (a library the caller will wait
-    for soon, e.g. a generated controller: at once, at the normal priority). A library
-    another process is compiling already is left to it. keep_sources: as in :func:`library`;
+    runs at a lower priority (:data:`NICE`; :data:`NICE_LATER`, the least, if `later`: a
+    library that serves later runs only, whose compiler should not slow this one) and one such
+    compiler at a time per cache directory (the others wait their turn), unless `urgent` (a
+    library the caller will wait for soon, e.g. a generated controller: at once, at the normal
+    priority). A library
+    another process is compiling already is left to it. keep_sources, level: as in :func:`library`;
     about: what the caller's policy decided, for the notice. Raises BuildError without a C
     compiler."""
     if c_compiler() is None:
         raise BuildError("cc: no C compiler found (set CC or install gcc)")
     extra = [str(Path(p).resolve()) for p in extra]
-    lib = library_path(stem, sources, extra)
+    lib = library_path(stem, sources, extra, level)
     if lib.exists() or pending(lib):
         return lib
     with open(lib.with_suffix(".lock"), "a") as lock:
@@ -185,7 +192,9 @@ def library_in_background(stem: str, sources: Mapping[str, str], extra: Sequence
             (staged / name).write_text(text)
         fcntl.flock(lock, fcntl.LOCK_UN)
     with alive:  # the compiler inherits the locked descriptor; ours closes, its lock stays
-        spawn([str(lib), str(staged), ",".join(o for o, on in (("keep", keep_sources), ("urgent", urgent)) if on),
+        spawn([str(lib), str(staged), ",".join(o for o, on in (("keep", keep_sources), ("urgent", urgent),
+                                                                ("later", later), (level, level is not None))
+                        if on),
                *extra], alive.fileno())
     return lib
 
@@ -220,17 +229,20 @@ def spawn(args: list[str], alive: int) -> None:
 def compile_staged(lib: str, staged: str, options: str = "", *extra: str) -> None:
     """The background compiler of :func:`library_in_background`: the sources staged in the
     directory `staged` into `lib`; options: 'keep' (keep the sources beside the library),
-    'urgent' (at once, at the normal priority; otherwise at :data:`NICE` and one such compiler
-    at a time per cache directory). The staged directory is removed whatever happens."""
+    'urgent' (at once, at the normal priority; otherwise at :data:`NICE`, or :data:`NICE_LATER`
+    with 'later', and one such compiler
+    at a time per cache directory), an -O level (e.g. '-O1'; default by size). The staged directory
+    is removed whatever happens."""
     lib_path, src, opts = Path(lib), Path(staged), options.split(",")
     try:
         with open(lib_path.parent / "background.lock", "a") as turn:
             if "urgent" not in opts:
                 with contextlib.suppress(OSError):
-                    os.nice(NICE)
+                    os.nice(NICE_LATER if "later" in opts else NICE)
                 fcntl.flock(turn, fcntl.LOCK_EX)  # one background compiler at a time
             sources = {p.name: p.read_text() for p in sorted(src.iterdir()) if p.is_file() and p.name != ALIVE}
-            _compile(lib_path, sources, [Path(p) for p in extra], flags_for(sources), "keep" in opts)
+            lv = next((o for o in opts if o.startswith("-O")), None)
+            _compile(lib_path, sources, [Path(p) for p in extra], flags_for(sources, lv), "keep" in opts)
     finally:
         shutil.rmtree(src, ignore_errors=True)
 

@@ -84,6 +84,13 @@ class Decision:
     vm_s: float  # this run's stepping in the virtual machine
     compiled_s: float  # and compiled
 
+    @property
+    def now(self) -> bool:
+        """Whether the compile pays within this run (then the run moves to the library when it
+        is ready); otherwise it serves later runs only, and its compiler takes the least of the
+        machine (:data:`rrr4.codegen.build.NICE_LATER`)."""
+        return self.compile and self.vm_s - self.compiled_s >= self.compile_s
+
     def reason(self) -> str:
         """The estimates behind it, in words."""
         mb, gain = self.source_bytes / 1e6, max(self.vm_s - self.compiled_s, 0.0)
@@ -95,7 +102,9 @@ class Decision:
 
     def text(self) -> str:
         """One line for the user and summary.json."""
-        return f"{'compiled in the background' if self.compile else 'not compiled'} ({self.reason()})"
+        what = ("compiled in the background" + ("" if self.now else " for later runs") if self.compile else
+                "not compiled")
+        return f"{what} ({self.reason()})"
 
 
 def decide(name: str, nbytes: int, steps: int) -> Decision:

@@ -71,7 +71,7 @@ def compiled_later(f: ca.Function, sources=(), steps: int = 0) -> tuple[ca.Funct
     if not decision.compile:
         say(f"{f.name()}: CasADi's virtual machine steps it, {decision.text()}")
         return None, lib, False, decision.text()
-    library_in_background(f.name(), text, extra=sources, about=decision.reason())
+    library_in_background(f.name(), text, extra=sources, about=decision.reason(), later=not decision.now)
     return (load(f.name(), lib) if lib.exists() else None), lib, not lib.exists(), decision.text()
 
 
