@@ -38,7 +38,7 @@ def test_a_run_moves_to_the_library_when_it_is_ready_with_the_same_states(method
     blocks in the virtual machine and the rest in the library, and its states are the virtual
     machine's and the compiled run's, bit for bit."""
     monkeypatch.setenv("RRR4_CACHE", str(tmp_path))
-    monkeypatch.setattr(policy, "PAYBACK_RUNS", 1e9)  # the oscillator's short run: compiling pays only so
+    monkeypatch.setattr(policy, "FIRST_VM_PER_BYTE", 1.0)  # as if its compile paid within the run
     started = []
     monkeypatch.setattr(build, "spawn", lambda args, alive: started.append(args))
     rows = []

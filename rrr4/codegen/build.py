@@ -58,6 +58,8 @@ COMPILE_FLAGS = ("-O3", "-march=native", "-ffp-contract=off", "-fno-math-errno",
                  "-fPIC", "-shared")
 NICE = 5  # niceness of a background compiler: the run it serves, and everyone else's, go first
 NICE_LATER = 19  # of one whose library serves later runs only: it takes what nobody else wants
+LATER_AFTER = 120.0  # [s] and it starts when the process that asked for it ends, or this long after
+AFTER = ".after"  # the file of a staged directory naming the process a deferred compiler waits for
 ALIVE = ".alive"  # the file of a staged directory its background compiler holds locked while it lives
 _loaded: dict[tuple[str, str], ca.Function] = {}
 _compilations = [0]  # libraries this process built (not found in the cache)
@@ -164,7 +166,9 @@ def library_in_background(stem: str, sources: Mapping[str, str], extra: Sequence
     asked for it meanwhile waits for that process instead of compiling it again. The process
     outlives the caller (an interrupted run still leaves the library for the next one). It
     runs at a lower priority (:data:`NICE`; :data:`NICE_LATER`, the least, if `later`: a
-    library that serves later runs only, whose compiler should not slow this one) and one such
+    library that serves later runs only, whose compiler should not slow this one, and which
+    starts when this process ends or :data:`LATER_AFTER` seconds on, whichever comes first;
+    this process compiles it itself if it asks :func:`library` for it meanwhile) and one such
     compiler at a time per cache directory (the others wait their turn), unless `urgent` (a
     library the caller will wait for soon, e.g. a generated controller: at once, at the normal
     priority). A library
@@ -188,12 +192,15 @@ def library_in_background(stem: str, sources: Mapping[str, str], extra: Sequence
         staged = Path(tempfile.mkdtemp(prefix=f"{lib.stem}.", suffix=".staged", dir=lib.parent))
         alive = open(staged / ALIVE, "w")  # locked as long as the compiler lives (see pending)
         fcntl.flock(alive, fcntl.LOCK_EX)
+        if later:  # it waits for this process (see compile_staged), which must not wait for it
+            (staged / AFTER).write_text(str(os.getpid()))
         for name, text in sources.items():
             (staged / name).write_text(text)
         fcntl.flock(lock, fcntl.LOCK_UN)
     with alive:  # the compiler inherits the locked descriptor; ours closes, its lock stays
         spawn([str(lib), str(staged), ",".join(o for o, on in (("keep", keep_sources), ("urgent", urgent),
-                                                                ("later", later), (level, level is not None))
+                                                                (f"later{os.getpid()}", later),
+                                                                (level, level is not None))
                         if on),
                *extra], alive.fileno())
     return lib
@@ -204,6 +211,9 @@ def pending(lib: Path) -> bool:
     its turn to compile, the library `lib`: a staged directory of it whose :data:`ALIVE` file
     a living process holds locked (a compiler killed outright leaves one nobody holds)."""
     for staged in lib.parent.glob(f"{lib.stem}.*.staged"):
+        with contextlib.suppress(OSError, ValueError):
+            if int((staged / AFTER).read_text()) == os.getpid():
+                continue  # deferred until this process ends: not to be waited for here
         try:
             with open(staged / ALIVE) as alive:
                 try:
@@ -229,18 +239,23 @@ def spawn(args: list[str], alive: int) -> None:
 def compile_staged(lib: str, staged: str, options: str = "", *extra: str) -> None:
     """The background compiler of :func:`library_in_background`: the sources staged in the
     directory `staged` into `lib`; options: 'keep' (keep the sources beside the library),
-    'urgent' (at once, at the normal priority; otherwise at :data:`NICE`, or :data:`NICE_LATER`
-    with 'later', and one such compiler
+    'urgent' (at once, at the normal priority; otherwise at :data:`NICE`, or with 'later<pid>'
+    at :data:`NICE_LATER` once the process pid has ended (at most :data:`LATER_AFTER` s on),
+    and one such compiler
     at a time per cache directory), an -O level (e.g. '-O1'; default by size). The staged directory
     is removed whatever happens."""
     lib_path, src, opts = Path(lib), Path(staged), options.split(",")
     try:
         with open(lib_path.parent / "background.lock", "a") as turn:
+            after = next((int(o[5:]) for o in opts if o.startswith("later")), None)
             if "urgent" not in opts:
                 with contextlib.suppress(OSError):
-                    os.nice(NICE_LATER if "later" in opts else NICE)
+                    os.nice(NICE_LATER if after else NICE)
+            if after:  # for later runs: not while the run that asked for it goes on
+                _wait_for_end(after, LATER_AFTER)
                 fcntl.flock(turn, fcntl.LOCK_EX)  # one background compiler at a time
-            sources = {p.name: p.read_text() for p in sorted(src.iterdir()) if p.is_file() and p.name != ALIVE}
+            sources = {p.name: p.read_text() for p in sorted(src.iterdir())
+                       if p.is_file() and not p.name.startswith(".")}  # not ALIVE, AFTER
             lv = next((o for o in opts if o.startswith("-O")), None)
             _compile(lib_path, sources, [Path(p) for p in extra], flags_for(sources, lv), "keep" in opts)
     finally:
@@ -278,6 +293,19 @@ def _compile(lib: Path, sources: Mapping[str, str], extra: list, flags: tuple, k
             os.replace(tmp_lib, lib)  # atomic: never a half-written cache entry
         _compilations[0] += 1
     return lib
+
+
+def _wait_for_end(pid: int, at_most: float) -> None:
+    """Return once the process `pid` has ended, or after `at_most` seconds."""
+    end = time.monotonic() + at_most
+    while time.monotonic() < end:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return
+        except PermissionError:
+            pass
+        time.sleep(0.2)
 
 
 def _children_cpu() -> float:
