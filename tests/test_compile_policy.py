@@ -198,3 +198,16 @@ def test_a_mapped_function_lives_as_long_as_the_function_it_maps():
     del f
     gc.collect()
     assert kept() is None  # gone with f
+
+
+def test_a_compile_for_later_runs_waits_for_the_run_that_asked_for_it(tmp_path, monkeypatch):
+    """A background compile that serves later runs only (later=True) does not start while the
+    process that asked for it lives; that process, asking for the library itself meanwhile,
+    compiles it instead of waiting (no deadlock)."""
+    monkeypatch.setenv("RRR4_CACHE", str(tmp_path))
+    lib = build.library_in_background("tiny", _TINY, later=True)
+    time.sleep(2.0)
+    assert not lib.exists() and list(tmp_path.glob("*.staged"))  # its compiler waits for us
+    assert not build.pending(lib)  # not for this process to wait for
+    before = build.compilations()
+    assert build.library("tiny", _TINY) == lib and build.compilations() == before + 1
