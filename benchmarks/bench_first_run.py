@@ -7,9 +7,11 @@ Policies: the default (``RRR4_JIT`` unset: the stepping compiles in a process of
 CasADi's virtual machine steps, and a later run uses the library) and ``RRR4_JIT=1`` (compile
 first, then step: the behaviour before the policy). The rounds alternate the policies, so that
 a change of the machine's load hits both. Reported: medians of cold and warm wall times and
-their ratio per policy, and whether the cold and warm results agree (``rrr4 compare``).
+their ratio per policy, and whether the cold and warm results agree with each other and with
+the committed result ``results/<scene name>`` where it exists (``rrr4 compare``, rtol 1e-9).
 
     .venv/bin/python benchmarks/bench_first_run.py [problems/paper_circle.yaml] [--rounds 3]
+        [--policies default compile-first]
 """
 
 import argparse
@@ -25,7 +27,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 RRR4 = str(Path(sys.executable).with_name("rrr4"))
-POLICIES = {"default (background)": None, "RRR4_JIT=1 (compile first)": "1"}
+POLICIES = {"default": ("default (background)", None), "compile-first": ("RRR4_JIT=1 (compile first)", "1")}
 
 
 def _run(scene: str, out: Path, cache: Path, jit) -> float:
@@ -50,22 +52,29 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scene", nargs="?", default="problems/paper_circle.yaml")
     ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--policies", nargs="+", choices=tuple(POLICIES), default=list(POLICIES))
     args = ap.parse_args()
+    policies = {name: jit for key, (name, jit) in POLICIES.items() if key in args.policies}
     sys.path.insert(0, str(ROOT))
     from rrr4.codegen.build import machine
-    times = {p: {"cold": [], "warm": [], "settle": []} for p in POLICIES}
+    times = {p: {"cold": [], "warm": [], "settle": []} for p in policies}
     agree = {}
+    committed = ROOT / "results" / Path(args.scene).stem
+    print(f"load at the start {os.getloadavg()[0]:.1f}", flush=True)
     with tempfile.TemporaryDirectory() as tmp:
         for r in range(args.rounds):
-            for policy, jit in POLICIES.items():
+            for policy, jit in policies.items():
                 cache = Path(tmp) / f"cache_{r}_{jit}"
                 cache.mkdir()
                 cold, warm = Path(tmp) / f"cold_{r}_{jit}", Path(tmp) / f"warm_{r}_{jit}"
                 times[policy]["cold"].append(_run(args.scene, cold, cache, jit))
                 times[policy]["settle"].append(_settle(cache))
                 times[policy]["warm"].append(_run(args.scene, warm, cache, jit))
-                cmp = subprocess.run([RRR4, "compare", str(cold), str(warm), "--rtol", "1e-9"], capture_output=True)
-                agree[policy] = agree.get(policy, True) and cmp.returncode == 0
+                # cold against warm, and against the committed result where there is one
+                pairs = [(cold, warm)] + [(committed, cold)] * committed.is_dir()
+                same = all(subprocess.run([RRR4, "compare", str(a), str(b), "--rtol", "1e-9"],
+                                          capture_output=True).returncode == 0 for a, b in pairs)
+                agree[policy] = agree.get(policy, True) and same
                 shutil.rmtree(cache)
                 print(f"round {r + 1} {policy}: cold {times[policy]['cold'][-1]:.1f} s, warm "
                       f"{times[policy]['warm'][-1]:.1f} s", flush=True)

@@ -514,20 +514,23 @@ def main(argv=None) -> int:
 
 
 class _compiling:
-    """While it is open, 'compiling ...' is said on stderr whenever the C compiler runs."""
+    """While it is open, 'compiling ...' is said on stderr whenever the C compiler runs, and what
+    the compile policy decided when it compiles nothing."""
 
     def __init__(self, who: str):
         self.who = who
 
     def __enter__(self):
-        from .codegen.build import compile_notice
+        from .codegen.build import compile_notice, decision_notice
         self.previous = compile_notice(lambda stem: _say(f"{self.who}: compiling {stem} (C compiler; the result is "
                                                          "cached, later runs skip this) ..."))
+        self.previous_say = decision_notice(lambda text: _say(f"{self.who}: {text}"))
         return self
 
     def __exit__(self, *exc):
-        from .codegen.build import compile_notice
+        from .codegen.build import compile_notice, decision_notice
         compile_notice(self.previous)
+        decision_notice(self.previous_say)
         return False
 
 

@@ -6,11 +6,12 @@ of solver quiet: :data:`QUIET` options and :func:`solver_output_captured`."""
 from __future__ import annotations
 
 import contextlib
-import functools
 import io
 import os
 import sys
 import tempfile
+import threading
+import weakref
 
 import casadi as ca
 import numpy as np
@@ -94,11 +95,24 @@ def graph_size(f: ca.Function) -> dict:
     return {"instructions": f.n_instructions(), "nodes": f.n_nodes(), "inputs": f.nnz_in()}
 
 
-@functools.lru_cache(maxsize=128)
+_MAPS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # Function handle -> {m: its map}
+_MAPS_LOCK = threading.Lock()
+MAPS_PER_FUNCTION = 16  # column counts kept per Function (a run's blocks take one or two)
+
+
 def mapped_function(f: ca.Function, m: int) -> ca.Function:
     """f.map(m), built once (building one costs about 0.5 ms, as much as evaluating it on a
-    few hundred columns)."""
-    return f.map(m)
+    few hundred columns) and kept exactly as long as the handle `f` lives: a weak-keyed cache,
+    so a map never outlives, nor is found for another than, the Function it maps (a handle's
+    identity is not reused while it lives), and dropping a problem's Functions drops their
+    maps. At most :data:`MAPS_PER_FUNCTION` column counts per Function."""
+    with _MAPS_LOCK:
+        maps = _MAPS.setdefault(f, {})
+        if m not in maps:
+            if len(maps) >= MAPS_PER_FUNCTION:
+                maps.clear()
+            maps[m] = f.map(m)
+        return maps[m]
 
 
 def nonzeros(sp: ca.Sparsity) -> np.ndarray:

@@ -333,18 +333,24 @@ class FixedStepIntegrator(Integrator):
             if every > 1:
                 xu, uu = ca.MX.sym("x", unit.size1_in(0)), ca.MX.sym("u", unit.size1_in(1), every)
                 unit = ca.Function("interval", [xu, uu], [unit.fold(every)(xu, uu)], ["x", "u"], ["x_next"])
-            if self.jit == BACKGROUND:  # the C compiled by a process of its own; the VM steps meanwhile
+            if self.jit == BACKGROUND:  # the C compiled by a process of its own if that pays; the VM steps meanwhile
                 from .compiled import compiled_later
-                ready, pending = compiled_later(unit, system.c_sources)
-                if ready is None:
-                    system.frames[key, "pending"] = pending
+                ready, lib, compiling, decided = compiled_later(unit, system.c_sources, n_frames * steps_per_frame)
+                if compiling:
+                    system.frames[key, "pending"] = lib
+                system.frames[key, "decided"] = decided, ready is not None or compiling, lib
                 unit = ready or unit
             elif self.jit:  # generated C of the whole loop, cached on disk (see .compiled)
                 from .compiled import compiled
                 unit = compiled(unit, system.c_sources)
             system.frames[key] = unit
         unit = system.frames[key]
-        stepping = {"compiled": bool(self.jit) and (key, "pending") not in system.frames, "compiled_from_frame": None}
+        decided, compiles, lib = system.frames.get((key, "decided"), (None, None, None))
+        stepping = {"compiled": bool(self.jit) and compiles is not False and (key, "pending") not in system.frames,
+                    "compiled_from_frame": None}
+        if decided is not None:
+            stepping["decision"] = decided
+        timed = {True: [0.0, 0], False: [0.0, 0]}  # compiled or not: [seconds stepping, steps]
         n_units = n_frames // every
         chunk = max(1, chunk // every) if chunk else min(max(1, -(-n_units // CALLS)), MAX_CHUNK)  # intervals per call
         x = np.asarray(x0, float)
@@ -372,8 +378,11 @@ class FixedStepIntegrator(Integrator):
                 # order, and the (keep, k) output is out's rows k0..k0+k: no conversion to DM
                 last = np.empty(x.size)
                 kept = out[k0:k0 + k] if sink is None else np.empty((k, keep))
-                evaluate(system.frames[key, k, keep], [x, np.ascontiguousarray(u_frames[k0 * every:(k0 + k) * every],
-                                                                             float)], [kept, last])
+                rows = np.ascontiguousarray(u_frames[k0 * every:(k0 + k) * every], float)
+                t0 = time.perf_counter()
+                evaluate(system.frames[key, k, keep], [x, rows], [kept, last])
+                timed[stepping["compiled"]][0] += time.perf_counter() - t0
+                timed[stepping["compiled"]][1] += k * every * steps_per_frame
                 if sink is not None:
                     sink(k0, kept)
                 x = last
@@ -382,6 +391,9 @@ class FixedStepIntegrator(Integrator):
         finally:  # an error or interrupt must not leave a half-drawn bar under its message
             if bar is not None:
                 bar.close()
+        if decided is not None:  # what this library's steps cost here, for the policy's next estimate
+            from .compiled import remember_stepping
+            remember_stepping(lib, timed)
         return out, x, stepping
 
     @staticmethod

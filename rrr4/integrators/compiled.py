@@ -27,7 +27,9 @@ from pathlib import Path
 
 import casadi as ca
 
-from ..codegen.build import compilations, library, library_in_background, load
+from ..codegen.build import compilations, library, library_in_background, library_path, load, say, source_bytes
+from ..codegen.policy import decide
+from ..codegen.policy import remember_stepping as remember
 
 __all__ = ["compiled", "compiled_later", "compilations", "inline_min_max", "load"]
 
@@ -53,13 +55,34 @@ def compiled(f: ca.Function, sources=()) -> ca.Function:
     return load(f.name(), library(f.name(), _sources(f), extra=sources))
 
 
-def compiled_later(f: ca.Function, sources=()) -> tuple[ca.Function | None, Path]:
+def compiled_later(f: ca.Function, sources=(), steps: int = 0) -> tuple[ca.Function | None, Path, bool, str]:
     """(`f` compiled, as :func:`compiled`, if its library is in the cache, else None; the
-    library's path): a library not yet cached is compiled by a process of its own
+    library's path; whether a process of its own compiles it now; what was decided, in words).
+    A library not yet cached is compiled by a process of its own
     (:func:`rrr4.codegen.build.library_in_background`) while the caller goes on, e.g. stepping
-    in CasADi's virtual machine; ``load(f.name(), path)`` once ``path.exists()``."""
-    lib = library_in_background(f.name(), _sources(f), extra=sources)
-    return (load(f.name(), lib) if lib.exists() else None), lib
+    in CasADi's virtual machine (``load(f.name(), path)`` once ``path.exists()``), if that pays
+    over a run of `steps` steps (:func:`rrr4.codegen.policy.decide`); otherwise nothing is
+    compiled."""
+    text = _sources(f)
+    lib = library_path(f.name(), text, sources)
+    if lib.exists():
+        return load(f.name(), lib), lib, False, "compiled C from the cache"
+    decision = decide(lib.name, source_bytes(text) + sum(Path(p).stat().st_size for p in sources), steps)
+    if not decision.compile:
+        say(f"{f.name()}: CasADi's virtual machine steps it, {decision.text()}")
+        return None, lib, False, decision.text()
+    library_in_background(f.name(), text, extra=sources, about=decision.reason(), later=not decision.now)
+    return (load(f.name(), lib) if lib.exists() else None), lib, not lib.exists(), decision.text()
+
+
+def remember_stepping(lib: Path, timed: dict) -> None:
+    """Record the seconds per step the library `lib` (see :func:`compiled_later`) took in the
+    virtual machine (timed[False]) and compiled (timed[True]), each [seconds, steps], for the
+    compile policy's next estimate (:func:`rrr4.codegen.policy.remember_stepping`); a short
+    stretch (under 0.2 s) is not a measurement."""
+    for compiled_c, (seconds, steps) in timed.items():
+        if steps and seconds > 0.2:
+            remember(lib.name, "compiled" if compiled_c else "vm", seconds / steps, seconds)
 
 
 def _sources(f: ca.Function) -> dict[str, str]:

@@ -176,12 +176,14 @@ def arm_metrics(sim: Simulation, wall_time: float, skip: float = 0.0, compile_ti
 
 def stepping_text(sim: Simulation) -> str:
     """How a run stepped: 'compiled C', 'virtual machine', or 'virtual machine, compiled C from
-    t = ... s' (the compile policy of :func:`rrr4.simulation.default_jit`; the same states)."""
+    t = ... s' (the compile policy of :func:`rrr4.simulation.default_jit`; the same states),
+    and what the policy decided, with its estimates, where it decided."""
     s = sim.stats.get("stepping") or {}
+    why = f"; {s['decision']}" if s.get("decision") else ""  # the compile policy's decision and estimates
     if not s.get("compiled"):
-        return "virtual machine"
+        return "virtual machine" + why
     t = s.get("compiled_from_s")
-    return "compiled C" if t is None else f"virtual machine, compiled C from t = {t:.4g} s"
+    return ("compiled C" if t is None else f"virtual machine, compiled C from t = {t:.4g} s") + why
 
 
 def _verdict(sim: Simulation) -> dict:

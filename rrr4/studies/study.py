@@ -47,6 +47,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..checks import argument, unknown_value
+from ..codegen import start_generated_controller
 from ..codegen.build import compile_time
 from ..errors import Rrr4Error, SceneError
 from ..files import c_compiler
@@ -145,6 +146,8 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
                          f"{MAX_SAMPLES:g} steps)" if output_rate is None else
                          f"t_end: {t_end:g} s is not allowed at output rate {rate:g} Hz (at most {MAX_SAMPLES:g} "
                          "outputs)")
+    if problem.model.task is not None:  # before all else: the preloaded arms' controllers compile while
+        _start_controllers(problem)  # the preload is solved and the arm without them steps
     t_path = sample_path(scene.path).t
     if problem.model.task is not None:
         say(f"inverse dynamics of the ideal mechanism at {len(t_path)} path samples")
@@ -187,15 +190,31 @@ def run_study(scene: Scene | Problem, *, t_end: float | None = None, step: float
             fine = arms["with_clearance"].simulation.stats["step"] / 2
             refinement = run_arm("with_clearance (half step)", scene, fine, "python")
     else:
-        names = (("with_preload", "with_preload_compensated") if preload is not None and scene.clearance_joints
-                 else ("with_preload",) if preload is not None else ())
+        names = _preloaded_arms(problem)
+        last = arm("without_preload", arm_scene(problem, "without_preload"))
         for name in names:
-            sc = arm_scene(problem, name)
-            arms[name] = arm(name, sc, controller=study_controller(Problem.from_scene(sc)))
-        arms["without_preload"] = arm("without_preload", arm_scene(problem, "without_preload"))
+            arms[name] = arm(name, arm_scene(problem, name), controller=study_controller(Problem.from_scene(
+                arm_scene(problem, name))))
+        arms["without_preload"] = last
     return Study(scene=scene, t_path=t_path, tau_min_norm=tau_min_norm, preload=preload,
                  preload_warning=preload_warning, arms=arms, t_end=t_end, step=h, refinement=refinement, skip=skip,
                  overrides={k: v for k, v in given.items() if v is not None}, foresight=foresight)
+
+
+def _preloaded_arms(problem: Problem) -> tuple[str, ...]:
+    """The preloaded arms of the study of a problem with a task (see the module docstring)."""
+    if not problem.has_preload:
+        return ()
+    return ("with_preload", "with_preload_compensated") if problem.scene.clearance_joints else ("with_preload",)
+
+
+def _start_controllers(problem: Problem) -> None:
+    """Start compiling the generated controllers of the preloaded arms in the background (see
+    :func:`rrr4.codegen.start_generated_controller`), where they run one."""
+    for name in _preloaded_arms(problem):
+        arm_problem = Problem.from_scene(arm_scene(problem, name))
+        if study_controller(arm_problem) == "generated":
+            start_generated_controller(arm_problem)
 
 
 def _converged(first: StudyArm, rerun, budget: float, t_end: float, output_rate, say) -> StudyArm:
