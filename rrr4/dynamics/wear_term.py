@@ -2,8 +2,8 @@
 clearance joints that wear, with the conformal contact over the worn arc
 (:mod:`rrr4.contact.conformal`).
 
-It shapes the gap: at each quadrature point psi_k of the arc (fixed on the first wearing
-surface) the overlap d_k = e . u_k - c0 - w_B(psi_k - theta_B) - w_J(psi_k - theta_J), its
+It shapes the gap: at each quadrature point psi_k of the arc (following the line of centres,
+in the first wearing surface's frame) the overlap d_k = e . u_k - c0 - w_B(psi_k - theta_B) - w_J(psi_k - theta_J), its
 rate and what turns point loads into generalised forces (``joint.arc``, :class:`Arc`); the
 contact term turns them into the distributed normal force, damping and friction and leaves
 each point's load dF_k [N] and slip v_k [m/s]. The joint's penetration output is the deepest
@@ -33,8 +33,8 @@ __all__ = ["WearTerm", "Arc"]
 @dataclass
 class Arc:
     """One worn joint's contact arc as :func:`rrr4.contact.conformal.arc_function` takes it:
-    its inputs (``inputs``: e, e_rate, e_dot in the frame of the surface the points are fixed
-    on, the other surface's angle under them and its rate, the profiles' coefficients), the
+    its inputs (``inputs``: e, e_rate, e_dot in the frame of the first wearing surface, where
+    the points are placed, the other surface's angle under them and its rate, the profiles' coefficients), the
     frame's rotation to the world (2, 2), the Jacobian of e in the frame (2, nq), the gradient
     of the other surface's angle (nq,) (None unless both wear), the profiles (surface, radius
     [m], turned) and, after the contact term, the Function's outputs by name."""
@@ -75,7 +75,7 @@ class WearTerm(Term):
         index = {"bearing": c.i_b, "journal": c.i_j}
         angle = {s: 0 if index[s] is None else a.q[index[s]] for s in surfaces}
         rate = {s: 0 if index[s] is None else a.qd[index[s]] for s in surfaces}
-        first = surfaces[0]  # the points are fixed on it
+        first = surfaces[0]  # the points are placed in its frame
         turn = _rotation(angle[first])
         e = c.kin.eccentricity
         e_local = turn.T @ e
