@@ -19,6 +19,7 @@ from rrr4.identify import Measurements, identify, measurements_from_simulation, 
 from rrr4.identify.least_squares import Z95, covariance, levenberg_marquardt, profile_interval
 from rrr4.identify.seated import SeatedData, seated_measurements
 from rrr4.studies.study import arm_scene
+from tests.test_identify import _noise, _noisy, _truth  # the same synthetic truth and noise
 
 from .conftest import PAPER
 
@@ -35,24 +36,6 @@ def problem():
 @pytest.fixture(scope="module")
 def five_bar():
     return rrr4.build(rrr4.load_scene(FIVE_BAR))
-
-
-def _truth(problem, keys, shifts):
-    params = resolve_parameters(problem, keys)
-    return params, np.array([q.value(q.coordinate(q.nominal) + s) for q, s in zip(params, shifts, strict=True)])
-
-
-def _noise(m: Measurements) -> dict:
-    """1 um, 1e-5 rad, 1 % of each effort's RMS."""
-    out = {"x_m": 1e-6, "y_m": 1e-6, "theta_rad": 1e-5}
-    out.update({c: 0.01 * float(np.sqrt(np.mean(v ** 2))) for c, v in m.columns.items() if c.startswith("tau_")})
-    return out
-
-
-def _noisy(m: Measurements, noise: dict, seed: int) -> Measurements:
-    rng = np.random.default_rng(seed)
-    cols = {c: v + noise[c] * rng.standard_normal(v.size) if c in noise else v for c, v in m.columns.items()}
-    return Measurements(m.t, cols, {}, m.source)
 
 
 # ---------------------------------------------------------------------- coverage by simulation
