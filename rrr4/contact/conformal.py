@@ -41,8 +41,8 @@ on the surface read it up to c0 (pi / N)^2 / 2 shallow between them, 24 nm at 14
 in-contact flag). Each profile is known at its own points 2 pi k / N as constant combinations
 of its coefficients (:func:`sampling_matrix`, :func:`slope_matrix`) and read at the moving
 points (the other surface, where both wear, turned under them too) by :func:`turned_samples`:
-a circular shift by a symbolic whole number of points, as one conditional roll per bit, and a
-cubic Hermite interpolation, continuous with a continuous slope, so that the force and its
+a circular shift by a symbolic whole number of points (a gather in an MX Function the arc
+calls, O(N)) and a cubic Hermite interpolation, continuous with a continuous slope, so that the force and its
 direction are continuous in the motion; the wear at the points is shared back onto each
 surface's own points (:func:`turned_deposit`). The normal force is -sum_k dF_k d d_k / d e,
 the gradient of the layer's energy (its tangential share where the profile slopes).
@@ -69,7 +69,7 @@ from .wear import depth_at
 
 __all__ = ["MIN_POINTS", "arc_points", "sampling_matrix", "slope_matrix", "layer_exponent", "arc_factor",
            "foundation_modulus", "turned_samples", "turned_deposit", "arc_function", "arc_energy", "ARC_NUMBERS",
-           "FRICTION_NUMBERS"]
+           "FRICTION_NUMBERS", "front_points"]
 
 # the scalar inputs ``numbers`` of :func:`arc_function`, in order
 ARC_NUMBERS = ("clearance", "modulus", "area", "damping_rate", "slip_offset")
@@ -122,43 +122,72 @@ def foundation_modulus(stiffness, exponent: float, length, bearing_radius, clear
     return stiffness / (length * bearing_radius * ca.sqrt(2.0 / clearance) * arc_factor(m))
 
 
-def _barrel_shift(values, shift, n: int, direction: int):
-    """values (N,) or (N, k) shifted circularly by the integer `shift` in [0, N) (a symbol): out_k =
-    values_(k + shift) for direction +1, values_(k - shift) for -1; one conditional roll per bit."""
-    out, b = values, 0
-    while (1 << b) < n:
-        bit = ca.fmod(ca.floor(shift / (1 << b)), 2.0) > 0.5
-        s = (1 << b) % n if direction > 0 else n - (1 << b) % n
-        out = ca.if_else(bit, ca.vertcat(out[s:, :], out[:s, :]), out)
-        b += 1
-    return out
-
-
 def _split(angle, n: int):
+    """The angle [rad] in steps of 2 pi / n: its whole steps modulo n and the fraction of the next."""
     u = angle * (n / (2.0 * math.pi))
     whole = ca.floor(u)
     return whole - n * ca.floor(whole / n), u - whole
 
 
-def turned_samples(values, slopes, angle, n: int):
+def _wrapped(k, n: int):
+    """Indices k in [0, 2n) brought into [0, n) (no fmod: it dominated the arc's cost)."""
+    return k - n * (k >= n)
+
+
+@functools.cache
+def _reader(n: int, at: tuple) -> ca.Function:
+    """(values, slopes, angle) -> values read at the points `at` turned by angle
+    (:func:`turned_samples`): an MX Function whose symbolic gathers cost O(len(at)) whatever the
+    angle, called from the arc."""
+    values, slopes, angle = ca.MX.sym("values", n), ca.MX.sym("slopes", n), ca.MX.sym("angle")
+    shift, f = _split(angle, n)
+    k0 = _wrapped(shift + ca.DM(at), n)
+    k1 = _wrapped(k0 + 1.0, n)
+    h, f2 = 2.0 * math.pi / n, f * f
+    f3 = f2 * f
+    v0, s0, v1, s1 = values[k0], slopes[k0], values[k1], slopes[k1]
+    out = (2 * f3 - 3 * f2 + 1) * v0 + (f3 - 2 * f2 + f) * h * s0 + (-2 * f3 + 3 * f2) * v1 + (f3 - f2) * h * s1
+    rate = (6 * f2 - 6 * f) / h * (v0 - v1) + (3 * f2 - 4 * f + 1) * s0 + (3 * f2 - 2 * f) * s1
+    return ca.Function(f"turned_samples_{n}_{len(at)}", [values, slopes, angle], [out, rate],
+                       ["values", "slopes", "angle"], ["samples", "rates"], {"never_inline": True})
+
+
+@functools.cache
+def _depositor(n: int, at: tuple) -> ca.Function:
+    """(values at the points `at`, angle) -> values shared back onto the surface's own points
+    (:func:`turned_deposit`)."""
+    given, angle = ca.MX.sym("values", len(at)), ca.MX.sym("angle")
+    values = ca.MX.zeros(n)
+    values[list(at)] = given
+    shift, f = _split(angle, n)
+    shared = (1.0 - f) * values + f * ca.vertcat(values[n - 1], values[:n - 1])
+    back = _wrapped(n - shift + ca.DM(np.arange(n)), n)
+    return ca.Function(f"turned_deposit_{n}_{len(at)}", [given, angle], [shared[back]], ["values", "angle"],
+                       ["deposit"], {"never_inline": True})
+
+
+def turned_samples(values, slopes, angle, n: int, at=None):
     """A surface's values (N,) and their slopes d / d psi (N,) at its own points 2 pi k / N, read
-    at the points 2 pi k / N + angle [rad] (a symbol: points that move over the surface) by
+    at the points 2 pi k / N + angle [rad] (k in `at`, default all) (a symbol: points that move over the surface) by
     cubic Hermite interpolation: continuous with a continuous slope in the angle, so that a
-    force that follows the slope does not jump as the points pass the samples."""
-    shift, f = _split(angle, n)
-    s = _barrel_shift(ca.horzcat(values, slopes * (2.0 * math.pi / n)), shift, n, +1)
-    nxt = ca.vertcat(s[1:, :], s[:1, :])
-    f2, f3 = f * f, f * f * f
-    return ((2 * f3 - 3 * f2 + 1) * s[:, 0] + (f3 - 2 * f2 + f) * s[:, 1]
-            + (-2 * f3 + 3 * f2) * nxt[:, 0] + (f3 - f2) * nxt[:, 1])
+    force that follows the slope does not jump as the points pass the samples. The shift by a
+    symbolic whole number of points is a gather (an MX Function called here), O(N). Returns the
+    samples and their rates d / d angle (the interpolant's slope, continuous)."""
+    return _reader(n, tuple(range(n)) if at is None else tuple(at))(values, slopes, angle)
 
 
-def turned_deposit(values, angle, n: int):
-    """The transpose of :func:`turned_samples`: quantities (N,) at the points 2 pi k / N + angle
-    of a surface, shared onto its own points with the same weights (their sum is kept)."""
-    shift, f = _split(angle, n)
-    h = (1.0 - f) * values + f * ca.vertcat(values[n - 1:], values[:n - 1])
-    return _barrel_shift(h, shift, n, -1)
+def turned_deposit(values, angle, n: int, at=None):
+    """The transpose of :func:`turned_samples`: quantities at the points 2 pi k / N + angle
+    (k in `at`, default all) of a surface, shared onto its own points with the same weights
+    (their sum is kept)."""
+    return _depositor(n, tuple(range(n)) if at is None else tuple(at))(values, angle)
+
+
+def front_points(nodes: int) -> np.ndarray:
+    """The indices k of the :func:`arc_points` a_k with cos a_k > 0: the half of the bore ahead of
+    the line of centres, the only one that can touch (behind it e . u <= 0 and the overlap is
+    below -c0 - w, negative for any profile deeper than -c0)."""
+    return np.flatnonzero(np.cos(arc_points(nodes)) > 1e-9)
 
 
 def _overlap(nodes: int, turned: bool, e, turn, first, other, clearance):
@@ -167,19 +196,27 @@ def _overlap(nodes: int, turned: bool, e, turn, first, other, clearance):
     e . u_k = |e| cos(2 pi k / N) is exact, so an unworn bore's deepest overlap is |e| - c0
     wherever the journal points (points fixed on the surface read it c0 (pi / N)^2 / 2 = 24 nm
     too shallow between them at 144 points and 0.1 mm, a washboard under a sliding journal);
-    each profile is read at the points by :func:`turned_samples`."""
-    n = len(arc_points(nodes))
-    a = arc_points(nodes)
+    each profile is read at the points by :func:`turned_samples`. Only the points ahead of the
+    line of centres (:func:`front_points`) are kept: the others cannot touch. Also the
+    gradients d d_k / d e (N, 2) and d d_k / d angle (N,) (the other surface's angle under the
+    points; zeros unless `turned`), written out: r = |e| and phi move with e as
+    d r / d e = e / r and d phi / d e = t / r (t the unit tangent)."""
+    n, front = len(arc_points(nodes)), front_points(nodes)
+    a = arc_points(nodes)[front]
     r = ca.sqrt(ca.dot(e, e) + 1e-30)
     phi = ca.if_else(r > 1e-12, ca.atan2(e[1], e[0]), 0.0)
     normal, tangent = e / r, ca.vertcat(-e[1], e[0]) / r
     t = tangent @ ca.DM(np.cos(a)).T - normal @ ca.DM(np.sin(a)).T
     sampled = sampling_matrix(nodes)
     slopes = slope_matrix(nodes)
-    overlap = r * ca.DM(np.cos(a)) - clearance - turned_samples(sampled @ first, slopes @ first, phi, n)
+    depth, slope = turned_samples(sampled @ first, slopes @ first, phi, n, front)
+    turning = ca.SX.zeros(len(front))
     if turned:
-        overlap = overlap - turned_samples(sampled @ other, slopes @ other, phi + turn[0], n)
-    return overlap, phi, t
+        depth_other, turning = turned_samples(sampled @ other, slopes @ other, phi + turn[0], n, front)
+        depth, slope = depth + depth_other, slope + turning
+    overlap = r * ca.DM(np.cos(a)) - clearance - depth
+    gradient = ca.DM(np.cos(a)) @ normal.T - slope @ tangent.T / r
+    return overlap, phi, t, gradient, -turning
 
 
 @functools.cache
@@ -215,21 +252,20 @@ def arc_function(nodes: int, turned: bool, exponent: float, friction: str) -> ca
     ``power_damping``, ``power_friction`` [W]; ``deepest`` max_k d_k [m];
     ``wear_first``, ``wear_other`` (M,): sampling^T (dF |v|) on each profile [W]
     (:func:`rrr4.contact.wear.point_depth_rates`)."""
-    n = len(arc_points(nodes))
+    n, front = len(arc_points(nodes)), front_points(nodes)
     e, e_rate, e_dot, turn = (ca.SX.sym(k, 2) for k in ("e", "e_rate", "e_dot", "turn"))
     first, other = ca.SX.sym("first", nodes), ca.SX.sym("other", nodes)
     numbers = ca.SX.sym("numbers", len(ARC_NUMBERS) + len(FRICTION_NUMBERS))
     clearance, modulus, area, damping_rate, slip_offset = ca.vertsplit(numbers[:len(ARC_NUMBERS)])
     sampled = sampling_matrix(nodes)
-    overlap, phi, t = _overlap(nodes, turned, e, turn, first, other, clearance)
-    gradient, turning = ca.jacobian(overlap, e), ca.jacobian(overlap, turn)[:, 0]  # d d_k / d e, d d_k / d angle
+    overlap, phi, t, gradient, turning = _overlap(nodes, turned, e, turn, first, other, clearance)
     rate = gradient @ e_rate + turning * turn[1]
     m = layer_exponent(exponent)
     elastic = modulus * power(ca.fmax(overlap, 0.0), m)
     loads = ca.fmax(elastic * (1.0 + damping_rate * rate), 0.0) * area
     slips = t.T @ e_dot + slip_offset
     if friction == "none":
-        ft = ca.SX.zeros(n)
+        ft = ca.SX.zeros(len(front))
     else:
         fe = FrictionEffect(friction, *ca.vertsplit(numbers[len(ARC_NUMBERS):]))
         ft = friction_force(fe, slips, loads)
@@ -239,8 +275,8 @@ def arc_function(nodes: int, turned: bool, exponent: float, friction: str) -> ca
         "turn_load": -ca.dot(turning, loads),
         "power_damping": ca.dot(loads - elastic * area, rate), "power_friction": -ca.dot(ft, slips),
         "deepest": ca.mmax(overlap),
-        "wear_first": sampled.T @ turned_deposit(worn, phi, n),
-        "wear_other": sampled.T @ turned_deposit(worn, phi + turn[0], n) if turned else ca.SX.zeros(nodes)}
+        "wear_first": sampled.T @ turned_deposit(worn, phi, n, front),
+        "wear_other": sampled.T @ turned_deposit(worn, phi + turn[0], n, front) if turned else ca.SX.zeros(nodes)}
     inputs = {"e": e, "e_rate": e_rate, "e_dot": e_dot, "turn": turn, "first": first, "other": other,
               "numbers": numbers}
     name = f"conformal_arc_{nodes}{'_turned' if turned else ''}_{friction}_n{exponent:g}"
