@@ -143,3 +143,24 @@ def test_a_jump_error_beyond_its_tolerance_names_a_max_change_that_meets_it():
     line = jump_line({"max_change": 0.5, "profile_error": difference, "tolerance": JUMP_TOLERANCE,
                       "suggested_max_change": f})
     assert line.startswith("max_change: 0.5 lets the profile differ by") and f"--max-change {f:.2g}" in line
+
+
+def test_a_jump_onto_a_groove_flank_keeps_the_journal_as_loaded_as_it_was(first_cycle):
+    """A groove whose deepening is not a uniform sink under the journal (here centred 25 deg
+    beside where the journal sits, as a groove that early wear made narrower than the arc):
+    moved by the added depth along its eccentricity, the journal would press into the side
+    that deepened less; it sinks instead until the deeper bore carries the elastic force it
+    ended with (to RESEAT_TOLERANCE), and the continued run keeps the static load, without an
+    impact or a lift."""
+    a = first_cycle
+    e = a.eccentricity[-1, 0]
+    at = math.atan2(e[1], e[0]) - a.q[-1, 5]  # where the journal sits, in the sleeve's frame
+    psi = 2 * np.pi * np.arange(36) / 36
+    groove = 3e-6 * np.exp(-0.5 * (((psi - at - math.radians(25)) + np.pi) % (2 * np.pi) - np.pi) ** 2 / 0.35 ** 2)
+    b = rrr4.simulate(JOURNAL, t_end=0.02, start=a, wear={"S": {"bearing": groove, "journal": np.zeros(36)}})
+    moved = np.linalg.norm(b.eccentricity[0, 0]) - np.linalg.norm(e)
+    by_depth = float(depth_at(groove, at))
+    assert 0 < moved < by_depth - 0.05e-6  # less than the added depth along e: the flank carries the journal
+    assert b.normal_force[0, 0] == pytest.approx(a.normal_force[-1, 0], rel=1e-3)
+    assert b.extremes["normal_force_max"][0] == pytest.approx(W, rel=5e-3)
+    assert b.contact_loss_events["S"] == 0

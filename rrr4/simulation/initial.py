@@ -11,14 +11,19 @@ import numpy as np
 from ..checks import describe
 from ..contact import seat_gap_function
 from ..contact.wear import depth_at
-from ..dynamics.builder import Equations, profiles_of
+from ..dynamics.builder import Equations, profiles_of, with_profiles
 from ..dynamics.family import graph_family
 from ..errors import SceneError
 from ..problem import Problem
 from ..trajectory import trajectory_function
 from .state_layout import StateLayout
 
-__all__ = ["initial_state", "seated_offsets", "continued_motion"]
+__all__ = ["initial_state", "seated_offsets", "continued_motion", "RESEAT_TOLERANCE"]
+
+# a continued journal's elastic force after a cycle jump matches the one it ended with to this
+# fraction of it (or of 1 N), within RESEAT_ITERATIONS secant iterations
+RESEAT_TOLERANCE = 1e-6
+RESEAT_ITERATIONS = 12
 
 
 def seated_offsets(problem: Problem, eqs: Equations, q0, qdd0, tau0) -> np.ndarray:
@@ -48,20 +53,65 @@ def _deepened(problem: Problem, q, offsets: np.ndarray, profiles: dict) -> np.nd
     """`offsets` (nc, 2) (second joint point - first) at the coordinates q with each journal
     moved along its eccentricity by the depth of `profiles` (joint -> surface -> coefficients)
     in that direction: a journal on the worn profile lies deeper by w(psi)."""
+    return _sunk(offsets, _depths(problem, q, offsets, profiles))
+
+
+def _depths(problem: Problem, q, offsets: np.ndarray, profiles: dict) -> np.ndarray:
+    """The depth (nc,) [m] of `profiles` along each joint's offset (0 where none is given)."""
     joints = problem.model.clearance_joints
-    offsets = np.array(offsets, float)
+    out = np.zeros(len(joints))
     for joint, by_surface in profiles.items():
         k = joints.index(joint)
-        gap = offsets[k]
-        size = np.linalg.norm(gap)
-        if size > 0:
-            spec = problem.joint(joint)
-            bodies = {"bearing": spec.bearing_body, "journal": spec.journal_body}
-            e = gap if spec.journal == 1 else -gap  # the eccentricity, journal - bearing
-            angle = np.arctan2(e[1], e[0])
-            depth = sum(float(depth_at(d, angle - _angle(problem, q, bodies[s]))) for s, d in by_surface.items())
-            offsets[k] = gap * (size + depth) / size
-    return offsets
+        spec = problem.joint(joint)
+        bodies = {"bearing": spec.bearing_body, "journal": spec.journal_body}
+        e = offsets[k] if spec.journal == 1 else -offsets[k]  # the eccentricity, journal - bearing
+        angle = np.arctan2(e[1], e[0])
+        out[k] = sum(float(depth_at(d, angle - _angle(problem, q, bodies[s]))) for s, d in by_surface.items())
+    return out
+
+
+def _sunk(offsets: np.ndarray, sinks: np.ndarray) -> np.ndarray:
+    """`offsets` (nc, 2) each lengthened by its sink [m] (a centred joint stays centred)."""
+    size = np.linalg.norm(offsets, axis=1)
+    return np.where(size[:, None] > 0, offsets * ((size + sinks) / np.where(size > 0, size, 1.0))[:, None], offsets)
+
+
+def _elastic_forces(eqs: Equations, q) -> np.ndarray:
+    """The clearance joints' normal forces (nc,) [N] at the coordinates q at rest (no damping)."""
+    return np.array(eqs.acceleration.call({"q": q, "qd": np.zeros_like(q)})["normal_force"]).ravel()
+
+
+def _reseated(problem: Problem, eqs: Equations, before: Equations, q, offsets: np.ndarray, target,
+              added: dict) -> np.ndarray:
+    """q after a cycle jump deepened the profiles from those of `before` to those of `eqs`: each
+    loaded journal sinks along its eccentricity until the deeper profile carries the elastic
+    force the old one carried at q (secant iterations on the sinks, from the added depth along
+    the eccentricity, which is exact for a uniform sink; a groove narrower than the journal's
+    arc, as early wear makes it, would press a journal moved by that depth into its flanks, 4
+    to 6 times its load on the reference scene's grooves, and it would bounce off); a journal
+    out of contact moves by the added depth (it keeps its distance from the wall)."""
+    target_force = _elastic_forces(before, q)
+    loaded = target_force > 0
+    sinks = _depths(problem, q, offsets, added)
+
+    def forces(s):
+        qs = problem.seated_coordinates(target, _sunk(offsets, s), guess=q)
+        return qs, _elastic_forces(eqs, qs)
+
+    prev_s = prev_f = None
+    for _ in range(RESEAT_ITERATIONS):
+        q_new, f = forces(sinks)
+        miss = np.where(loaded, f - target_force, 0.0)
+        if np.all(np.abs(miss) <= RESEAT_TOLERANCE * np.maximum(target_force, 1.0)):
+            break
+        if prev_s is None:  # the first secant point: 1e-3 of the sink shallower
+            s_next = sinks - np.where(loaded, 1e-3 * np.maximum(np.abs(sinks), 1e-9), 0.0)
+        else:
+            slope = (f - prev_f) / np.where(sinks != prev_s, sinks - prev_s, 1.0)
+            ok = loaded & (np.abs(slope) > 0) & np.isfinite(slope)
+            s_next = np.where(ok, sinks - miss / np.where(ok, slope, 1.0), sinks)
+        prev_s, prev_f, sinks = sinks, f, s_next
+    return q_new
 
 
 def _angle(problem: Problem, q, body: str) -> float:
@@ -75,9 +125,10 @@ def continued_motion(problem: Problem, eqs: Equations, start, q0: np.ndarray, ta
     output's motion, each body's angle shifted by the whole turns that bring it nearest its
     angle in q0 (the scene's own start), and each journal's contact memory; one line when
     `start` is not a run of a mechanism of this structure. Where the equations' wear profiles
-    are deeper than the ones `start` ran on (a cycle jump), each journal moves along its
-    eccentricity by the added depth (it stays as deep in its bore as it was; the task, or
-    the drivers, at `target`), so a jump does not drop it onto the bore."""
+    are deeper than the ones `start` ran on (a cycle jump), each journal sinks along its
+    eccentricity until the deeper profile carries the elastic force it ended with
+    (:func:`_reseated`; the task, or the drivers, at `target`), so a jump neither drops it
+    onto the bore nor presses it into the groove's flanks."""
     joints = problem.model.clearance_joints
     end = getattr(start, "stats", {}).get("end_contact") if hasattr(start, "q") else None
     if end is None and joints or np.shape(getattr(start, "q", None))[1:] != q0.shape or \
@@ -97,7 +148,9 @@ def continued_motion(problem: Problem, eqs: Equations, start, q0: np.ndarray, ta
             offsets = np.array([e[k] if problem.joint(j).journal == 1 else -e[k] for k, j in enumerate(joints)])
             if problem.model.task is not None:
                 target = np.array(problem.model.task_pose_function(q)).ravel()[:len(target)]
-            q = problem.seated_coordinates(target, _deepened(problem, q, offsets, added), guess=q)
+            old = {j: {s: before.get(j, {}).get(s, np.zeros_like(d)) for s, d in by.items()}
+                   for j, by in profiles_of(eqs).items()}
+            q = _reseated(problem, eqs, with_profiles(eqs, old), q, offsets, target, added)
     return q, qd, (end["delta_dot0"] if nc else np.zeros(0)), (end["in_contact"] if nc else np.zeros(0))
 
 
