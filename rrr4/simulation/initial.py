@@ -21,9 +21,9 @@ from .state_layout import StateLayout
 __all__ = ["initial_state", "seated_offsets", "continued_motion", "RESEAT_TOLERANCE"]
 
 # a continued journal's elastic force after a cycle jump matches the one it ended with to this
-# fraction of it (or of 1 N), within RESEAT_ITERATIONS secant iterations
+# fraction of it (or of 1 N), within RESEAT_ITERATIONS iterations
 RESEAT_TOLERANCE = 1e-6
-RESEAT_ITERATIONS = 12
+RESEAT_ITERATIONS = 40
 
 
 def seated_offsets(problem: Problem, eqs: Equations, q0, qdd0, tau0) -> np.ndarray:
@@ -85,32 +85,37 @@ def _reseated(problem: Problem, eqs: Equations, before: Equations, q, offsets: n
               added: dict) -> np.ndarray:
     """q after a cycle jump deepened the profiles from those of `before` to those of `eqs`: each
     loaded journal sinks along its eccentricity until the deeper profile carries the elastic
-    force the old one carried at q (secant iterations on the sinks, from the added depth along
-    the eccentricity, which is exact for a uniform sink; a groove narrower than the journal's
-    arc, as early wear makes it, would press a journal moved by that depth into its flanks, 4
-    to 6 times its load on the reference scene's grooves, and it would bounce off); a journal
-    out of contact moves by the added depth (it keeps its distance from the wall)."""
+    force the old one carried at q. The force grows with the sink, which lies between 0 (the
+    overlap can only have fallen) and twice the deepest added depth (the overlap can only have
+    grown over the old arc, within 60 deg of the eccentricity): safeguarded secant iterations
+    in that bracket, from the added depth along the eccentricity, which is exact for a uniform
+    sink. A groove narrower than the journal's arc, as early wear makes it, would press a
+    journal moved by that depth into its flanks (4 to 6 times its load on the reference
+    scene's grooves, and it bounced off). A journal out of contact moves by the added depth
+    (it keeps its distance from the wall)."""
     target_force = _elastic_forces(before, q)
     loaded = target_force > 0
     sinks = _depths(problem, q, offsets, added)
-
-    def forces(s):
-        qs = problem.seated_coordinates(target, _sunk(offsets, s), guess=q)
-        return qs, _elastic_forces(eqs, qs)
-
-    prev_s = prev_f = None
+    grid = np.linspace(0.0, 2.0 * np.pi, 721)
+    joints = problem.model.clearance_joints
+    lo, hi = np.zeros(len(joints)), np.zeros(len(joints))
+    for joint, by_surface in added.items():
+        hi[joints.index(joint)] = 2.0 * sum(float(np.max(depth_at(d, grid))) for d in by_surface.values())
+    prev = None
     for _ in range(RESEAT_ITERATIONS):
-        q_new, f = forces(sinks)
-        miss = np.where(loaded, f - target_force, 0.0)
+        q_new = problem.seated_coordinates(target, _sunk(offsets, sinks), guess=q)
+        miss = np.where(loaded, _elastic_forces(eqs, q_new) - target_force, 0.0)
         if np.all(np.abs(miss) <= RESEAT_TOLERANCE * np.maximum(target_force, 1.0)):
             break
-        if prev_s is None:  # the first secant point: 1e-3 of the sink shallower
-            s_next = sinks - np.where(loaded, 1e-3 * np.maximum(np.abs(sinks), 1e-9), 0.0)
-        else:
-            slope = (f - prev_f) / np.where(sinks != prev_s, sinks - prev_s, 1.0)
-            ok = loaded & (np.abs(slope) > 0) & np.isfinite(slope)
-            s_next = np.where(ok, sinks - miss / np.where(ok, slope, 1.0), sinks)
-        prev_s, prev_f, sinks = sinks, f, s_next
+        lo, hi = np.where(miss < 0, sinks, lo), np.where(miss > 0, sinks, hi)
+        step = np.full(len(joints), np.nan)
+        if prev is not None:
+            ds, dm = sinks - prev[0], miss - prev[1]
+            step = np.where((ds != 0) & (dm != 0), -miss * ds / np.where(dm != 0, dm, 1.0), np.nan)
+        guess = sinks + step
+        inside = np.isfinite(guess) & (guess > lo) & (guess < hi)
+        prev = (sinks, miss)
+        sinks = np.where(loaded, np.where(inside, guess, 0.5 * (lo + hi)), sinks)
     return q_new
 
 
