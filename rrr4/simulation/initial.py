@@ -81,6 +81,12 @@ def _elastic_forces(eqs: Equations, q) -> np.ndarray:
     return np.array(eqs.acceleration.call({"q": q, "qd": np.zeros_like(q)})["normal_force"]).ravel()
 
 
+def _force_vectors(eqs: Equations, q) -> np.ndarray:
+    """The clearance joints' contact forces (nc, 2) [N] at the coordinates q at rest (no damping,
+    no slip: no friction)."""
+    return np.array(eqs.acceleration.call({"q": q, "qd": np.zeros_like(q)})["contact_force"]).T
+
+
 def _reseated(problem: Problem, eqs: Equations, before: Equations, q, offsets: np.ndarray, target,
               added: dict) -> np.ndarray:
     """q after a cycle jump deepened the profiles from those of `before` to those of `eqs`: each
@@ -91,8 +97,8 @@ def _reseated(problem: Problem, eqs: Equations, before: Equations, q, offsets: n
     in that bracket, from the added depth along the eccentricity, which is exact for a uniform
     sink. A groove narrower than the journal's arc, as early wear makes it, would press a
     journal moved by that depth into its flanks (4 to 6 times its load on the reference
-    scene's grooves, and it bounced off). A journal out of contact moves by the added depth
-    (it keeps its distance from the wall)."""
+    scene's grooves, and it bounced off). Then :func:`_equilibrium` matches the force vector.
+    A journal out of contact moves by the added depth (it keeps its distance from the wall)."""
     target_force = _elastic_forces(before, q)
     loaded = target_force > 0
     sinks = _depths(problem, q, offsets, added)
@@ -116,7 +122,46 @@ def _reseated(problem: Problem, eqs: Equations, before: Equations, q, offsets: n
         inside = np.isfinite(guess) & (guess > lo) & (guess < hi)
         prev = (sinks, miss)
         sinks = np.where(loaded, np.where(inside, guess, 0.5 * (lo + hi)), sinks)
-    return q_new
+    return _equilibrium(problem, eqs, _force_vectors(before, q), q_new, _sunk(offsets, sinks), target, loaded,
+                        float(np.max(hi)))
+
+
+def _equilibrium(problem: Problem, eqs: Equations, force, q, offsets: np.ndarray, target, loaded, reach: float):
+    """q with each loaded journal moved (both components of its offset) until the deeper profile
+    carries the force vector `force` (nc, 2) it carried before the jump: a groove's slope turns
+    the force off the line of centres, so the journal also slides toward the groove's bottom
+    (Newton with a finite-difference Jacobian per joint, steps no longer than `reach`; the
+    start, from :func:`_reseated`, carries the force's size). Returns q where it got closest."""
+    h = 1e-3 * max(reach, 1e-9)
+
+    def at(o):
+        qs = problem.seated_coordinates(target, o, guess=q)
+        return qs, _force_vectors(eqs, qs)
+
+    best = (np.inf, q)
+    for _ in range(RESEAT_ITERATIONS // 4):
+        q, f = at(offsets)
+        miss = np.where(loaded[:, None], f - force, 0.0)
+        size = float(np.max(np.linalg.norm(miss, axis=1) / np.maximum(np.linalg.norm(force, axis=1), 1.0)))
+        if size < best[0]:
+            best = (size, q)
+        if size <= RESEAT_TOLERANCE:
+            break
+        columns = []
+        for axis in range(2):
+            o = offsets.copy()
+            o[:, axis] += h
+            columns.append((at(o)[1] - f) / h)
+        jac = np.stack(columns, axis=2)  # (nc, 2, 2): d force_k / d offset_k
+        step = np.zeros_like(offsets)
+        for k in np.flatnonzero(loaded):
+            try:
+                step[k] = -np.linalg.solve(jac[k], miss[k])
+            except np.linalg.LinAlgError:
+                continue
+        length = np.linalg.norm(step, axis=1, keepdims=True)
+        offsets = offsets + step * np.minimum(1.0, reach / np.maximum(length, 1e-300))
+    return best[1]
 
 
 def _angle(problem: Problem, q, body: str) -> float:
@@ -130,10 +175,10 @@ def continued_motion(problem: Problem, eqs: Equations, start, q0: np.ndarray, ta
     output's motion, each body's angle shifted by the whole turns that bring it nearest its
     angle in q0 (the scene's own start), and each journal's contact memory; one line when
     `start` is not a run of a mechanism of this structure. Where the equations' wear profiles
-    are deeper than the ones `start` ran on (a cycle jump), each journal sinks along its
-    eccentricity until the deeper profile carries the elastic force it ended with
-    (:func:`_reseated`; the task, or the drivers, at `target`), so a jump neither drops it
-    onto the bore nor presses it into the groove's flanks."""
+    are deeper than the ones `start` ran on (a cycle jump), each loaded journal moves until the
+    deeper profile carries the force vector it ended with (:func:`_reseated`; the task, or the
+    drivers, at `target`), so a jump neither drops it onto the bore nor presses it into the
+    groove's flanks."""
     joints = problem.model.clearance_joints
     end = getattr(start, "stats", {}).get("end_contact") if hasattr(start, "q") else None
     if end is None and joints or np.shape(getattr(start, "q", None))[1:] != q0.shape or \

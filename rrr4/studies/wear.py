@@ -6,7 +6,7 @@ state, then cycles each from the end of the last until one ends where it started
 periodic steady state), each wearing once. Each step of the study then simulates one cycle
 on the current wear profiles, starting where the last simulated cycle ended
 (:func:`rrr4.simulate` with ``wear=`` and ``start=``: contact uses the worn clearance, and
-each loaded journal sinks until the deeper profile carries the force it ended with), takes the wear that cycle
+each loaded journal moves until the deeper profile carries the force it ended with), takes the wear that cycle
 adds (Archard's law integrated at every integrator step, :mod:`rrr4.contact.wear`), and
 scales it by the number of cycles n for which the deepest change stays within
 ``max_change`` times the joint's radial clearance:
