@@ -109,6 +109,10 @@ def test_a_joint_that_did_not_wear_says_so_rather_than_nan(dropped, tmp_path):
     assert summary["arms"]["with_clearance"]["steady_periodicity_max"] == 0.3
     said = (tmp_path / "r" / "report.md").read_text()
     assert "The cycles are not periodic: a steady cycle ended up to 0.3 radial" in said
+    assert "(no contact was lost: the mechanism settling" in said  # the sleeve never lifted
+    lifting = dataclasses.replace(rattling, records=[{**r, "contact_loss_events": 3} for r in rattling.records])
+    write_wear(dataclasses.replace(dropped, arms={"with_clearance": lifting}), tmp_path / "l")
+    assert "started (rattling)" in (tmp_path / "l" / "report.md").read_text()
 
 
 @pytest.mark.parametrize("deepest,radius", [(1.75e-6, 0.0101), (2.3e-4, 0.01), (3e-8, 0.005)])

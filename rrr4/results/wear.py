@@ -107,7 +107,8 @@ def wear_summary(study: WearStudy) -> dict:
             "platform_error_rms_m": {"first": first["platform_error_rms_m"], "last": last["platform_error_rms_m"]},
             "platform_error_max_m": {"first": first["platform_error_max_m"], "last": last["platform_error_max_m"]},
             "contact_loss_events_per_cycle": {"first": first["contact_loss_events"],
-                                              "last": last["contact_loss_events"]},
+                                              "last": last["contact_loss_events"],
+                                              "max": max(r["contact_loss_events"] for r in arm.records)},
             "start_transient": _transient(scene, arm),
             # how far a steady cycle ended from its start at most (radial clearances): beyond PERIODIC the
             # cycles differ from one another and the jump scales one sample of them
@@ -208,8 +209,10 @@ def _report(summary: dict) -> str:
                          f"{_g(r['life_cycles'])} | {r['peak_pressure_Pa'] / 1e6:.4g} |")
         lines += ["", *_film_lines(arm), *_transient_lines(arm["start_transient"])]
         if arm["steady_periodicity_max"] > PERIODIC:
+            why = ("rattling" if arm["contact_loss_events_per_cycle"].get("max", 1) else
+                   "no contact was lost: the mechanism settling onto the grooves a jump deepened")
             lines += [f"The cycles are not periodic: a steady cycle ended up to {arm['steady_periodicity_max']:.2g} "
-                      "radial clearances from where it started (rattling). Each jump scales one sample of cycles that "
+                      f"radial clearances from where it started ({why}). Each jump scales one sample of cycles that "
                       "differ, so the jump error measures their variability as well as the jump; smaller jumps "
                       "(--max-change) simulate and average more of them.", ""]
     lines += ["life: the cycles until the deepest point of the profile is one radial clearance deep, extrapolated "
