@@ -64,9 +64,9 @@ def main() -> None:
         hit = (res.interval[:, 0] <= truth) & (truth <= res.interval[:, 1])
         inside.append(hit)
         z_all.append(z)
-        print(f"seed {seed}: " + ", ".join(f"{k.split('.')[-1]} {e:.6g} +- {s:.3g} ({zz:+.2f} se{'' if h else ', MISSED'})"
-                                           for k, e, s, zz, h in zip(keys, res.estimate, res.standard_error, z, hit,
-                                                                     strict=True))
+        rows = zip(keys, res.estimate, res.standard_error, z, hit, strict=True)
+        print(f"seed {seed}: " + ", ".join(f"{k.split('.')[-1]} {e:.6g} +- {s:.3g} ({zz:+.2f} se"
+                                           f"{'' if h else ', MISSED'})" for k, e, s, zz, h in rows)
               + f"; reduced chi^2 {res.fit['reduced_chi2']:.3g}, {res.fit['iterations']} iterations"
               + ("" if res.verdict["identifiable"] else f"; poorly determined: {res.verdict['poorly_determined']}"))
     inside, z_all = np.array(inside), np.array(z_all)

@@ -79,7 +79,8 @@ def test_the_frame_reproduces_the_simulation_and_its_sensitivities_agree_with_di
 def test_crank_torque_and_slider_position_identify_clearance_and_friction(nominal, plant_run):
     """The default (staged) goes straight to 'dynamic' on a driven scene and says why; the
     estimates lie within 3 standard errors of the plant's and their 95 % intervals hold it (over
-    seeds 1 to 50 of this case: 5 of 100 intervals missed, reduced chi^2 0.77 to 1.1)."""
+    seeds 1 to 50 of this case, benchmarks/bench_identify_driven.py: 5 of 100 intervals missed,
+    reduced chi^2 0.77 to 1.18)."""
     m, noise = _noisy(plant_run, seed=2)
     res = identify(nominal, m, [CLEARANCE, FRICTION], noise=noise)
     stages = res.fit["stages"]

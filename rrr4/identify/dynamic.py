@@ -53,7 +53,8 @@ from ..problem import Problem
 from ..scene import Scene
 from ..simulation import default_jit
 from ..simulation.initial import initial_state
-from ..simulation.run import controller_efforts
+from ..simulation.input_layout import HELD
+from ..simulation.run import controller_efforts, frame_times, run_references
 from ..simulation.system import in_tree, loop_of, measured, system_of
 from ..trajectory import trajectory_function
 from .measurements import Measurements, body_rows, driven_scene, measurement_columns
@@ -123,14 +124,7 @@ def _build(problem: Problem, dt: float, jit: bool, inputs: str):
     if eqs.mode != "torque" and not driven:
         raise SceneError(f"actuation.mode: method 'dynamic' is not allowed with {eqs.mode!r} (it fits the run of "
                          "the scene's controller, torque, or of a driven scene's drivers)")
-    loop = loop_of(problem, eqs, "python", "exact", None)
-    if not loop.pointwise and not driven:
-        if problem.closed_form and problem.compensates and problem.scene.actuation.seat_model == "rolling":
-            raise SceneError("actuation.seat_model: 'rolling' is not allowed with method 'dynamic' (it fits through "
-                             "the closed-form controller step; rolling seats tabulate the references: choose "
-                             "quasi_static for the fit)")
-        raise SceneError(f"mechanism.kind: method 'dynamic' is built for n-RRR scenes with their closed-form "
-                         f"controller and for driven scenes (scene {problem.name!r} tabulates its references)")
+    loop = loop_of(problem, eqs, "python", "exact", None)  # a tabulated controller's references: frame inputs
     method = METHODS[scene.integrator.method].from_settings(scene.integrator, jit=False)
     if isinstance(method, ImplicitIntegrator):
         method.newton = "full"
@@ -147,10 +141,10 @@ def _build(problem: Problem, dt: float, jit: bool, inputs: str):
     x, u = ca.MX.sym("x", nx), ca.MX.sym("u", nu)
     x1 = unit(x, u)
     out = _outputs(problem, eqs, loop, system, tree)
-    xs = ca.SX.sym("x", nx)
-    o = out(xs[:1 + system.ny + system.nz])  # an implicit method's memory follows [t, y, z]
-    do = ca.Function("outputs", [xs], [o, ca.jacobian(o, xs)])
-    step = ca.Function("sensitivity_step", [x, u], [x1, *do(x)], ["x", "u"], ["x_next", "o", "do_dx"])
+    xs, us = ca.SX.sym("x", nx), ca.SX.sym("u", nu)
+    o = out(xs[:1 + system.ny + system.nz], us)  # an implicit method's memory follows [t, y, z]
+    do = ca.Function("outputs", [xs, us], [o, ca.jacobian(o, xs)])
+    step = ca.Function("sensitivity_step", [x, u], [x1, *do(x, u)], ["x", "u"], ["x_next", "o", "do_dx"])
     forward = unit.forward(DIRECTIONS)
     dx, du, x_out = ca.MX.sym("dx", nx, DIRECTIONS), ca.MX.sym("du", nu, DIRECTIONS), ca.MX.sym("x_next", nx)
     block = ca.Function("sensitivity_directions", [x, u, x_out, dx, du], [forward(x, u, x_out, dx, du)],
@@ -161,11 +155,12 @@ def _build(problem: Problem, dt: float, jit: bool, inputs: str):
 
 
 def _outputs(problem: Problem, eqs, loop, system, tree: bool) -> ca.Function:
-    """x -> what the run records at a state: [task pose (3), actuator angles (n), efforts (n)],
-    or for a driven scene [the bodies' poses (3 each), the drivers' efforts] (the order of
-    :func:`rrr4.identify.measurements.measurement_columns`)."""
-    model, par, L = problem.model, eqs.parametric, system.layout
-    x = ca.SX.sym("x", 1 + L.ny + L.nz)
+    """(x, u) -> what the run records at a frame's start x with the frame's inputs u: [task pose
+    (3), actuator angles (n), efforts (n)], or for a driven scene [the bodies' poses (3 each),
+    the drivers' efforts] (the order of :func:`rrr4.identify.measurements.measurement_columns`).
+    A tabulated controller (a graph's) takes its references at the frame's start from u."""
+    model, par, L, U = problem.model, eqs.parametric, system.layout, loop.inputs
+    x, u = ca.SX.sym("x", 1 + L.ny + L.nz), ca.SX.sym("u", U.width)
     t, parameters, settings = x[0], x[L.in_x("parameters")], x[L.in_x("settings")]
     q, qd = x[L.in_x("q")], x[L.in_x("qd")]
     if tree:
@@ -175,11 +170,13 @@ def _outputs(problem: Problem, eqs, loop, system, tree: bool) -> ca.Function:
         acc = par.acceleration(q=q, qd=qd, effort=n, theta_ref=n, theta_d_ref=n, theta_dd_ref=n,
                                delta_dot0=x[L.in_x("delta_dot0")], in_contact=x[L.in_x("in_contact")], t=t,
                                parameters=parameters)
-        return ca.Function("recorded", [x], [ca.vertcat(q[body_rows(problem).tolist()], acc["driver_effort"])])
+        return ca.Function("recorded", [x, u], [ca.vertcat(q[body_rows(problem).tolist()], acc["driver_effort"])])
     theta, theta_d = measured(model, q, qd, par, parameters)
-    tau = loop.control(*trajectory_function(problem.path)(t), theta, theta_d, settings)
+    references = trajectory_function(problem.path)(t) if loop.pointwise else \
+        [u[U.reference(name)] for name in HELD]  # th, thd, ff at t_a (sampled: the frame's first end)
+    tau = loop.control(*references, theta, theta_d, settings)
     tau = tau[0] if isinstance(tau, (list, tuple)) else tau
-    return ca.Function("recorded", [x], [ca.vertcat(model.task_pose_function(q), theta, tau)])
+    return ca.Function("recorded", [x, u], [ca.vertcat(model.task_pose_function(q), theta, tau)])
 
 
 class DynamicData:
@@ -220,6 +217,7 @@ class DynamicData:
         self.preload, self.lag = "the drivers' motion" if driven else "simulated controller", 0.0
         self.n_frames = int(np.ceil(m.t[-1] / self.dt - 1e-9)) + 1  # frame starts 0, dt, ... cover t
         self.runs, self.chaos, self._cache, self._rolls = 0, None, {}, {}
+        self.refs_at = self._tabulated()
         self.u = self.frame_inputs(0, self.n_frames)
         self.seated = seated
         self.G = self._geometry()
@@ -284,6 +282,11 @@ class DynamicData:
     def initial(self, p) -> np.ndarray:
         """x0 at the parameter values p: the scene's initial state with p's contact numbers
         (journals seated where the candidate's clearances put them)."""
+        if not np.all(np.isfinite(p)):  # a step computed from sensitivities that overflowed
+            raise SimulationError(f"method 'dynamic': the fit's step is not finite over 0 to {self.m.t[-1]:.3g} s (the "
+                                  "run's sensitivities overflow: a slip reversal too stiff for the integrator's step, "
+                                  "or journals that rattle); fit a shorter span, split it into windows (windows=N), "
+                                  "or step with an implicit integrator (bathe)")
         pb, eqs = self.problem, self.eqs
         if self.seated or self.inputs == "geometry":  # the candidate's equations: its seats, its assembly
             pb = Problem.from_scene(identified_scene(self.scene, self.params, p, name="candidate"))
@@ -294,16 +297,31 @@ class DynamicData:
         extra = getattr(self.method, "initial_extra", None)  # an implicit method's memory and counters
         return np.r_[x0, extra(self.system, x0, self.frame_inputs(0, 1)[0])] if extra else x0
 
+    def _tabulated(self):
+        """t -> the tabulated controller's references at the times t, as rrr4.simulate tabulates
+        them for a run over the frames (on the path's sample grid, interpolated; the nominal
+        controller's, as the measured run's was); None for a closed-form controller step or a
+        driven scene."""
+        if self.loop.pointwise or self.loop.control is None:
+            return None
+        t_end = self.n_frames * self.dt
+        grid = lambda k: frame_times(t_end, self.n_frames, k)  # noqa: E731
+        return run_references(self.problem, self.problem, self.eqs, self.loop, None, t_end, self.n_frames, grid)[1]
+
     def _efforts(self, t, q, qd) -> np.ndarray:
         """The controller's efforts at the states (q, qd) at the times t (for seated journals' loads)."""
-        return controller_efforts(self.problem, self.loop, self.problem.model, np.asarray(t, float),
-                                  np.atleast_2d(q), np.atleast_2d(qd))
+        t = np.asarray(t, float)
+        refs = None if self.refs_at is None else tuple(self.refs_at(t)[k] for k in HELD)
+        return controller_efforts(self.problem, self.loop, self.problem.model, t, np.atleast_2d(q),
+                                  np.atleast_2d(qd), refs)
 
     def frame_inputs(self, a: int, b: int) -> np.ndarray:
-        """(b - a, nu) inputs of frames a..b-1: [t_a, t_b] (and a held controller's path rows at t_a)."""
+        """(b - a, nu) inputs of frames a..b-1: [t_a, t_b] (and a held controller's path rows at t_a,
+        or a tabulated controller's references, :mod:`rrr4.simulation.input_layout`)."""
         t = np.arange(a, b + 1) * self.dt
-        layout = self.loop.inputs  # rrr4.simulation.input_layout
-        return layout.rows(t, step=step_inputs(self.loop.control, self.problem.path, t[:-1]) if layout.step else None)
+        layout = self.loop.inputs
+        return layout.rows(t, None if self.refs_at is None else self.refs_at(t),
+                           step=step_inputs(self.loop.control, self.problem.path, t[:-1]) if layout.step else None)
 
     def frame(self, n_directions: int) -> ca.Function:
         """The compiled frame with `n_directions` sensitivity directions (see :func:`sensitivity_frame`)."""
@@ -427,8 +445,11 @@ class DynamicData:
             return None, None
         if not hasattr(self, "_refs"):
             pose_ref = path_rows(self.problem.path, self.m.t)[:, :3]
-            mech = self.problem.mechanism
-            theta_ref = np.array(mech.ik_function.map(len(self.m.t))(pose_ref.T, mech.modes)[0]).T
+            if self.refs_at is not None:  # a tabulated controller's
+                theta_ref = self.refs_at(self.m.t)["th"]
+            else:
+                mech = self.problem.mechanism
+                theta_ref = np.array(mech.ik_function.map(len(self.m.t))(pose_ref.T, mech.modes)[0]).T
             self._refs = pose_ref, theta_ref
         return self._refs
 

@@ -380,8 +380,6 @@ def _no_seats(problem: Problem) -> str | None:
     if driven_scene(problem):
         return (f"scene {problem.name!r} is driven by its drivers (no task body held against a preload: nothing "
                 "seats its journals where the seat model puts them); straight to 'dynamic'")
-    if not problem.closed_form:
-        return f"scene {problem.name!r} is a graph (the seat model is built for n-RRR scenes)"
     if not problem.has_preload:
         return f"scene {problem.name!r} does not preload (its journals are not seated)"
     return None
