@@ -7,11 +7,14 @@ The contact numbers are inputs of the compiled stepping: they sit in its discret
 length or base position among the parameters so do the masses, inertias and joint points
 (the equations' geometry inputs, :data:`GEOMETRY_KINDS`). So a candidate parameter vector is
 an initial state, not a new scene. One Function steps a frame
-(the integrator's frame of :func:`rrr4.simulate`, with the nominal scene's controller) and,
+(the integrator's frame of :func:`rrr4.simulate`, with the nominal scene's controller: its
+closed-form step, or a graph's references tabulated along the path as the frame's inputs; a
+driven scene's drivers without a controller) and,
 in CasADi forward mode (``Function.forward``, one direction per parameter), carries the
 sensitivities S = d(state)/d(p) along: S_0 holds d(contact numbers)/dp (a clearance moves the
 bearing radius and, with ``stiffness: auto``, the stiffness that follows from it), and the
-measured outputs (task pose, actuator angles, the controller's efforts) and their
+measured outputs (task pose, actuator angles, the controller's efforts; a driven scene's
+bodies' poses and drivers' efforts) and their
 sensitivities are read off each frame's start. What is compiled (the frame, and its
 derivative in one direction, mapped over the directions: :func:`sensitivity_frame`) does not
 depend on the parameter count: once per scene structure, integrator setting and frame (cached
