@@ -134,3 +134,6 @@ def test_a_driven_scenes_columns_and_their_refusals(nominal, plant_run, tmp_path
     with pytest.raises(SceneError) as e:
         identify(nominal, back, [CLEARANCE], method="seated")
     _one_line(e.value, "driven scene needs method 'dynamic'")
+    with pytest.raises(SceneError) as e:  # multiple shooting ends in a wrong local minimum there (not built yet)
+        identify(nominal, back, [CLEARANCE], method="dynamic", windows=2)
+    _one_line(e.value, "windows: 2", "driven scene", "windows=1")

@@ -395,6 +395,10 @@ def _one_method(problem: Problem, nominal: Scene, m: Measurements, params: list[
     else:
         data = DynamicData(problem, m, params, nominal)
         if check_windows(windows, data.n_frames - first_frame(data), data.dt) > 1:
+            if driven_scene(problem):
+                raise SceneError(f"windows: {windows} is not allowed with a driven scene (scene {problem.name!r}: "
+                                 "multiple shooting does not reproduce its run yet, two windows over a noise-free "
+                                 "revolution end in a wrong local minimum; fit it with windows=1)")
             data = WindowedData(data, windows, seed)
     npar = len(params)
     # a windowed fit's start states: nuisance unknowns, unbounded, in the scaled coordinates (s - start) / scale
