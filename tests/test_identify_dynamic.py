@@ -104,10 +104,13 @@ def test_what_has_no_exact_sensitivities_is_refused_in_one_line(paper, tmp_path)
     with pytest.raises(SceneError) as e:
         identify(rrr4.load_scene(path), m, [CLEARANCE], method="dynamic")
     _one_line(e.value, "integrator.method", "'bathe'", "'dynamic'", "rk4")
-    graph = rrr4.build(rrr4.load_scene(PAPER.parent / "paper_circle_graph.yaml"))
-    with pytest.raises(SceneError) as e:
-        identify(graph, m, [CLEARANCE], method="dynamic")
-    _one_line(e.value, "'dynamic'", "n-RRR", "tabulates its references")
+    data = copy.deepcopy(paper.scene.data)
+    data["actuation"]["mode"] = "prescribed"
+    path = tmp_path / "prescribed.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(SceneError) as e:  # no controller's run to fit, and not a driven scene
+        identify(rrr4.load_scene(path), m, [CLEARANCE], method="dynamic")
+    _one_line(e.value, "actuation.mode", "'prescribed'", "'dynamic'")
 
 
 # ---------------------------------------------------------------------- windowed multiple shooting

@@ -7,11 +7,14 @@ The contact numbers are inputs of the compiled stepping: they sit in its discret
 length or base position among the parameters so do the masses, inertias and joint points
 (the equations' geometry inputs, :data:`GEOMETRY_KINDS`). So a candidate parameter vector is
 an initial state, not a new scene. One Function steps a frame
-(the integrator's frame of :func:`rrr4.simulate`, with the nominal scene's controller) and,
+(the integrator's frame of :func:`rrr4.simulate`, with the nominal scene's controller: its
+closed-form step, or a graph's references tabulated along the path as the frame's inputs; a
+driven scene's drivers without a controller) and,
 in CasADi forward mode (``Function.forward``, one direction per parameter), carries the
 sensitivities S = d(state)/d(p) along: S_0 holds d(contact numbers)/dp (a clearance moves the
 bearing radius and, with ``stiffness: auto``, the stiffness that follows from it), and the
-measured outputs (task pose, actuator angles, the controller's efforts) and their
+measured outputs (task pose, actuator angles, the controller's efforts; a driven scene's
+bodies' poses and drivers' efforts) and their
 sensitivities are read off each frame's start. What is compiled (the frame, and its
 derivative in one direction, mapped over the directions: :func:`sensitivity_frame`) does not
 depend on the parameter count: once per scene structure, integrator setting and frame (cached
@@ -53,10 +56,11 @@ from ..problem import Problem
 from ..scene import Scene
 from ..simulation import default_jit
 from ..simulation.initial import initial_state
-from ..simulation.run import controller_efforts
+from ..simulation.input_layout import HELD
+from ..simulation.run import controller_efforts, frame_times, run_references
 from ..simulation.system import in_tree, loop_of, measured, system_of
 from ..trajectory import trajectory_function
-from .measurements import Measurements, measurement_columns
+from .measurements import Measurements, body_rows, driven_scene, measurement_columns
 from .parameters import Parameter, identified_scene
 
 __all__ = ["DynamicData", "DYNAMIC_KINDS", "CHAOS_LIMIT", "FD_STEP", "sensitivity_frame"]
@@ -119,17 +123,11 @@ def _with_directions(step: ca.Function, block: ca.Function, nd: int) -> ca.Funct
 def _build(problem: Problem, dt: float, jit: bool, inputs: str):
     scene = problem.scene
     eqs = problem.equations(inputs=inputs)
-    if eqs.mode != "torque":
+    driven = driven_scene(problem)  # its drivers' prescribed motion, as rrr4.simulate runs it: no controller
+    if eqs.mode != "torque" and not driven:
         raise SceneError(f"actuation.mode: method 'dynamic' is not allowed with {eqs.mode!r} (it fits the run of "
-                         "the scene's controller: torque)")
-    loop = loop_of(problem, eqs, "python", "exact", None)
-    if not loop.pointwise:
-        if problem.closed_form and problem.compensates and problem.scene.actuation.seat_model == "rolling":
-            raise SceneError("actuation.seat_model: 'rolling' is not allowed with method 'dynamic' (it fits through "
-                             "the closed-form controller step; rolling seats tabulate the references: choose "
-                             "quasi_static for the fit)")
-        raise SceneError(f"mechanism.kind: method 'dynamic' is built for n-RRR scenes with their closed-form "
-                         f"controller (scene {problem.name!r} tabulates its references)")
+                         "the scene's controller, torque, or of a driven scene's drivers)")
+    loop = loop_of(problem, eqs, "python", "exact", None)  # a tabulated controller's references: frame inputs
     method = METHODS[scene.integrator.method].from_settings(scene.integrator, jit=False)
     if isinstance(method, ImplicitIntegrator):
         method.newton = "full"
@@ -146,10 +144,10 @@ def _build(problem: Problem, dt: float, jit: bool, inputs: str):
     x, u = ca.MX.sym("x", nx), ca.MX.sym("u", nu)
     x1 = unit(x, u)
     out = _outputs(problem, eqs, loop, system, tree)
-    xs = ca.SX.sym("x", nx)
-    o = out(xs[:1 + system.ny + system.nz])  # an implicit method's memory follows [t, y, z]
-    do = ca.Function("outputs", [xs], [o, ca.jacobian(o, xs)])
-    step = ca.Function("sensitivity_step", [x, u], [x1, *do(x)], ["x", "u"], ["x_next", "o", "do_dx"])
+    xs, us = ca.SX.sym("x", nx), ca.SX.sym("u", nu)
+    o = out(xs[:1 + system.ny + system.nz], us)  # an implicit method's memory follows [t, y, z]
+    do = ca.Function("outputs", [xs, us], [o, ca.jacobian(o, xs)])
+    step = ca.Function("sensitivity_step", [x, u], [x1, *do(x, u)], ["x", "u"], ["x_next", "o", "do_dx"])
     forward = unit.forward(DIRECTIONS)
     dx, du, x_out = ca.MX.sym("dx", nx, DIRECTIONS), ca.MX.sym("du", nu, DIRECTIONS), ca.MX.sym("x_next", nx)
     block = ca.Function("sensitivity_directions", [x, u, x_out, dx, du], [forward(x, u, x_out, dx, du)],
@@ -160,17 +158,28 @@ def _build(problem: Problem, dt: float, jit: bool, inputs: str):
 
 
 def _outputs(problem: Problem, eqs, loop, system, tree: bool) -> ca.Function:
-    """x -> [task pose (3), actuator angles (n), efforts (n)]: what the run records at a state."""
-    model, par, L = problem.model, eqs.parametric, system.layout
-    x = ca.SX.sym("x", 1 + L.ny + L.nz)
+    """(x, u) -> what the run records at a frame's start x with the frame's inputs u: [task pose
+    (3), actuator angles (n), efforts (n)], or for a driven scene [the bodies' poses (3 each),
+    the drivers' efforts] (the order of :func:`rrr4.identify.measurements.measurement_columns`).
+    A tabulated controller (a graph's) takes its references at the frame's start from u."""
+    model, par, L, U = problem.model, eqs.parametric, system.layout, loop.inputs
+    x, u = ca.SX.sym("x", 1 + L.ny + L.nz), ca.SX.sym("u", U.width)
     t, parameters, settings = x[0], x[L.in_x("parameters")], x[L.in_x("settings")]
     q, qd = x[L.in_x("q")], x[L.in_x("qd")]
     if tree:
         q, qd = par.tree_state(q, qd, parameters)
+    if driven_scene(problem):  # the drivers' efforts: -lambda of their rows, as the simulation's outputs
+        n = ca.SX(eqs.n_actuators, 1)
+        acc = par.acceleration(q=q, qd=qd, effort=n, theta_ref=n, theta_d_ref=n, theta_dd_ref=n,
+                               delta_dot0=x[L.in_x("delta_dot0")], in_contact=x[L.in_x("in_contact")], t=t,
+                               parameters=parameters)
+        return ca.Function("recorded", [x, u], [ca.vertcat(q[body_rows(problem).tolist()], acc["driver_effort"])])
     theta, theta_d = measured(model, q, qd, par, parameters)
-    tau = loop.control(*trajectory_function(problem.path)(t), theta, theta_d, settings)
+    references = trajectory_function(problem.path)(t) if loop.pointwise else \
+        [u[U.reference(name)] for name in HELD]  # th, thd, ff at t_a (sampled: the frame's first end)
+    tau = loop.control(*references, theta, theta_d, settings)
     tau = tau[0] if isinstance(tau, (list, tuple)) else tau
-    return ca.Function("recorded", [x], [ca.vertcat(model.task_pose_function(q), theta, tau)])
+    return ca.Function("recorded", [x, u], [ca.vertcat(model.task_pose_function(q), theta, tau)])
 
 
 class DynamicData:
@@ -192,23 +201,32 @@ class DynamicData:
         if self.inputs == "geometry" and scene.data is None:
             raise SceneError(f"scene: {problem.name!r} has no YAML data (method 'dynamic' varies the scene's data "
                              "for link lengths and base positions; read it with rrr4.load_scene)")
-        self.f, self.system, self.loop, self.eqs, self.tree, self.method, self.dt = sensitivity_frame(
-            problem, len(params), float(np.median(np.diff(m.t))), inputs=self.inputs)
         kinds = measurement_columns(problem)
         self.kinds = kinds
-        self.pose_cols, self.angle_cols = m.has(kinds["pose"]), m.has(kinds["angle"])
-        self.effort_cols = m.has(kinds["effort"])
+        # the recorded outputs' columns, in the order of the frame's outputs (see _outputs)
+        driven = driven_scene(problem)
+        self.outputs = kinds["body"] + kinds["driver"] if driven else kinds["pose"] + kinds["angle"] + kinds["effort"]
+        body_angles = [c for c in kinds["body"] if c.endswith("_theta_rad")]
+        self.pose_cols, self.angle_cols = m.has(kinds["pose"]), m.has(kinds["angle"] + body_angles)  # angles: wrapped
+        self.effort_cols = m.has(kinds["effort"] + kinds["driver"])
+        self.body_cols = m.has([c for c in kinds["body"] if c not in body_angles])  # a driven scene's positions
+        if not self.columns():
+            raise MeasurementError(f"{where}: no column that method 'dynamic' fits for scene {problem.name!r} "
+                                   f"(expected some of: {', '.join(self.outputs)}; given: "
+                                   f"{', '.join(m.columns) or 'none'})")
         self.angles_measured = bool(self.angle_cols)
-        self.preload, self.lag = "simulated controller", 0.0
+        self.f, self.system, self.loop, self.eqs, self.tree, self.method, self.dt = sensitivity_frame(
+            problem, len(params), float(np.median(np.diff(m.t))), inputs=self.inputs)
+        self.preload, self.lag = "the drivers' motion" if driven else "simulated controller", 0.0
         self.n_frames = int(np.ceil(m.t[-1] / self.dt - 1e-9)) + 1  # frame starts 0, dt, ... cover t
         self.runs, self.chaos, self._cache, self._rolls = 0, None, {}, {}
+        self.refs_at = self._tabulated()
         self.u = self.frame_inputs(0, self.n_frames)
         self.seated = seated
         self.G = self._geometry()
-        self.D = self._derivatives()
 
     def columns(self) -> list[str]:
-        return self.pose_cols + self.angle_cols + self.effort_cols
+        return self.pose_cols + self.angle_cols + self.effort_cols + self.body_cols
 
     # ------------------------------------------------------------------ the runs
 
@@ -251,21 +269,27 @@ class DynamicData:
                 v[at("contact.friction_coefficient")] = value
         return v
 
-    def _derivatives(self) -> np.ndarray:
-        """d(contact numbers)/dp (n_e, np) at the nominal values: 1 at a parameter's own
-        entries, and with stiffness 'auto' dK/dc of each clearance's stiffness (central
-        difference of its closed form, which is smooth)."""
-        nominal = np.array([q.nominal for q in self.params])
+    def derivatives(self, p=None) -> np.ndarray:
+        """d(contact numbers)/dp (n_e, np) at the parameter values p (default the nominal
+        ones): 1 at a parameter's own entries, and with stiffness 'auto' dK/dc of each
+        clearance's stiffness (central difference of its closed form, which is smooth; it
+        changes with c: taken at p, not at the nominal values)."""
+        at = np.array([q.nominal for q in self.params] if p is None else p, float)
         D = np.zeros((len(self.eqs.parameters), len(self.params)))
         for i, q in enumerate(self.params):
             h = 1e-4 * q.scale
             e = np.eye(len(self.params))[i] * h
-            D[:, i] = (self.contact_numbers(nominal + e) - self.contact_numbers(nominal - e)) / (2 * h)
+            D[:, i] = (self.contact_numbers(at + e) - self.contact_numbers(at - e)) / (2 * h)
         return D
 
     def initial(self, p) -> np.ndarray:
         """x0 at the parameter values p: the scene's initial state with p's contact numbers
         (journals seated where the candidate's clearances put them)."""
+        if not np.all(np.isfinite(p)):  # a step computed from sensitivities that overflowed
+            raise SimulationError(f"method 'dynamic': the fit's step is not finite over 0 to {self.m.t[-1]:.3g} s (the "
+                                  "run's sensitivities overflow: a slip reversal too stiff for the integrator's step, "
+                                  "or journals that rattle); fit a shorter span, split it into windows (windows=N), "
+                                  "or step with an implicit integrator (bathe)")
         pb, eqs = self.problem, self.eqs
         if self.seated or self.inputs == "geometry":  # the candidate's equations: its seats, its assembly
             pb = Problem.from_scene(identified_scene(self.scene, self.params, p, name="candidate"))
@@ -276,16 +300,31 @@ class DynamicData:
         extra = getattr(self.method, "initial_extra", None)  # an implicit method's memory and counters
         return np.r_[x0, extra(self.system, x0, self.frame_inputs(0, 1)[0])] if extra else x0
 
+    def _tabulated(self):
+        """t -> the tabulated controller's references at the times t, as rrr4.simulate tabulates
+        them for a run over the frames (on the path's sample grid, interpolated; the nominal
+        controller's, as the measured run's was); None for a closed-form controller step or a
+        driven scene."""
+        if self.loop.pointwise or self.loop.control is None:
+            return None
+        t_end = self.n_frames * self.dt
+        grid = lambda k: frame_times(t_end, self.n_frames, k)  # noqa: E731
+        return run_references(self.problem, self.problem, self.eqs, self.loop, None, t_end, self.n_frames, grid)[1]
+
     def _efforts(self, t, q, qd) -> np.ndarray:
         """The controller's efforts at the states (q, qd) at the times t (for seated journals' loads)."""
-        return controller_efforts(self.problem, self.loop, self.problem.model, np.asarray(t, float),
-                                  np.atleast_2d(q), np.atleast_2d(qd))
+        t = np.asarray(t, float)
+        refs = None if self.refs_at is None else tuple(self.refs_at(t)[k] for k in HELD)
+        return controller_efforts(self.problem, self.loop, self.problem.model, t, np.atleast_2d(q),
+                                  np.atleast_2d(qd), refs)
 
     def frame_inputs(self, a: int, b: int) -> np.ndarray:
-        """(b - a, nu) inputs of frames a..b-1: [t_a, t_b] (and a held controller's path rows at t_a)."""
+        """(b - a, nu) inputs of frames a..b-1: [t_a, t_b] (and a held controller's path rows at t_a,
+        or a tabulated controller's references, :mod:`rrr4.simulation.input_layout`)."""
         t = np.arange(a, b + 1) * self.dt
-        layout = self.loop.inputs  # rrr4.simulation.input_layout
-        return layout.rows(t, step=step_inputs(self.loop.control, self.problem.path, t[:-1]) if layout.step else None)
+        layout = self.loop.inputs
+        return layout.rows(t, None if self.refs_at is None else self.refs_at(t),
+                           step=step_inputs(self.loop.control, self.problem.path, t[:-1]) if layout.step else None)
 
     def frame(self, n_directions: int) -> ca.Function:
         """The compiled frame with `n_directions` sensitivity directions (see :func:`sensitivity_frame`)."""
@@ -294,17 +333,19 @@ class DynamicData:
     def start(self, p, sensitivities: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """(x0, S0 (nx, np), no columns without `sensitivities`): the run's initial state at the
         parameter values p and its sensitivities (the contact numbers' d/dp; a seated start's
-        by forward differences)."""
+        by central differences)."""
         nd, motion = (len(self.params) if sensitivities else 0), self.system.layout.in_x("motion")
         x = self.initial(p)
         S = np.zeros((x.size, nd))
         if sensitivities:
-            S[self.parameter_rows] = self.D
-        moved = ("clearance", *GEOMETRY_KINDS) if self.seated else GEOMETRY_KINDS
-        if sensitivities:  # the start moves with the seats' clearances and the geometry: forward differences
+            S[self.parameter_rows] = self.derivatives(p)
+        # the start moves with the geometry and the seats (clearance, and the elastic penetration the stiffness and
+        # the friction angle add): central differences (a forward one is off by ~FD_STEP on a log-fitted stiffness)
+        moved = DYNAMIC_KINDS if self.seated else GEOMETRY_KINDS
+        if sensitivities:
             for i in (i for i, q in enumerate(self.params) if q.kind in moved):
-                up = self.shifted(p, i)
-                S[motion, i] = (self.initial(up)[motion] - x[motion]) / (up[i] - p[i])
+                up, down = self.shifted(p, i), self.shifted(p, i, -FD_STEP)
+                S[motion, i] = (self.initial(up)[motion] - self.initial(down)[motion]) / (up[i] - down[i])
         return x, S
 
     @property
@@ -363,10 +404,7 @@ class DynamicData:
         """{column: (N,)} and {column: (N, np)} (none without do) at the measured instants
         (linear in time between frame starts)."""
         t_f = np.arange(self.n_frames) * self.dt
-        n = len(self.kinds["angle"])
-        index = {**{c: i for i, c in enumerate(self.kinds["pose"])},
-                 **{c: 3 + i for i, c in enumerate(self.kinds["angle"])},
-                 **{c: 3 + n + i for i, c in enumerate(self.kinds["effort"])}}
+        index = {c: i for i, c in enumerate(self.outputs)}
         val, sens = {}, {}
         for c in self.columns():
             i = index[c]
@@ -405,18 +443,24 @@ class DynamicData:
 
     def _references(self):
         """The path's poses (N, 3) at the measured instants and the ideal IK's actuator angles
-        (N, n) (what the figures show offsets from)."""
+        (N, n) (what the figures show offsets from); (None, None) without a task (a driven scene)."""
+        if self.problem.model.task is None:
+            return None, None
         if not hasattr(self, "_refs"):
             pose_ref = path_rows(self.problem.path, self.m.t)[:, :3]
-            mech = self.problem.mechanism
-            theta_ref = np.array(mech.ik_function.map(len(self.m.t))(pose_ref.T, mech.modes)[0]).T
+            if self.refs_at is not None:  # a tabulated controller's
+                theta_ref = self.refs_at(self.m.t)["th"]
+            else:
+                mech = self.problem.mechanism
+                theta_ref = np.array(mech.ik_function.map(len(self.m.t))(pose_ref.T, mech.modes)[0]).T
             self._refs = pose_ref, theta_ref
         return self._refs
 
     def initial_noise(self) -> dict:
         out = {}
         for c in self.columns():
-            out[c] = 1e-5 if c == "theta_rad" else 1e-6 if c in ("x_m", "y_m") else 1e-5 if c in self.angle_cols \
+            out[c] = 1e-5 if c == "theta_rad" else 1e-6 if c in ("x_m", "y_m", *self.body_cols) else \
+                1e-5 if c in self.angle_cols \
                 else max(0.01 * float(np.sqrt(np.mean(self.m.columns[c] ** 2))), 1e-9)
         return out
 

@@ -18,7 +18,7 @@ from ..scene import Scene
 from ..scene.vocabulary import IDENTIFICATION_DEFAULT, IDENTIFICATION_METHODS
 from .dynamic import DynamicData
 from .least_squares import Z95, covariance, identifiability, levenberg_marquardt, profile_interval
-from .measurements import Measurements, measurements_from_simulation, read_measurements
+from .measurements import Measurements, driven_scene, measurements_from_simulation, read_measurements
 from .multiple_shooting import WindowedData, check_windows, first_frame
 from .parameters import Parameter, identified_scene, resolve_parameters
 from .seated import SeatedData, check_friction_explained, check_seated, noise_from_residuals
@@ -377,8 +377,9 @@ def _short(key: str) -> str:
 
 def _no_seats(problem: Problem) -> str | None:
     """Why method 'seated' does not apply to `problem` (None: it does)."""
-    if not problem.closed_form:
-        return f"scene {problem.name!r} is a graph (the seat model is built for n-RRR scenes)"
+    if driven_scene(problem):
+        return (f"scene {problem.name!r} is driven by its drivers (no task body held against a preload: nothing "
+                "seats its journals where the seat model puts them); straight to 'dynamic'")
     if not problem.has_preload:
         return f"scene {problem.name!r} does not preload (its journals are not seated)"
     return None
@@ -394,6 +395,10 @@ def _one_method(problem: Problem, nominal: Scene, m: Measurements, params: list[
     else:
         data = DynamicData(problem, m, params, nominal)
         if check_windows(windows, data.n_frames - first_frame(data), data.dt) > 1:
+            if driven_scene(problem):
+                raise SceneError(f"windows: {windows} is not allowed with a driven scene (scene {problem.name!r}: "
+                                 "multiple shooting does not reproduce its run yet, two windows over a noise-free "
+                                 "revolution end in a wrong local minimum; fit it with windows=1)")
             data = WindowedData(data, windows, seed)
     npar = len(params)
     # a windowed fit's start states: nuisance unknowns, unbounded, in the scaled coordinates (s - start) / scale
@@ -466,7 +471,8 @@ def _one_method(problem: Problem, nominal: Scene, m: Measurements, params: list[
     fit = {"samples": len(m), "residuals": int(r.size), "reduced_chi2": cov["reduced_chi2"], "chi2": cov["chi2"],
            "rms_residual": {c: float(np.sqrt(np.mean(v ** 2))) for c, v in res["raw"].items()},
            "iterations": iterations, "converged": bool(converged), "wall_time_s": time.perf_counter() - wall,
-           "angles": "measured" if data.angles_measured else "controller references", "preload": data.preload,
+           "angles": "measured" if data.angles_measured else "prescribed by the drivers" if driven_scene(problem) else
+           "controller references", "preload": data.preload,
            **({"friction_explained_ratio": explained[0], "friction_sliding_fraction": explained[1]}
               if explained is not None else {}),
            "effort_lag_s": data.lag, **({"simulations": data.runs, "sensitivity_disagreement": data.chaos,

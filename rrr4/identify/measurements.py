@@ -5,7 +5,11 @@ Column names are those of a study's ``timeseries.csv`` (:func:`rrr4.results.writ
 so a simulated run feeds back in: ``t_s`` (or ``t``), ``x_m``, ``y_m``, ``theta_rad`` (the
 task body), ``theta_<A>_rad`` and ``theta_d_<A>_rad_s`` (actuator A's angle and rate),
 ``tau_<A>_Nm`` (or ``_N`` on a prismatic actuator), ``alpha_Nm`` (the preload), each
-optionally behind an arm prefix (``with_preload_x_m``). Every other column is ignored.
+optionally behind an arm prefix (``with_preload_x_m``). A driven scene (drivers, no task: the
+slider-crank) has no task body and no actuators; its columns are those of its runs'
+``timeseries.csv``: per body B ``B_x_m``, ``B_y_m``, ``B_theta_rad`` (its centre of mass and
+angle) and per driver D ``D_effort_Nm`` (``_N`` on a prismatic joint: what the driver applies).
+Every other column is ignored.
 """
 
 from __future__ import annotations
@@ -25,7 +29,8 @@ from ..problem import Problem
 from ..trajectory import trajectory_function
 
 __all__ = ["Measurements", "read_measurements", "measurements_from_simulation",
-           "POSE_COLUMNS", "measurement_columns"]
+           "POSE_COLUMNS", "measurement_columns",
+           "driven_scene", "body_rows"]
 
 POSE_COLUMNS = ("x_m", "y_m", "theta_rad")
 MAX_ROWS = 2_000_000
@@ -36,15 +41,35 @@ CHECKED_ROWS = 200  # rows (evenly spread) at which the actuator angles are comp
 
 def measurement_columns(problem: Problem) -> dict[str, list[str]]:
     """The columns identification reads for `problem`, by kind: pose, angle, rate, effort
-    (without an arm prefix), and 'preload' (alpha_Nm)."""
+    (without an arm prefix), 'preload' (alpha_Nm), and for a driven scene (no task body:
+    no pose) 'body' (B_x_m, B_y_m, B_theta_rad per body B, in the order of the bodies'
+    coordinates) and 'driver' (D_effort_Nm, or _N on a prismatic joint, per driver D)."""
     model = problem.model
     rev = [problem.joint(j).type == "revolute" for j in model.actuated_joints]
     names = model.actuator_names
-    return {"pose": list(POSE_COLUMNS),
+    driven = driven_scene(problem)
+    return {"pose": [] if driven else list(POSE_COLUMNS),
             "angle": [f"theta_{a}_{'rad' if r else 'm'}" for a, r in zip(names, rev, strict=True)],
             "rate": [f"theta_d_{a}_{'rad_s' if r else 'm_s'}" for a, r in zip(names, rev, strict=True)],
             "effort": [f"tau_{a}_{'Nm' if r else 'N'}" for a, r in zip(names, rev, strict=True)],
-            "preload": ["alpha_Nm"]}
+            "preload": ["alpha_Nm"],
+            "body": [f"{b}_{c}" for b in model.body_names for c in POSE_COLUMNS] if driven else [],
+            "driver": [f"{d.name}_effort_{'Nm' if problem.joint(d.joint).type == 'revolute' else 'N'}"
+                       for d in model.graph.drivers] if driven else []}
+
+
+def body_rows(problem: Problem) -> np.ndarray:
+    """The entries of the reference-point coordinates q that hold the 'body' columns of a
+    driven scene (:func:`measurement_columns`; none for another scene): x, y, theta of each body."""
+    if not driven_scene(problem):
+        return np.zeros(0, int)
+    model = problem.model
+    return np.concatenate([np.arange(model.nq)[model.coordinates(b)] for b in model.body_names])
+
+
+def driven_scene(problem: Problem) -> bool:
+    """Whether `problem` is a driven scene: drivers prescribe its motion, no task body follows a path."""
+    return problem.model.task is None and bool(problem.model.graph.drivers)
 
 
 @dataclass(frozen=True)
@@ -130,9 +155,13 @@ def select_columns(problem: Problem, header: list[str], rows: dict, where: str, 
     """{name: values} of the columns identification uses, from a table whose header may
     carry arm prefixes; MeasurementError when none is there or the arm is ambiguous."""
     kinds = measurement_columns(problem)
-    wanted = {c for k in ("pose", "angle", "rate", "effort") for c in kinds[k]}
+    wanted = {c for k in ("pose", "angle", "rate", "effort", "body", "driver") for c in kinds[k]}
     arms = _arms(header, wanted)
     arms = [a for a in arms if not any(a == w or a.endswith("_" + w) for w in wanted)]
+    if not arms and driven_scene(problem):
+        raise MeasurementError(f"{where}: no body or driver column of the driven scene {problem.name!r} (expected "
+                               f"some of: {', '.join(kinds['driver'] + kinds['body'])}, optionally behind an arm "
+                               "prefix such as with_clearance_)")
     if not arms:
         raise MeasurementError(f"{where}: no pose or effort column (expected some of: "
                                f"{', '.join(kinds['pose'] + kinds['effort'])}, optionally behind an arm prefix such "
@@ -220,7 +249,7 @@ def check_units(problem: Problem, m: Measurements) -> None:
     (degrees, another zero or another working mode are refused), each prismatic actuator's
     position within the reach of the scene's."""
     where, reach = m.source or "measurements", _reach(problem)
-    for c in ("x_m", "y_m"):
+    for c in ("x_m", "y_m", *(c for c in measurement_columns(problem)["body"] if not c.endswith("_theta_rad"))):
         if c in m.columns and np.max(np.abs(m.columns[c])) > reach:
             raise MeasurementError(f"{where}: column {c} reaches {np.max(np.abs(m.columns[c])):.4g}, beyond the "
                                    f"mechanism's reach ({reach:.3g} m): is it in millimetres? (metres are required)")
@@ -267,7 +296,8 @@ def _reach(problem: Problem) -> float:
 
 def measurements_from_simulation(sim, every: int = 1, noise: dict | None = None) -> Measurements:
     """The measurements a run would give (task pose, actuator angles and rates, efforts; the
-    controller's preload alpha where it has one), every `every`-th output instant: what
+    controller's preload alpha where it has one; a driven scene's body poses and driver
+    efforts), every `every`-th output instant: what
     :func:`read_measurements` reads from the run's timeseries.csv."""
     problem = Problem.from_scene(sim.scene)
     kinds = measurement_columns(problem)
@@ -279,4 +309,6 @@ def measurements_from_simulation(sim, every: int = 1, noise: dict | None = None)
     cols.update({c: theta[:, k] for k, c in enumerate(kinds["angle"])})
     cols.update({c: theta_d[:, k] for k, c in enumerate(kinds["rate"])})
     cols.update({c: sim.tau[rows, k] for k, c in enumerate(kinds["effort"])})
+    cols.update({c: sim.q[rows, k] for c, k in zip(kinds["body"], body_rows(problem), strict=True)})
+    cols.update({c: sim.driver_effort[rows, k] for k, c in enumerate(kinds["driver"])})
     return Measurements(sim.t[rows], cols, dict(noise or {}), f"simulation of {sim.scene.name}")

@@ -195,7 +195,7 @@ class WindowedData:
         x = np.r_[x, extra(system, x, s.u[self.bounds[k]])] if extra else x
         S = np.zeros((x.size, npar + self.n_state if sensitivities else 0))
         if sensitivities:
-            S[s.parameter_rows, :npar] = s.D
+            S[s.parameter_rows, :npar] = s.derivatives(w[:npar])
             S[motion, :npar] = d_p
             S[motion, npar:] = d_s
         return x, S

@@ -49,7 +49,7 @@ from .outputs import Outputs
 from .result import Simulation
 from .system import REFERENCES, Loop, in_tree, loop_of, measured, system_of
 
-__all__ = ["simulate", "OVERRIDES", "default_jit", "frame_times", "controller_efforts", "run_end"]
+__all__ = ["simulate", "OVERRIDES", "default_jit", "frame_times", "controller_efforts", "run_end", "run_references"]
 
 MAX_STEPS = 1e10  # integrator steps one simulate call may take
 
@@ -246,7 +246,7 @@ def simulate(scene: Scene | Problem, integrator=None, t_end: float | None = None
                          f"{t_end:g} s (at most {MAX_SAMPLES:g} control periods and {MAX_STEPS:g} steps)")
     t_grid = functools.partial(frame_times, t_end, n_frames)  # frame ends, by index
     t_out = t_grid(np.arange(0, n_frames + 1, every))
-    refs, refs_at = _references(problem, ctrl, eqs, loop, preload, t_end, n_frames, t_grid)
+    refs, refs_at = run_references(problem, ctrl, eqs, loop, preload, t_end, n_frames, t_grid)
     u = _frame_inputs(problem, loop, refs_at, n_frames, t_grid)
 
     def tabulated_at(t):  # the tabulated controller's (theta, theta_d, tau_ff) at the times t
@@ -334,7 +334,7 @@ def _prescribed(problem: Problem, eqs, refs, refs_at):
     return lambda t: tuple(refs_at(t)[key] for key in ("th", "thd", "thdd"))
 
 
-def _references(problem: Problem, ctrl: Problem, eqs, loop: Loop, given, t_end: float, n_frames: int, t_grid):
+def run_references(problem: Problem, ctrl: Problem, eqs, loop: Loop, given, t_end: float, n_frames: int, t_grid):
     """(refs, refs_at) of a run: the prescribed mode's closed-form references Function (or
     None), and t -> the tabulated references at the times t (or None): on the path's sample
     grid (or the frames, if coarser), interpolated to the frames."""

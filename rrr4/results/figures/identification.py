@@ -19,6 +19,12 @@ _UNITS = {"x_m": ("x", "um", 1e6), "y_m": ("y", "um", 1e6), "theta_rad": ("orien
 def _unit(c: str):
     if c in _UNITS:
         return _UNITS[c]
+    if c.endswith(("_x_m", "_y_m")):  # a driven scene's body position (its columns B_x_m, B_y_m, B_theta_rad)
+        return (c[:-2].replace("_", " "), "mm", 1e3)
+    if c.endswith("_theta_rad") and not c.startswith("theta_"):
+        return (c.removesuffix("_theta_rad") + " angle", "rad", 1.0)
+    if "_effort_" in c:  # a driver's effort D_effort_Nm
+        return (c.rsplit("_effort_", 1)[0] + " effort", "mN m" if c.endswith("Nm") else "mN", 1e3)
     if c.startswith("theta_"):
         revolute = c.endswith("_rad")
         return (c.removeprefix("theta_").rsplit("_", 1)[0] + " angle", "urad" if revolute else "um", 1e6)
