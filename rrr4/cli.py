@@ -411,8 +411,10 @@ def build_parser() -> argparse.ArgumentParser:
     wr.add_argument("--cycles", type=float, required=True, help="number of cycles N (a whole number; one cycle is "
                                                                  "the path, or one revolution of a driven scene)")
     wr.add_argument("--max-change", type=float, default=None, metavar="F",
-                    help="the deepest change of a wear profile per jump, in radial clearances (0 < F <= 1; "
-                         "default 0.02, rrr4.studies.wear.DEFAULT_MAX_CHANGE)")
+                    help="the deepest change of a wear profile per jump, in radial clearances (0 < F <= 1); "
+                         "default: 0.02 (rrr4.studies.wear.DEFAULT_MAX_CHANGE), and the study again with the "
+                         "smaller F the jump-error check names where it finds the error above 2 %% of the deepest "
+                         "depth")
     wr.add_argument("--no-check", action="store_true",
                     help="skip the jump-error check (the first arm again with half the jumps)")
     wr.add_argument("--out", help="directory (default results/<scene name>/); replaced atomically")

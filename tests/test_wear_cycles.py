@@ -171,3 +171,24 @@ def test_a_jump_onto_a_groove_flank_keeps_the_journal_as_loaded_as_it_was(first_
     assert b.extremes["normal_force_max"][0] == pytest.approx(W, rel=5e-3)
     assert b.contact_loss_events["S"] == 0
     assert periodicity(b) < 1e-3
+
+
+def test_the_default_jumps_adapt_when_their_measured_error_exceeds_the_tolerance(monkeypatch, tmp_path):
+    """With the default max_change the study checks its jumps against half as large ones and,
+    where the difference exceeds JUMP_TOLERANCE, runs again with the max_change the check
+    names (here a tolerance lowered to 1e-9 makes the default fail and the refinement stop at
+    its floor, DEFAULT_MAX_CHANGE / MAX_REFINEMENT, set to 2 to keep the test short): the finer
+    study's own jump error is smaller, as first-order jumps make it; a max_change given is kept
+    as it is."""
+    import rrr4.studies.wear as study_module
+    monkeypatch.setattr(study_module, "JUMP_TOLERANCE", 1e-9)
+    monkeypatch.setattr(study_module, "MAX_REFINEMENT", 2)
+    scene = JOURNAL.with_values({"mechanism.drivers[0].speed_rpm": 3000.0})
+    adapted = wear_study(scene, 12000)
+    first = adapted.adapted_from
+    assert first is not None and first["max_change"] == study_module.DEFAULT_MAX_CHANGE
+    assert adapted.max_change == pytest.approx(study_module.DEFAULT_MAX_CHANGE / study_module.MAX_REFINEMENT)
+    assert adapted.jump_error["profile_error"] < 0.8 * first["profile_error"]
+    write_wear(adapted, tmp_path / "a")
+    assert "Adapted: the default jumps (0.02 c) differed by" in (tmp_path / "a" / "report.md").read_text()
+    assert wear_study(scene, 3000, max_change=0.05).adapted_from is None

@@ -52,13 +52,16 @@ class WearArm:
 @dataclass(frozen=True)
 class WearStudy:
     """`cycles` cycles of `cycle_time` [s] in jumps of at most `max_change` radial clearances;
-    arms: name -> WearArm; jump_error: the first arm against half its jumps (None: not run)."""
+    arms: name -> WearArm; jump_error: the first arm against half its jumps (None: not run);
+    adapted_from: the jump error of the default max_change that made the study run again with
+    smaller jumps (None: it did not)."""
     scene: Scene
     cycles: int
     max_change: float
     cycle_time: float
     arms: dict
     jump_error: dict | None = None
+    adapted_from: dict | None = None
 
 
 def _modulus(spec) -> float:
@@ -77,7 +80,8 @@ def wear_summary(study: WearStudy) -> dict:
     worn bore conforms to the journal and spreads the force over a wider arc)."""
     scene = study.scene
     out = {"scene": scene.name, "task": scene.graph.task is not None, "cycles": study.cycles,
-           "cycle_time_s": study.cycle_time, "max_change": study.max_change, "jump_error": study.jump_error, "arms": {}}
+           "cycle_time_s": study.cycle_time, "max_change": study.max_change, "jump_error": study.jump_error,
+           "adapted_from": study.adapted_from, "arms": {}}
     for name, arm in study.arms.items():
         last = arm.records[-1]
         joints = {}
@@ -182,7 +186,11 @@ def _report(summary: dict) -> str:
     lines = [f"# Wear of {summary['scene']}: {summary['cycles']:g} cycles of {summary['cycle_time_s']:g} s", "",
              f"Cycle jumping: the profile's deepest change per jump is at most {summary['max_change']:g} radial "
              "clearances.", ""]
-    je = summary["jump_error"]
+    je, first = summary["jump_error"], summary.get("adapted_from")
+    if first:
+        lines += [f"Adapted: the default jumps ({first['max_change']:g} c) differed by {first['profile_error']:.2g} of "
+                  f"the deepest depth from jumps half as large (more than {first['tolerance']:g}), so the study ran "
+                  f"again with jumps of at most {summary['max_change']:g} c; what follows is that run.", ""]
     if je:
         worst = max(je["volume_error"].values(), default=0.0)
         lines += [f"Jump error ({je['arm'].replace('_', ' ')}, against jumps of at most {je['finer_max_change']:g} "

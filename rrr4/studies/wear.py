@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -42,11 +43,12 @@ from ..simulation import simulate
 from .study import arm_scene
 
 __all__ = ["jump_cycles", "wear_study", "cycle_duration", "DEFAULT_MAX_CHANGE", "MAX_CYCLES", "settle", "periodicity",
-           "suggested_max_change", "JUMP_TOLERANCE", "MAX_TRANSIENT"]
+           "suggested_max_change", "JUMP_TOLERANCE", "MAX_TRANSIENT", "MAX_REFINEMENT"]
 
 DEFAULT_MAX_CHANGE = 0.02  # the deepest change of a profile per jump, in radial clearances
 MAX_TRANSIENT = 5  # cycles the start transient may take before the jumps begin
 JUMP_TOLERANCE = 0.02  # the jump error (of the deepest depth) beyond which the study names a smaller max_change
+MAX_REFINEMENT = 8  # the default study adapts its max_change down to DEFAULT_MAX_CHANGE / MAX_REFINEMENT at most
 MAX_CYCLES = 1e12
 
 
@@ -185,26 +187,49 @@ def _joints(problem: Problem) -> tuple[str, ...]:
     return tuple(dict.fromkeys(j for j, _, _ in problem.equations().worn))
 
 
-def wear_study(scene: Scene | Problem, cycles: float, max_change: float = DEFAULT_MAX_CHANGE,
+def wear_study(scene: Scene | Problem, cycles: float, max_change: float | None = None,
                check: bool = True, progress: bool = False, log=None) -> WearStudy:
     """The wear of every clearance joint of `scene` (which must ask for wear: ``effects.wear``
     or a joint's ``wear``) after `cycles` cycles, in each arm (see the module docstring).
-    max_change in (0, 1]: the deepest change of a profile per jump, in radial clearances.
-    check: also run the first arm with half the jumps and report the difference (the jump's
-    error). progress: a progress bar over the cycles; log: callable taking one line per stage."""
+    max_change in (0, 1]: the deepest change of a profile per jump, in radial clearances;
+    None (the default): :data:`DEFAULT_MAX_CHANGE`, and where the check finds its error above
+    :data:`JUMP_TOLERANCE`, the whole study again with the max_change the check suggests (at
+    most :data:`MAX_REFINEMENT` times finer; ``WearStudy.adapted_from`` keeps the first
+    check). check: also run the first arm with half the jumps and report the difference (the
+    jump's error). progress: a progress bar over the cycles; log: callable taking one line per
+    stage."""
     say = log or (lambda _m: None)
     problem = Problem.from_scene(scene)
     cycles = argument("cycles", cycles)
     if cycles != int(cycles) or cycles > MAX_CYCLES:
         raise SceneError(f"cycles: {cycles:g} is not allowed (a whole number from 1 to {MAX_CYCLES:g})")
     cycles = int(cycles)
-    max_change = argument("max_change", max_change)
+    adaptive = max_change is None
+    max_change = DEFAULT_MAX_CHANGE if adaptive else argument("max_change", max_change)
     if max_change > 1:
         raise SceneError(f"max_change: {max_change:g} is not allowed (a fraction of the radial clearance in (0, 1])")
     worn = problem.equations().worn
     if not worn:
         raise SceneError("effects.wear: 'none' is not allowed for rrr4 wear (no clearance joint wears: give "
                          "effects.wear with surfaces, coefficient, hardness and length)")
+    study = _study(problem, cycles, max_change, check, progress, say)
+    error = study.jump_error
+    if adaptive and error is not None and error["suggested_max_change"] is not None:
+        finer = _rounded_down(max(error["suggested_max_change"], max_change / MAX_REFINEMENT))
+        say(f"the default jumps are too coarse ({jump_line(error)}): the study again with jumps of at most {finer:g} c")
+        study = replace(_study(problem, cycles, finer, check, progress, say), adapted_from=error)
+    return study
+
+
+def _rounded_down(x: float) -> float:
+    """x rounded down to two significant digits."""
+    unit = 10.0 ** (math.floor(math.log10(x)) - 1)
+    return math.floor(x / unit + 1e-9) * unit
+
+
+def _study(problem: Problem, cycles: int, max_change: float, check: bool, progress: bool, say) -> WearStudy:
+    """The study of :func:`wear_study` with jumps of at most `max_change`."""
+    worn = problem.equations().worn
     t_cycle = cycle_duration(problem)
     clearance = {j: problem.joint(j).radial_clearance for j, _, _ in worn}
     arms, settled = {}, {}
@@ -238,13 +263,14 @@ def wear_study(scene: Scene | Problem, cycles: float, max_change: float = DEFAUL
                      jump_error=jump_error)
 
 
-def suggested_max_change(max_change: float, difference: float, tolerance: float = JUMP_TOLERANCE) -> float | None:
+def suggested_max_change(max_change: float, difference: float, tolerance: float | None = None) -> float | None:
     """The max_change that keeps the jump error within `tolerance` (of the deepest depth),
     from the `difference` measured between jumps of max_change and of half of it; None when
     that difference is already within it. Cycle jumping is first order: the error of jumps
     F is about twice that difference and shrinks in proportion to F, so F tol / (2 d) would
     just meet it; a margin of 2 more covers coarse jumps, where the error is not yet first
     order."""
+    tolerance = JUMP_TOLERANCE if tolerance is None else tolerance
     return max_change * tolerance / (4 * difference) if difference > tolerance else None
 
 
