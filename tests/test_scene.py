@@ -195,3 +195,15 @@ def test_auto_stiffness_only_with_the_exponent_it_is_derived_for(paper_data, con
         parse_scene(paper_data)
     paper_data["effects"]["contact"] = {**contact, "stiffness": 1e9}
     assert parse_scene(paper_data).effects.contact.stiffness == 1e9
+
+
+@pytest.mark.parametrize("law", ["smooth", "stribeck"])
+def test_a_transition_speed_above_the_unused_v1_default_is_read(paper_data, law):
+    """v1 is the ambrosio law's alone: a smooth or Stribeck law with v0 above v1's default
+    (2e-4 m/s) is read, not refused for an ordering with a number it does not use; ambrosio's
+    own v1 below its v0 is still refused in one line."""
+    paper_data["effects"]["friction"] = {"law": law, "coefficient": 0.1, "v0": 1e-3}
+    assert parse_scene(paper_data).effects.friction.v0 == 1e-3
+    paper_data["effects"]["friction"] = {"law": "ambrosio", "coefficient": 0.1, "v0": 1e-3}
+    with pytest.raises(SceneError, match=r"^effects\.friction\.v1: 0\.0002 m/s is not allowed \(must be greater"):
+        parse_scene(paper_data)

@@ -184,7 +184,7 @@ def _friction(f: Section) -> FrictionEffect:
     got = read_fields(f, FrictionEffect, ("coefficient",), {"coefficient": 0.0} if law == "none" else None)
     got.update(read_fields(f, FrictionEffect, ("static_coefficient", "v0", "v1"),
                            {"static_coefficient": got["coefficient"]}))
-    if got["v1"] <= got["v0"]:
+    if "v1" in FRICTION_LAW_KEYS[law] and got["v1"] <= got["v0"]:  # v1 only where the law has it
         raise SceneError(f"{f.key('v1')}: {got['v1']:g} m/s is not allowed (must be greater than v0 = "
                          f"{got['v0']:g} m/s)")
     got.update(read_fields(f, FrictionEffect, ("stribeck_velocity",)))
