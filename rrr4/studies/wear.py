@@ -216,7 +216,7 @@ def wear_study(scene: Scene | Problem, cycles: float, max_change: float | None =
     error = study.jump_error
     if adaptive and error is not None and error["suggested_max_change"] is not None:
         finer = _rounded_down(max(error["suggested_max_change"], max_change / MAX_REFINEMENT))
-        say(f"the default jumps are too coarse ({jump_line(error)}): the study again with jumps of at most {finer:g} c")
+        say(f"the default jumps are too coarse: the study again with jumps of at most {finer:g} c")
         study = replace(_study(problem, cycles, finer, check, progress, say), adapted_from=error)
     return study
 
