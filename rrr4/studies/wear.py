@@ -224,7 +224,7 @@ def wear_study(scene: Scene | Problem, cycles: float, max_change: float | None =
 def _rounded_down(x: float) -> float:
     """x rounded down to two significant digits."""
     unit = 10.0 ** (math.floor(math.log10(x)) - 1)
-    return math.floor(x / unit + 1e-9) * unit
+    return float(f"{math.floor(x / unit + 1e-9) * unit:.2g}")  # printed as two digits, not 0.0045000000000000005
 
 
 def _study(problem: Problem, cycles: int, max_change: float, check: bool, progress: bool, say) -> WearStudy:
