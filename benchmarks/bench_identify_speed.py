@@ -118,7 +118,8 @@ def main() -> None:
             walls.append(wall)
             print(f"  reuse {variant}: {wall:.1f} s (seated {res.fit['stages'][0]['wall_time_s']:.1f} s, dynamic "
                   f"{res.fit['stages'][1]['wall_time_s']:.1f} s), runs with sensitivities {runs[True]}, without "
-                  f"{runs[False]}, iterations {res.fit['iterations']}, converged {res.fit['converged']}, "
+                  f"{runs[False]}, iterations {res.fit['iterations']}, converged {res.fit['converged']}, chi^2 "
+                  f"{res.fit['chi2']:.6f}, "
                   f"sensitivity disagreement {res.fit['sensitivity_disagreement']:.3g}", flush=True)
         results[variant] = res, float(np.median(walls))
         print(f"identify, reuse {variant}: median {results[variant][1]:.1f} s of {args.repeats}", flush=True)

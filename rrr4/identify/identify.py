@@ -426,9 +426,11 @@ def _one_method(problem: Problem, nominal: Scene, m: Measurements, params: list[
     chaos_nominal = None
     if method == "dynamic" and seed is None:  # a run too chaotic to shoot is refused before fitting, again at the end
         chaos_nominal = data.check_sensitivities(values(u), sigma, data.residuals(values(u), sigma)["J"])
+    # single shooting's Jacobian is a run with sensitivities (about 40 without): reused, refreshed by differences
+    reuse = "differences" if method == "dynamic" and not start.size else None
     u, sigma, iterations, converged = _fit(fun, u, lower, upper, sigma, given, first,
                                            lambda u, sigma: data.residuals(values(u), sigma, jacobian=False), npar,
-                                           reuse="differences" if method == "dynamic" else None)
+                                           reuse)
     w = values(u)
     res = data.residuals(w, sigma)
     if method == "dynamic":
