@@ -2,6 +2,7 @@
 
 - :func:`levenberg_marquardt`: Gauss-Newton with Levenberg-Marquardt damping (Marquardt
   1963, diagonal scaling) in scaled coordinates, bounds by projection (a bound the gradient presses on stays active);
+  for a Jacobian that costs many residuals, reused between refreshes by Broyden's update, fun's exact one at the end;
 - :func:`covariance`: s^2 (J^T J)^-1 of whitened residuals, s^2 the residual variance
   (chi^2 / (M - p)); standard errors and the correlation matrix; for residuals that are time
   series (``series``), also the sandwich covariance with the residuals' autocorrelation
