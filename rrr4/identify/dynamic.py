@@ -386,8 +386,9 @@ class DynamicData:
         if not (np.all(np.isfinite(o)) and (do is None or np.all(np.isfinite(do)))):
             raise SimulationError(f"integrator.step: the run of {self.problem.name!r} is not finite with the "
                                   f"parameters {dict(zip([q.key for q in self.params], p.tolist(), strict=True))}")
-        if len(self._cache) > 8:
-            self._cache.clear()
+        self._cache.pop(key, None)
+        if len(self._cache) >= 8:  # the oldest goes (the estimate's run with sensitivities is asked again after)
+            self._cache.pop(next(iter(self._cache)))
         self._cache[key] = (o, do)
         return o, do
 

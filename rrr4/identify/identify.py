@@ -191,14 +191,16 @@ def _measurements(problem: Problem, measurements, arm, noise) -> Measurements:
     return m
 
 
-def _fit(fun, u, lower, upper, sigma: dict, given: dict, first: dict, residuals, npar: int):
+def _fit(fun, u, lower, upper, sigma: dict, given: dict, first: dict, residuals, npar: int, reuse: str | None = None):
     """Levenberg-Marquardt from u, re-estimating the noise levels not `given` from the
     residuals (at most four rounds, until they settle within 1 %): (u, sigma, iterations,
     converged). fun(u, jacobian, sigma): the weighted residuals and their Jacobian at the noise
-    levels sigma; residuals(u, sigma): the raw residuals by column."""
+    levels sigma; residuals(u, sigma): the raw residuals by column; reuse: how a Jacobian that
+    costs many residuals is reused (see :func:`levenberg_marquardt`)."""
     iterations, converged = 0, True
     for _ in range(4):
-        u, _, _, it, ok = levenberg_marquardt(lambda v, jacobian, s=sigma: fun(v, jacobian, s), u, lower, upper)
+        u, _, _, it, ok = levenberg_marquardt(lambda v, jacobian, s=sigma: fun(v, jacobian, s), u, lower, upper,
+                                              reuse=reuse)
         iterations, converged = iterations + it, ok
         if len(given) == len(sigma):
             break
@@ -207,7 +209,8 @@ def _fit(fun, u, lower, upper, sigma: dict, given: dict, first: dict, residuals,
         change = max(abs(new[c] / sigma[c] - 1) for c in sigma)
         sigma = new
         if change < 0.01:
-            u, _, _, it, ok = levenberg_marquardt(lambda v, jacobian, s=sigma: fun(v, jacobian, s), u, lower, upper)
+            u, _, _, it, ok = levenberg_marquardt(lambda v, jacobian, s=sigma: fun(v, jacobian, s), u, lower, upper,
+                                                  reuse=reuse)
             iterations, converged = iterations + it, ok
             break
     return u, sigma, iterations, converged
@@ -428,8 +431,11 @@ def _one_method(problem: Problem, nominal: Scene, m: Measurements, params: list[
     chaos_nominal = None
     if method == "dynamic" and seed is None:  # a run too chaotic to shoot is refused before fitting, again at the end
         chaos_nominal = data.check_sensitivities(values(u), sigma, data.residuals(values(u), sigma)["J"])
+    # single shooting's Jacobian is a run with sensitivities (about 40 without): reused, refreshed by differences
+    reuse = "differences" if method == "dynamic" and not start.size else None
     u, sigma, iterations, converged = _fit(fun, u, lower, upper, sigma, given, first,
-                                           lambda u, sigma: data.residuals(values(u), sigma, jacobian=False), npar)
+                                           lambda u, sigma: data.residuals(values(u), sigma, jacobian=False), npar,
+                                           reuse)
     w = values(u)
     res = data.residuals(w, sigma)
     if method == "dynamic":

@@ -2,6 +2,7 @@
 
 - :func:`levenberg_marquardt`: Gauss-Newton with Levenberg-Marquardt damping (Marquardt
   1963, diagonal scaling) in scaled coordinates, bounds by projection (a bound the gradient presses on stays active);
+  for a Jacobian that costs many residuals, reused between refreshes by Broyden's update, fun's exact one at the end;
 - :func:`covariance`: s^2 (J^T J)^-1 of whitened residuals, s^2 the residual variance
   (chi^2 / (M - p)); standard errors and the correlation matrix; for residuals that are time
   series (``series``), also the sandwich covariance with the residuals' autocorrelation
@@ -27,30 +28,34 @@ COLLINEARITY_LIMIT = 20.0
 # the Bartlett kernel's bandwidth of the sandwich covariance, as a fraction of the instants: the
 # longest correlation of the residuals it can carry (50 ms of a 1 s record)
 BANDWIDTH_FRACTION = 0.05
+# the gain ratio (actual over predicted reduction) below which a reused Jacobian is asked again (Levenberg-Marquardt
+# with reuse); above it the linear model predicts well enough that the secant update carries it
+RHO_POOR = 0.25
+# the forward-difference step in the scaled coordinates of Levenberg-Marquardt's differenced Jacobian (reuse
+# 'differences'): a thousandth of a parameter's scale
+DIFFERENCE_STEP = 1e-3
 
 
-def levenberg_marquardt(fun, u0, lower, upper, max_iter: int = 60, tol: float = 1e-8, rtol: float = 1e-10):
+def levenberg_marquardt(fun, u0, lower, upper, max_iter: int = 60, tol: float = 1e-8, rtol: float = 1e-10,
+                        reuse: str | None = None):
     """Minimise 0.5 |r(u)|^2 with fun(u, jacobian) -> (r (M,), J (M, p) or None without
-    `jacobian`) from u0 within [lower, upper]; the Jacobian is asked only at accepted steps.
-    Stops when a step moves u by less than tol or lowers the cost by less than rtol of it.
-    Returns (u, r, J, iterations, converged)."""
+    `jacobian`) from u0 within [lower, upper]; the Jacobian is asked at every accepted step,
+    or with `reuse` ('exact', 'differences': see :func:`_reusing`) carried along the steps and
+    refreshed only where it fails. Stops when a step moves u by less than tol or lowers the
+    cost by less than rtol of it. Returns (u, r, J, iterations, converged): J fun's exact
+    Jacobian at u; iterations the accepted steps."""
+    if reuse is not None:
+        return _reusing(fun, u0, lower, upper, max_iter, tol, rtol, reuse)
     u = np.clip(np.asarray(u0, float), lower, upper)
     r, J = fun(u, True)
     cost = 0.5 * r @ r
     lam = 1e-3
     for it in range(1, max_iter + 1):
-        A, g = J.T @ J, J.T @ r
-        d = np.diag(A).copy()
-        d[d <= 0] = 1.0
-        free = ~(((u <= lower) & (g > 0)) | ((u >= upper) & (g < 0)))  # a bound that holds stays active
         while True:
-            step = np.zeros_like(u)
-            try:
-                step[free] = -np.linalg.solve((A + lam * np.diag(d))[np.ix_(free, free)], g[free])
-            except np.linalg.LinAlgError:
+            u_new, free = _lm_step(J, r, u, lower, upper, lam)
+            if u_new is None:
                 lam *= 10
                 continue
-            u_new = np.clip(u + step, lower, upper)
             r_new, _ = fun(u_new, False)
             cost_new = 0.5 * r_new @ r_new
             if np.isfinite(cost_new) and cost_new <= cost:
@@ -58,9 +63,7 @@ def levenberg_marquardt(fun, u0, lower, upper, max_iter: int = 60, tol: float = 
                 break
             lam *= 10
             if lam > 1e12:  # no step lowers the cost: converged if the gradient vanishes (to rounding)
-                g_free = g[free]
-                small = np.linalg.norm(g_free) <= 1e-6 * max(np.linalg.norm(J[:, free]) * np.linalg.norm(r), 1e-300)
-                return u, r, J, it, bool(small)
+                return u, r, J, it, _stationary(J, r, free)
         moved = np.max(np.abs(u_new - u))
         change = cost - cost_new
         u, r, J, cost = u_new, r_new, J_new, cost_new
@@ -68,6 +71,101 @@ def levenberg_marquardt(fun, u0, lower, upper, max_iter: int = 60, tol: float = 
         if moved < tol or change <= rtol * max(cost, 1e-300):
             return u, r, J, it, True
     return u, r, J, max_iter, False
+
+
+def _lm_step(J, r, u, lower, upper, lam):
+    """The damped step from u (Marquardt's diagonal scaling, a bound the gradient presses on
+    held): (u + step clipped to the bounds, the free coordinates), None if singular."""
+    A, g = J.T @ J, J.T @ r
+    d = np.diag(A).copy()
+    d[d <= 0] = 1.0
+    free = ~(((u <= lower) & (g > 0)) | ((u >= upper) & (g < 0)))  # a bound that holds stays active
+    step = np.zeros_like(u)
+    try:
+        step[free] = -np.linalg.solve((A + lam * np.diag(d))[np.ix_(free, free)], g[free])
+    except np.linalg.LinAlgError:
+        return None, free
+    return np.clip(u + step, lower, upper), free
+
+
+def _stationary(J, r, free) -> bool:
+    """Whether the gradient J^T r in the free coordinates vanishes (to rounding)."""
+    return bool(np.linalg.norm((J.T @ r)[free]) <= 1e-6 * max(np.linalg.norm(J[:, free]) * np.linalg.norm(r), 1e-300))
+
+
+def _differences(fun, u, r, upper, h: float = DIFFERENCE_STEP) -> np.ndarray:
+    """The Jacobian of fun's residuals at u (r = fun's there) by forward differences, h in each
+    coordinate (backward at an upper bound)."""
+    cols = []
+    for i in range(u.size):
+        e = np.zeros(u.size)
+        e[i] = h if u[i] + h <= upper[i] else -h
+        cols.append((fun(u + e, False)[0] - r) / e[i])
+    return np.column_stack(cols)
+
+
+def _reusing(fun, u0, lower, upper, max_iter: int, tol: float, rtol: float, refresh: str):
+    """:func:`levenberg_marquardt` for a Jacobian that costs many residuals (a run with its
+    sensitivities). Between refreshes the Jacobian is carried along the accepted steps by
+    Broyden's rank-1 secant update (Madsen, Nielsen & Tingleff 2004, section 3.4); it is
+    refreshed (`refresh` 'exact': fun's Jacobian; 'differences': forward differences of fun's
+    residuals, one per coordinate) at the start and where the linear model fails: a carried
+    Jacobian's step rejected, or its gain ratio rho (actual over predicted reduction of the
+    cost) below :data:`RHO_POOR`. The damping follows rho (Nielsen 1999). Converged means what
+    it means without reuse, with fun's exact Jacobian: the fit ends at u when the step of u's
+    exact Jacobian moves u by less than tol or lowers the cost by less than rtol of it (and
+    does lower it); a step that meets that rule with a carried Jacobian is followed by a
+    refresh at the new point, one with a refreshed one by fun's exact Jacobian there. The J
+    returned is always fun's at the u returned."""
+    u = np.clip(np.asarray(u0, float), lower, upper)
+    r, J = fun(u, refresh == "exact")
+    state = "exact"  # J is fun's at u, 'fresh' its differences at u, or 'carried'
+    if refresh != "exact":
+        J, state = _differences(fun, u, r, upper), "fresh"
+    cost, lam, nu, it = 0.5 * r @ r, 1e-3, 2.0, 0
+    while it < max_iter:
+        u_new, free = _lm_step(J, r, u, lower, upper, lam)
+        if u_new is None:
+            lam *= 10
+            continue
+        s = u_new - u
+        predicted = cost - 0.5 * np.sum((r + J @ s) ** 2)
+        r_new, _ = fun(u_new, False)
+        cost_new = 0.5 * r_new @ r_new
+        if not (np.isfinite(cost_new) and cost_new <= cost):  # rejected: a fresh Jacobian, else more damping
+            if state == "carried":
+                J, state = _refreshed(fun, u, r, upper, refresh)
+                continue
+            lam, nu = lam * nu, 2 * nu
+            if lam > 1e12:  # no step lowers the cost: converged if the exact gradient vanishes (to rounding)
+                if state != "exact":
+                    J, state, lam, nu = fun(u, True)[1], "exact", 1e-3, 2.0
+                    continue
+                return u, r, J, it, _stationary(J, r, free)
+            continue
+        it += 1
+        stop = np.max(np.abs(s)) < tol or cost - cost_new <= rtol * max(cost_new, 1e-300)
+        if stop and state == "exact":
+            return u, r, J, it, True  # the exact Jacobian's step barely moves: u is the estimate, J is u's
+        rho = (cost - cost_new) / predicted if predicted > 0 else 0.0
+        lam, nu = max(lam * max(1 / 3, 1 - (2 * rho - 1) ** 3), 1e-12), 2.0
+        if stop and state == "fresh":  # the stopping rule met with a refreshed Jacobian: fun's at the new point
+            J, state = fun(u_new, True)[1], "exact"
+        elif stop or (rho < RHO_POOR and state == "carried"):
+            J, state = _refreshed(fun, u_new, r_new, upper, refresh)
+        else:
+            J, state = J + np.outer(r_new - r - J @ s, s) / (s @ s), "carried"
+        u, r, cost = u_new, r_new, cost_new
+    if state != "exact":
+        J = fun(u, True)[1]
+    return u, r, J, max_iter, False
+
+
+def _refreshed(fun, u, r, upper, refresh: str):
+    """(J at u, its state): fun's exact one, or its residuals' forward differences ('fresh')."""
+    if refresh == "exact":
+        return fun(u, True)[1], "exact"
+    return _differences(fun, u, r, upper), "fresh"
 
 
 def covariance(J: np.ndarray, r: np.ndarray, scale: np.ndarray, dof: float | None = None,

@@ -1,0 +1,143 @@
+"""Speed of method 'staged' on the perturbed reference plant (issue 46, "Speed"): the dynamic
+stage's Levenberg-Marquardt with the Jacobian reused (Broyden's update between runs with
+sensitivities, the exact one asked only where the linear model fails and at the estimate)
+against the same fit asking the exact Jacobian at every accepted step (the behaviour before),
+on the same measurements in one process.
+
+    .venv/bin/python benchmarks/bench_identify_speed.py [--t-end 1.0] [--repeats 1] [--no-baseline]
+
+The plant and its measurements are benchmarks/bench_identify_staged.py's (11 parameters: the
+eight clearances, friction, stiffness, the second chain's driving link; 1 kHz, the noise levels
+given). It prints the cost of one run with and without sensitivities, then for each variant
+the wall time of identify (medians of --repeats; the first call of the process also loads the
+compiled frames), the runs with and without sensitivities, the iterations, and the estimates'
+differences between the variants in their standard errors. Load average before and after.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+import bench_identify_staged as staged  # noqa: E402
+
+import rrr4  # noqa: E402
+from rrr4.identify import identify, least_squares, resolve_parameters  # noqa: E402
+from rrr4.identify.dynamic import DynamicData  # noqa: E402
+
+IDENTIFY = importlib.import_module("rrr4.identify.identify")  # the module (the package exports the function)
+
+
+class Counted:
+    """Counts DynamicData.run's simulations with and without sensitivities (cache misses)."""
+
+    def __init__(self):
+        self.runs = {True: 0, False: 0}
+        self.original = DynamicData.run
+
+    def __enter__(self):
+        counter, original = self, self.original
+
+        def run(data, p, sensitivities=True):
+            before = data.runs
+            out = original(data, p, sensitivities)
+            counter.runs[bool(sensitivities)] += data.runs - before
+            return out
+
+        DynamicData.run = run
+        return self
+
+    def __exit__(self, *exc):
+        DynamicData.run = self.original
+
+
+def one_fit(nominal, m, noise, reuse: str | None):
+    """identify (staged) with the dynamic stage's Levenberg-Marquardt reusing its Jacobian as
+    `reuse` says (None: the exact one at every accepted step): (result, wall [s], runs)."""
+    plain = least_squares.levenberg_marquardt
+
+    def lm(*args, **kw):
+        return plain(*args, **{**kw, "reuse": reuse if kw.get("reuse") else None})
+
+    IDENTIFY.levenberg_marquardt = lm
+    try:
+        with Counted() as counted:
+            wall = time.perf_counter()
+            res = identify(nominal, m, list(staged.TRUTH), noise=noise)
+            wall = time.perf_counter() - wall
+    finally:
+        IDENTIFY.levenberg_marquardt = plain
+    return res, wall, counted.runs
+
+
+def run_costs(nominal, m) -> tuple[float, float]:
+    """Wall time [s] of one run of the record without and with sensitivities (11 directions), medians of 3."""
+    problem = rrr4.build(nominal)
+    data = DynamicData(problem, m, resolve_parameters(problem, list(staged.TRUTH), nominal.data), nominal)
+    p = np.array([q.nominal for q in data.params])
+    out = []
+    for sens in (False, True):
+        times = []
+        for k in range(3):
+            data._cache.clear()
+            t = time.perf_counter()
+            data.run(p * (1 + 1e-9 * k), sens)
+            times.append(time.perf_counter() - t)
+        out.append(float(np.median(times)))
+    return out[0], out[1]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--t-end", type=float, default=1.0)
+    ap.add_argument("--repeats", type=int, default=1)
+    ap.add_argument("--variants", default="differences,none",
+                    help="comma-separated: differences (the default fit), exact, none (the exact Jacobian at every "
+                         "accepted step: the fit before; about 7 min at 1 s)")
+    args = ap.parse_args()
+    print(f"load average before: {os.getloadavg()[0]:.2f}", flush=True)
+    nominal, _, m, noise = staged.measured(args.t_end)
+    plain_run, sens_run = run_costs(nominal, m)
+    print(f"one run of {args.t_end:g} s: {plain_run:.2f} s, with 11 sensitivity directions {sens_run:.2f} s "
+          f"({sens_run / plain_run:.0f} times)", flush=True)
+    results = {}
+    for variant in args.variants.split(","):
+        reuse = None if variant == "none" else variant
+        walls = []
+        for _ in range(args.repeats):
+            res, wall, runs = one_fit(nominal, m, noise, reuse)
+            walls.append(wall)
+            print(f"  reuse {variant}: {wall:.1f} s (seated {res.fit['stages'][0]['wall_time_s']:.1f} s, dynamic "
+                  f"{res.fit['stages'][1]['wall_time_s']:.1f} s), runs with sensitivities {runs[True]}, without "
+                  f"{runs[False]}, iterations {res.fit['iterations']}, converged {res.fit['converged']}, chi^2 "
+                  f"{res.fit['chi2']:.6f}, "
+                  f"sensitivity disagreement {res.fit['sensitivity_disagreement']:.3g}", flush=True)
+        results[variant] = res, float(np.median(walls))
+        print(f"identify, reuse {variant}: median {results[variant][1]:.1f} s of {args.repeats}", flush=True)
+    variants = list(results)
+    new, t_new = results[variants[0]]
+    for other in variants[1:]:
+        old, t_old = results[other]
+        print(f"reuse {other} against {variants[0]}: {t_old:.1f} s against {t_new:.1f} s, ratio {t_old / t_new:.1f}")
+        print(f"{'parameter':45s} {variants[0]:>14s} {other:>14s} {'diff / se':>10s} {'se ratio':>9s}")
+        for k in new.keys:
+            i = new.keys.index(k)
+            d = (new.estimate[i] - old.estimate[i]) / old.standard_error[i]
+            print(f"{k:45s} {new.estimate[i]:14.8g} {old.estimate[i]:14.8g} {d:+10.2e} "
+                  f"{new.standard_error[i] / old.standard_error[i]:9.6f}")
+        lo = np.max(np.abs(new.interval - old.interval) / old.standard_error[:, None])
+        print(f"largest difference of the 95 % intervals' ends: {lo:.2e} standard errors")
+    print(f"load average after: {os.getloadavg()[0]:.2f}")
+
+
+if __name__ == "__main__":
+    main()
