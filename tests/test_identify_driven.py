@@ -106,7 +106,7 @@ def test_a_rattling_driven_scene_is_refused_as_chaotic():
     m = Measurements(clean.t, {c: clean.columns[c] for c in COLUMNS})
     with pytest.raises(rrr4.SimulationError) as e:
         identify(nominal, m, [CLEARANCE])
-    _one_line(e.value, "too sensitive", "chaotic", "0.01 s")
+    _one_line(e.value, "too sensitive", "chaotic", "0.01 s", "journals stay loaded")
 
 
 def test_a_driven_scenes_columns_and_their_refusals(nominal, plant_run, tmp_path):

@@ -490,10 +490,13 @@ class DynamicData:
         d = float(np.linalg.norm(J - J_cd) / max(np.linalg.norm(J_cd), 1e-300))
         self.chaos = d
         if not d <= CHAOS_LIMIT:
+            remedy = ("a run whose journals stay loaded (a load on the mechanism or a slower drive, as "
+                      "problems/slider_crank_loaded.yaml)" if driven_scene(self.problem) else
+                      "split it into windows (windows=N, --windows N: multiple shooting), or a preloaded run with "
+                      "'seated'")
             raise SimulationError(f"method 'dynamic': the run over 0 to {self.m.t[-1]:.3g} s is too sensitive to its "
                                   f"parameters for shooting (its sensitivities and central differences of runs "
                                   f"+-{100 * FD_STEP:g} % of a parameter's scale differ by {100 * d:.0f} %, allowed "
                                   f"{100 * CHAOS_LIMIT:.0f} %): journals that rattle make it chaotic; fit a shorter "
-                                  "span from the start, split it into windows (windows=N, --windows N: multiple "
-                                  "shooting), or a preloaded run with 'seated'")
+                                  f"span from the start, or {remedy}")
         return d
