@@ -192,3 +192,21 @@ def test_the_default_jumps_adapt_when_their_measured_error_exceeds_the_tolerance
     write_wear(adapted, tmp_path / "a")
     assert "Adapted: the default jumps (0.02 c) differed by" in (tmp_path / "a" / "report.md").read_text()
     assert wear_study(scene, 3000, max_change=0.05).adapted_from is None
+
+
+def test_the_layers_peak_pressure_is_the_winkler_closed_form_of_the_resting_sleeve(dropped):
+    """The sleeve rests on the unworn shaft under its weight W: the conformal layer's peak
+    pressure K_w delta^m at delta = (W / K)^(1/n) is W / (L R_B sqrt(2 delta / c0) B(m)) (the
+    layer's force integral over |a| < sqrt(2 delta / c0), docs/wear.md), below the Hertz line
+    pressure of the same force (the layer is matched to the dry law's force, not its pressure)."""
+    from rrr4.contact.conformal import arc_factor
+    summary = wear_summary(dropped)
+    r = summary["arms"]["with_clearance"]["joints"]["S"]
+    spec, scene = dropped.scene.graph.joint("S"), dropped.scene
+    n = scene.effects.contact.exponent
+    K = rrr4.build(scene).equations().stiffness[0]
+    delta = (W / K) ** (1 / n)
+    L, R_B = scene.effects.wear_of(spec).length, spec.bearing_radius
+    closed = W / (L * R_B * math.sqrt(2 * delta / C0) * arc_factor(n - 0.5))
+    assert r["peak_layer_pressure_Pa"] == pytest.approx(closed, rel=3e-2)
+    assert r["peak_layer_pressure_Pa"] < r["peak_pressure_Pa"]

@@ -29,7 +29,8 @@ class WearArm:
     profiles: joint -> surface -> the profile's B-spline coefficients (M,) [m] after N cycles; volume: joint -> worn
     volume [m^3] after N cycles; records (K + 1): each simulated cycle's platform_error_rms_m /
     _max_m, contact_loss_events (all clearance joints), dissipated_friction_J, and per joint
-    (in `joints` order) peak_contact_force_N, volume_m3 and deepest_m of the profiles it ran on,
+    (in `joints` order) peak_contact_force_N, peak_layer_pressure_Pa (the conformal layer's
+    K_w d^m at the cycle's deepest overlap), volume_m3 and deepest_m of the profiles it ran on,
     wear_per_cycle_m (the deepest depth that cycle added), peak_film_force_N,
     peak_total_force_N, min_film_thickness_m, load_direction_deg (bearing frame), periodicity
     (how far it ended from its start, radial clearances), wall_time_s; wall_time [s];
@@ -102,6 +103,7 @@ def wear_summary(study: WearStudy) -> dict:
                                          study.cycles if left <= 0 else None),  # None: it stopped wearing
                          "peak_contact_force_N": last["peak_contact_force_N"][k],
                          "peak_pressure_Pa": _pressure(spec, w, last["peak_contact_force_N"][k]),
+                         "peak_layer_pressure_Pa": last.get("peak_layer_pressure_Pa", [None] * len(arm.joints))[k],
                          "hardness_Pa": w.hardness, **_film(scene, spec, last, k)}
         first = arm.records[0]
         out["arms"][name] = {
@@ -208,13 +210,14 @@ def _report(summary: dict) -> str:
                   f"{arm['contact_loss_events_per_cycle']['first']} -> {arm['contact_loss_events_per_cycle']['last']}.",
                   "",
                   "| joint | volume [m^3] | deepest [um] | at [deg] | deepest / c | peak / mean depth | "
-                  "life [cycles] | Hertz pressure of the peak force [MPa] |",
-                  "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+                  "life [cycles] | Hertz pressure of the peak force [MPa] | layer's peak pressure [MPa] |",
+                  "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
         for j, r in arm["joints"].items():
             lines.append(f"| {j} | {r['volume_m3']:.3g} | {r['deepest_m'] * 1e6:.3g} | {r['deepest_at_deg']:g} | "
                          f"{r['deepest_over_clearance']:.3g} | "
                          f"{'no wear' if r['concentration'] is None else format(r['concentration'], '.3g')} | "
-                         f"{_g(r['life_cycles'])} | {r['peak_pressure_Pa'] / 1e6:.4g} |")
+                         f"{_g(r['life_cycles'])} | {r['peak_pressure_Pa'] / 1e6:.4g} | "
+                         f"{_g(None if r['peak_layer_pressure_Pa'] is None else r['peak_layer_pressure_Pa'] / 1e6)} |")
         lines += ["", *_film_lines(arm), *_transient_lines(arm["start_transient"])]
         if arm["steady_periodicity_max"] > PERIODIC:
             why = ("rattling" if arm["contact_loss_events_per_cycle"].get("max", 1) else
@@ -227,6 +230,8 @@ def _report(summary: dict) -> str:
               "at the last cycle's wear rate. Hertz pressure: the line-contact pressure of the last cycle's peak force "
               "on the unworn geometry, an upper bound once the bore conforms to the journal (the last cycle is a "
               "steady one: each cycle starts where the last ended; the start transient is reported apart). "
+              "Layer's peak pressure: the conformal layer's K_w d^m at the last cycle's deepest overlap d, on the "
+              "worn profile (its elastic pressure; K_w matched to the dry law on the unworn bore). "
               "Angles: the bearing angle in the bearing body's frame.", ""]
     return "\n".join(lines)
 

@@ -33,6 +33,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..checks import argument
+from ..contact.conformal import foundation_modulus, layer_exponent
 from ..contact.lubrication import min_film_thickness
 from ..contact.wear import node_depths, profile_volume
 from ..errors import SceneError
@@ -116,6 +117,7 @@ class _Cycle:
     def __init__(self, problem: Problem, scene: Scene, t_end: float):
         self.problem, self.scene, self.t_end, self.last = problem, scene, t_end, None
         self.joints = _joints(problem)
+        self.modulus = _layer_moduli(problem, self.joints)
 
     def __call__(self, profiles):
         problem, joints = self.problem, self.joints
@@ -131,6 +133,9 @@ class _Cycle:
                   "contact_loss_events": int(sum(sim.contact_loss_events[j] for j in sim.clearance_joints)),
                   "dissipated_friction_J": float(sim.energy["dissipated_friction"][-1]),
                   "peak_contact_force_N": [float(sim.extremes["normal_force_max"][i]) for i in k],
+                  "peak_layer_pressure_Pa": [self.modulus[j] * max(float(sim.extremes["penetration_max"][i]), 0.0) ** m
+                                             for j, i in zip(joints, k, strict=True)
+                                             for m in [layer_exponent(problem.scene.effects.contact.exponent)]],
                   "peak_film_force_N": [float(np.max(film[:, i])) for i in k],
                   "peak_total_force_N": [float(np.max(total[:, i])) for i in k],
                   "min_film_thickness_m": [float(np.min(h_min[:, i])) for i in k],
@@ -143,6 +148,18 @@ class _Cycle:
                   "wear_per_cycle_m": [max(float(np.max(d)) for d in sim.wear[j].values()) for j in joints],
                   "wall_time_s": time.perf_counter() - wall}
         return sim.wear, record
+
+
+def _layer_moduli(problem: Problem, joints) -> dict:
+    """joint -> the conformal layer's modulus K_w [Pa / m^m] (:func:`rrr4.contact.conformal.foundation_modulus`)."""
+    eqs, n = problem.equations(), problem.scene.effects.contact.exponent
+    out = {}
+    for j in joints:
+        spec = problem.joint(j)
+        out[j] = float(foundation_modulus(eqs.stiffness[eqs.clearance_joints.index(j)], n,
+                                          problem.scene.effects.wear_of(spec).length, spec.bearing_radius,
+                                          spec.radial_clearance))
+    return out
 
 
 def _load_direction(problem: Problem, sim, joint: str, force: np.ndarray) -> float | None:
