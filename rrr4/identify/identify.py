@@ -388,21 +388,27 @@ def _no_seats(problem: Problem) -> str | None:
     return None
 
 
+def _method_data(problem: Problem, nominal: Scene, m: Measurements, params: list[Parameter], method: str, effort_lag,
+                 windows: int, seed):
+    """The data object of `method` (seated; dynamic, in windows where `windows` > 1)."""
+    if method == "seated":
+        return SeatedData(problem, m, params, effort_lag)
+    data = DynamicData(problem, m, params, nominal)
+    if check_windows(windows, data.n_frames - first_frame(data), data.dt) > 1:
+        if driven_scene(problem):
+            raise SceneError(f"windows: {windows} is not allowed with a driven scene (scene {problem.name!r}: "
+                             "multiple shooting does not reproduce its run yet, two windows over a noise-free "
+                             "revolution end in a wrong local minimum; fit it with windows=1)")
+        return WindowedData(data, windows, seed)
+    return data
+
+
 def _one_method(problem: Problem, nominal: Scene, m: Measurements, params: list[Parameter], method: str, effort_lag,
                 windows: int, wall: float, seed=None) -> Identification:
     """One method's fit (see :func:`identify`); seed: the parameters' start values (default
     their nominal ones); a seeded 'dynamic' fit skips the sensitivity check at its start (the
     one at the estimate stays)."""
-    if method == "seated":
-        data = SeatedData(problem, m, params, effort_lag)
-    else:
-        data = DynamicData(problem, m, params, nominal)
-        if check_windows(windows, data.n_frames - first_frame(data), data.dt) > 1:
-            if driven_scene(problem):
-                raise SceneError(f"windows: {windows} is not allowed with a driven scene (scene {problem.name!r}: "
-                                 "multiple shooting does not reproduce its run yet, two windows over a noise-free "
-                                 "revolution end in a wrong local minimum; fit it with windows=1)")
-            data = WindowedData(data, windows, seed)
+    data = _method_data(problem, nominal, m, params, method, effort_lag, windows, seed)
     npar = len(params)
     # a windowed fit's start states: nuisance unknowns, unbounded, in the scaled coordinates (s - start) / scale
     start, scale_s = (data.nuisance_start, data.nuisance_scale) if isinstance(data, WindowedData) else \
