@@ -38,19 +38,25 @@ IDENTIFY = importlib.import_module("rrr4.identify.identify")  # the module (the 
 
 
 class Counted:
-    """Counts DynamicData.run's simulations with and without sensitivities (cache misses)."""
+    """Counts the simulations (cache misses) of the DynamicData objects made inside: those with
+    sensitivities (DynamicData.run's) and without (DynamicData.runs, the counter, less those)."""
 
     def __init__(self):
-        self.runs = {True: 0, False: 0}
+        self.sens, self.seen = 0, set()
         self.original = DynamicData.run
+
+    @property
+    def runs(self) -> dict:
+        return {True: self.sens, False: sum(d.runs for d in self.seen) - self.sens}
 
     def __enter__(self):
         counter, original = self, self.original
 
         def run(data, p, sensitivities=True):
+            counter.seen.add(data)
             before = data.runs
             out = original(data, p, sensitivities)
-            counter.runs[bool(sensitivities)] += data.runs - before
+            counter.sens += (data.runs - before) if sensitivities else 0
             return out
 
         DynamicData.run = run
@@ -60,61 +66,75 @@ class Counted:
         DynamicData.run = self.original
 
 
-def one_fit(nominal, m, noise, reuse: str | None):
+def one_at_a_time(data, P):
+    """DynamicData.run_batch as it was before the batch: one run after the other."""
+    return [data.run(p, False)[0] for p in np.atleast_2d(P)]
+
+
+def one_fit(nominal, m, noise, reuse: str | None, batched: bool = True):
     """identify (staged) with the dynamic stage's Levenberg-Marquardt reusing its Jacobian as
-    `reuse` says (None: the exact one at every accepted step): (result, wall [s], runs)."""
-    plain = least_squares.levenberg_marquardt
+    `reuse` says (None: the exact one at every accepted step), the runs without sensitivities of a
+    refresh and of the check rolled together (`batched`) or one at a time: (result, wall [s], runs)."""
+    plain, batch = least_squares.levenberg_marquardt, DynamicData.run_batch
 
     def lm(*args, **kw):
         return plain(*args, **{**kw, "reuse": reuse if kw.get("reuse") else None})
 
     IDENTIFY.levenberg_marquardt = lm
+    if not batched:
+        DynamicData.run_batch = one_at_a_time
     try:
         with Counted() as counted:
             wall = time.perf_counter()
             res = identify(nominal, m, list(staged.TRUTH), noise=noise)
             wall = time.perf_counter() - wall
     finally:
-        IDENTIFY.levenberg_marquardt = plain
+        IDENTIFY.levenberg_marquardt, DynamicData.run_batch = plain, batch
     return res, wall, counted.runs
 
 
-def run_costs(nominal, m) -> tuple[float, float]:
-    """Wall time [s] of one run of the record without and with sensitivities (11 directions), medians of 3."""
+def run_costs(nominal, m) -> tuple[float, float, float]:
+    """Wall time [s] of one run of the record without and with sensitivities (11 directions), and
+    of 11 runs without them rolled together (run_batch: a refresh by differences), medians of 3."""
     problem = rrr4.build(nominal)
     data = DynamicData(problem, m, resolve_parameters(problem, list(staged.TRUTH), nominal.data), nominal)
     p = np.array([q.nominal for q in data.params])
     out = []
-    for sens in (False, True):
+    for sens in (False, True, "batch"):
         times = []
         for k in range(3):
             data._cache.clear()
             t = time.perf_counter()
-            data.run(p * (1 + 1e-9 * k), sens)
+            if sens == "batch":
+                data.run_batch([data.shifted(p, i, 1e-3 * (k + 1)) for i in range(len(p))])
+            else:
+                data.run(p * (1 + 1e-9 * k), sens)
             times.append(time.perf_counter() - t)
         out.append(float(np.median(times)))
-    return out[0], out[1]
+    return out[0], out[1], out[2]
 
 
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--t-end", type=float, default=1.0)
     ap.add_argument("--repeats", type=int, default=1)
-    ap.add_argument("--variants", default="differences,none",
-                    help="comma-separated: differences (the default fit), exact, none (the exact Jacobian at every "
+    ap.add_argument("--variants", default="differences,single",
+                    help="comma-separated: differences (the default fit), single (the same with the runs without "
+                         "sensitivities one at a time, not rolled together), exact, none (the exact Jacobian at every "
                          "accepted step: the fit before; about 7 min at 1 s)")
     args = ap.parse_args()
     print(f"load average before: {os.getloadavg()[0]:.2f}", flush=True)
     nominal, _, m, noise = staged.measured(args.t_end)
-    plain_run, sens_run = run_costs(nominal, m)
+    plain_run, sens_run, batch_run = run_costs(nominal, m)
     print(f"one run of {args.t_end:g} s: {plain_run:.2f} s, with 11 sensitivity directions {sens_run:.2f} s "
-          f"({sens_run / plain_run:.0f} times)", flush=True)
+          f"({sens_run / plain_run:.0f} times); 11 runs rolled together {batch_run:.2f} s "
+          f"({batch_run / plain_run:.1f} runs' time, {11 * plain_run / batch_run:.1f} times faster)", flush=True)
     results = {}
     for variant in args.variants.split(","):
-        reuse = None if variant == "none" else variant
+        reuse = {"none": None, "single": "differences"}.get(variant, variant)
         walls = []
         for _ in range(args.repeats):
-            res, wall, runs = one_fit(nominal, m, noise, reuse)
+            res, wall, runs = one_fit(nominal, m, noise, reuse, batched=variant != "single")
             walls.append(wall)
             print(f"  reuse {variant}: {wall:.1f} s (seated {res.fit['stages'][0]['wall_time_s']:.1f} s, dynamic "
                   f"{res.fit['stages'][1]['wall_time_s']:.1f} s), runs with sensitivities {runs[True]}, without "

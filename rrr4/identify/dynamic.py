@@ -401,21 +401,27 @@ class DynamicData:
     def roll_batch(self, X: np.ndarray) -> list[np.ndarray]:
         """The outputs o (n_frames, n_out) of the runs without sensitivities from the initial states
         X (nx, k), one per column: :meth:`roll`'s chunks mapped over the columns (CasADi's thread map)."""
-        nx, k = X.shape
-        os_ = []
+        k, os_ = X.shape[1], []
         for c in range(0, self.n_frames, CHUNK):
             d = min(c + CHUNK, self.n_frames)
             key = ("batch", k, d - c)
             if key not in self._rolls:
-                if (0, d - c) not in self._rolls:
-                    self._rolls[0, d - c] = self.frame(0).mapaccum("roll", d - c, 2)
-                threads = min(k, os.cpu_count() or 1)
-                roll = self._rolls[0, d - c]
-                self._rolls[key] = roll.map(k, "thread", threads) if threads > 1 else roll.map(k)
-            x_all, _, o, _ = self._rolls[key](X, np.zeros((nx, 0)), self.u[c:d].T)
-            X = np.array(x_all).reshape(nx, d - c, k, order="F")[:, -1, :]
+                self._rolls[key] = self._batch_roll(k, d - c)
+            X, o = self._rolls[key](X, self.u[c:d].T)
             os_.append(np.array(o).T.reshape(k, d - c, -1))
         return list(np.concatenate(os_, axis=1))
+
+    def _batch_roll(self, k: int, n: int) -> ca.Function:
+        """(X (nx, k), u (nu, n)) -> (X after n frames, o (n_out, k n)): n frames of k runs without
+        sensitivities, each run's n frames one mapaccum of the frame (as :meth:`roll`'s), the runs a
+        map in threads (one per core); only the last states leave (all of them cost a copy)."""
+        frame = self.frame(0)
+        nx, roll = frame.size1_in(0), frame.mapaccum("roll", n, 2)
+        threads = min(k, os.cpu_count() or 1)
+        mapped = roll.map(k, "thread", threads) if threads > 1 else roll.map(k)
+        X, u = ca.MX.sym("X", nx, k), ca.MX.sym("u", self.u.shape[1], n)
+        x_all, _, o, _ = mapped(X, ca.MX(nx, 0), u)
+        return ca.Function("roll_batch", [X, u], [x_all[:, [n * (a + 1) - 1 for a in range(k)]], o])
 
     def _kept(self, p, o, do):
         """(o, do) of the run at p, cached (after the check that they are finite)."""
