@@ -1,17 +1,25 @@
 """Speed of method 'staged' on the perturbed reference plant (issue 46, "Speed"): the dynamic
 stage's Levenberg-Marquardt with the Jacobian reused (Broyden's update between runs with
-sensitivities, the exact one asked only where the linear model fails and at the estimate)
-against the same fit asking the exact Jacobian at every accepted step (the behaviour before),
-on the same measurements in one process.
+sensitivities, refreshed by forward differences of runs without, the exact one asked only at
+the estimate), its runs without sensitivities of a refresh and of the sensitivity check rolled
+together (DynamicData.run_batch: each chunk of frames one call of the frame mapped over the runs
+in CasADi threads) against the same fit with those runs one at a time (variant 'single'), on the
+same measurements in one process; 'exact' and 'none' (the exact Jacobian at every accepted step,
+the fit before the reuse) on request.
 
-    .venv/bin/python benchmarks/bench_identify_speed.py [--t-end 1.0] [--repeats 1] [--no-baseline]
+    .venv/bin/python benchmarks/bench_identify_speed.py [--t-end 1.0] [--repeats 1] [--variants differences,single]
 
 The plant and its measurements are benchmarks/bench_identify_staged.py's (11 parameters: the
 eight clearances, friction, stiffness, the second chain's driving link; 1 kHz, the noise levels
-given). It prints the cost of one run with and without sensitivities, then for each variant
-the wall time of identify (medians of --repeats; the first call of the process also loads the
-compiled frames), the runs with and without sensitivities, the iterations, and the estimates'
-differences between the variants in their standard errors. Load average before and after.
+given). It prints the cost of one run with and without sensitivities and of 11 runs rolled
+together, then for each variant the wall time of identify (medians of --repeats; the first call
+of the process also loads the compiled frames), the runs with and without sensitivities, the
+iterations, and the estimates' differences between the variants in their standard errors (zero
+for 'single': the batch gives the same numbers). Load average before and after: the threads
+gain only where a second core is free.
+
+Measured (2 cores, one taken by another job throughout: load average 1.8 before): see the
+"Speed" paragraph of docs/identification.md.
 """
 
 from __future__ import annotations
