@@ -14,12 +14,17 @@ eight clearances, friction, stiffness, the second chain's driving link; 1 kHz, t
 given). It prints the cost of one run with and without sensitivities and of 11 runs rolled
 together, then for each variant the wall time of identify (medians of --repeats; the first call
 of the process also loads the compiled frames), the runs with and without sensitivities, the
-iterations, and the estimates' differences between the variants in their standard errors (zero
-for 'single': the batch gives the same numbers). Load average before and after: the threads
-gain only where a second core is free.
+iterations, the refreshes by differences (batches of 11 runs) and the checks (of 22), and the
+estimates' differences between the variants in their standard errors (zero for 'single': the
+batch gives the same numbers). Load average before and after: the threads gain only where a
+second core is free.
 
-Measured (2 cores, one taken by another job throughout: load average 1.8 before): see the
-"Speed" paragraph of docs/identification.md.
+Measured at 1 s, --repeats 2 (2 cores shared with other jobs): 11 runs rolled together 2.07 s
+against 0.28 s for one (both cores free), 2.80 s against 0.31 s (one core taken); identify 90.3
+s against 107.8 s one at a time (ratio 1.2, load average 1.8 before, 1.6 after) and 96.0 s
+against 152.2 s (1.6, load 0.8 before, 2.7 after: flattered by the load that grew), 43
+iterations, 3 runs with sensitivities and 331 without, 20 refreshes; the same estimates to the
+last digit. Still over a minute: see the "Speed" paragraph of docs/identification.md.
 """
 
 from __future__ import annotations
@@ -50,8 +55,8 @@ class Counted:
     sensitivities (DynamicData.run's) and without (DynamicData.runs, the counter, less those)."""
 
     def __init__(self):
-        self.sens, self.seen = 0, set()
-        self.original = DynamicData.run
+        self.sens, self.seen, self.batches = 0, set(), []
+        self.original, self.original_batch = DynamicData.run, DynamicData.run_batch
 
     @property
     def runs(self) -> dict:
@@ -67,11 +72,15 @@ class Counted:
             counter.sens += (data.runs - before) if sensitivities else 0
             return out
 
-        DynamicData.run = run
+        def run_batch(data, P):  # the batches' sizes: 11 a refresh, 22 the check
+            counter.batches.append(len(P))
+            return counter.original_batch(data, P)
+
+        DynamicData.run, DynamicData.run_batch = run, run_batch
         return self
 
     def __exit__(self, *exc):
-        DynamicData.run = self.original
+        DynamicData.run, DynamicData.run_batch = self.original, self.original_batch
 
 
 def one_at_a_time(data, P):
@@ -98,7 +107,7 @@ def one_fit(nominal, m, noise, reuse: str | None, batched: bool = True):
             wall = time.perf_counter() - wall
     finally:
         IDENTIFY.levenberg_marquardt, DynamicData.run_batch = plain, batch
-    return res, wall, counted.runs
+    return res, wall, {**counted.runs, "batches": counted.batches}
 
 
 def run_costs(nominal, m) -> tuple[float, float, float]:
@@ -146,8 +155,9 @@ def main() -> None:
             walls.append(wall)
             print(f"  reuse {variant}: {wall:.1f} s (seated {res.fit['stages'][0]['wall_time_s']:.1f} s, dynamic "
                   f"{res.fit['stages'][1]['wall_time_s']:.1f} s), runs with sensitivities {runs[True]}, without "
-                  f"{runs[False]}, iterations {res.fit['iterations']}, converged {res.fit['converged']}, chi^2 "
-                  f"{res.fit['chi2']:.6f}, "
+                  f"{runs[False]} (batches of 11, refreshes: {runs['batches'].count(11)}; of 22: "
+                  f"{runs['batches'].count(22)}), iterations {res.fit['iterations']}, converged "
+                  f"{res.fit['converged']}, chi^2 {res.fit['chi2']:.6f}, "
                   f"sensitivity disagreement {res.fit['sensitivity_disagreement']:.3g}", flush=True)
         results[variant] = res, float(np.median(walls))
         print(f"identify, reuse {variant}: median {results[variant][1]:.1f} s of {args.repeats}", flush=True)
