@@ -19,7 +19,9 @@ sensitivities are read off each frame's start. What is compiled (the frame, and 
 derivative in one direction, mapped over the directions: :func:`sensitivity_frame`) does not
 depend on the parameter count: once per scene structure, integrator setting and frame (cached
 on disk as any compiled stepping); a run without directions (Levenberg-Marquardt's trial
-steps and the check below) costs a simulation. Frames are rolled in chunks. An implicit
+steps and the check below) costs a simulation. Frames are rolled in chunks; independent runs
+without directions (a refresh's differences, the check's) together, the chunk mapped over them
+in threads (:meth:`DynamicData.run_batch`). An implicit
 method steps with full Newton there
 (a converged Newton step with exact Jacobians has the implicit function's derivative;
 simplified Newton's reused factors do not): the same solution to the Newton tolerance (on the
