@@ -1,17 +1,30 @@
 """Speed of method 'staged' on the perturbed reference plant (issue 46, "Speed"): the dynamic
 stage's Levenberg-Marquardt with the Jacobian reused (Broyden's update between runs with
-sensitivities, the exact one asked only where the linear model fails and at the estimate)
-against the same fit asking the exact Jacobian at every accepted step (the behaviour before),
-on the same measurements in one process.
+sensitivities, refreshed by forward differences of runs without, the exact one asked only at
+the estimate), its runs without sensitivities of a refresh and of the sensitivity check rolled
+together (DynamicData.run_batch: each chunk of frames one call of the frame mapped over the runs
+in CasADi threads) against the same fit with those runs one at a time (variant 'single'), on the
+same measurements in one process; 'exact' and 'none' (the exact Jacobian at every accepted step,
+the fit before the reuse) on request.
 
-    .venv/bin/python benchmarks/bench_identify_speed.py [--t-end 1.0] [--repeats 1] [--no-baseline]
+    .venv/bin/python benchmarks/bench_identify_speed.py [--t-end 1.0] [--repeats 1] [--variants differences,single]
 
 The plant and its measurements are benchmarks/bench_identify_staged.py's (11 parameters: the
 eight clearances, friction, stiffness, the second chain's driving link; 1 kHz, the noise levels
-given). It prints the cost of one run with and without sensitivities, then for each variant
-the wall time of identify (medians of --repeats; the first call of the process also loads the
-compiled frames), the runs with and without sensitivities, the iterations, and the estimates'
-differences between the variants in their standard errors. Load average before and after.
+given). It prints the cost of one run with and without sensitivities and of 11 runs rolled
+together, then for each variant the wall time of identify (medians of --repeats; the first call
+of the process also loads the compiled frames), the runs with and without sensitivities, the
+iterations, the refreshes by differences (batches of 11 runs) and the checks (of 22), and the
+estimates' differences between the variants in their standard errors (zero for 'single': the
+batch gives the same numbers). Load average before and after: the threads gain only where a
+second core is free.
+
+Measured at 1 s, --repeats 2 (2 cores shared with other jobs): 11 runs rolled together 2.07 s
+against 0.28 s for one (both cores free), 2.80 s against 0.31 s (one core taken); identify 90.3
+s against 107.8 s one at a time (ratio 1.2, load average 1.8 before, 1.6 after) and 96.0 s
+against 152.2 s (1.6, load 0.8 before, 2.7 after: flattered by the load that grew), 43
+iterations, 3 runs with sensitivities and 331 without, 20 refreshes; the same estimates to the
+last digit. Still over a minute: see the "Speed" paragraph of docs/identification.md.
 """
 
 from __future__ import annotations
@@ -38,88 +51,113 @@ IDENTIFY = importlib.import_module("rrr4.identify.identify")  # the module (the 
 
 
 class Counted:
-    """Counts DynamicData.run's simulations with and without sensitivities (cache misses)."""
+    """Counts the simulations (cache misses) of the DynamicData objects made inside: those with
+    sensitivities (DynamicData.run's) and without (DynamicData.runs, the counter, less those)."""
 
     def __init__(self):
-        self.runs = {True: 0, False: 0}
-        self.original = DynamicData.run
+        self.sens, self.seen, self.batches = 0, set(), []
+        self.original, self.original_batch = DynamicData.run, DynamicData.run_batch
+
+    @property
+    def runs(self) -> dict:
+        return {True: self.sens, False: sum(d.runs for d in self.seen) - self.sens}
 
     def __enter__(self):
         counter, original = self, self.original
 
         def run(data, p, sensitivities=True):
+            counter.seen.add(data)
             before = data.runs
             out = original(data, p, sensitivities)
-            counter.runs[bool(sensitivities)] += data.runs - before
+            counter.sens += (data.runs - before) if sensitivities else 0
             return out
 
-        DynamicData.run = run
+        def run_batch(data, P):  # the batches' sizes: 11 a refresh, 22 the check
+            counter.batches.append(len(P))
+            return counter.original_batch(data, P)
+
+        DynamicData.run, DynamicData.run_batch = run, run_batch
         return self
 
     def __exit__(self, *exc):
-        DynamicData.run = self.original
+        DynamicData.run, DynamicData.run_batch = self.original, self.original_batch
 
 
-def one_fit(nominal, m, noise, reuse: str | None):
+def one_at_a_time(data, P):
+    """DynamicData.run_batch as it was before the batch: one run after the other."""
+    return [data.run(p, False)[0] for p in np.atleast_2d(P)]
+
+
+def one_fit(nominal, m, noise, reuse: str | None, batched: bool = True):
     """identify (staged) with the dynamic stage's Levenberg-Marquardt reusing its Jacobian as
-    `reuse` says (None: the exact one at every accepted step): (result, wall [s], runs)."""
-    plain = least_squares.levenberg_marquardt
+    `reuse` says (None: the exact one at every accepted step), the runs without sensitivities of a
+    refresh and of the check rolled together (`batched`) or one at a time: (result, wall [s], runs)."""
+    plain, batch = least_squares.levenberg_marquardt, DynamicData.run_batch
 
     def lm(*args, **kw):
         return plain(*args, **{**kw, "reuse": reuse if kw.get("reuse") else None})
 
     IDENTIFY.levenberg_marquardt = lm
+    if not batched:
+        DynamicData.run_batch = one_at_a_time
     try:
         with Counted() as counted:
             wall = time.perf_counter()
             res = identify(nominal, m, list(staged.TRUTH), noise=noise)
             wall = time.perf_counter() - wall
     finally:
-        IDENTIFY.levenberg_marquardt = plain
-    return res, wall, counted.runs
+        IDENTIFY.levenberg_marquardt, DynamicData.run_batch = plain, batch
+    return res, wall, {**counted.runs, "batches": counted.batches}
 
 
-def run_costs(nominal, m) -> tuple[float, float]:
-    """Wall time [s] of one run of the record without and with sensitivities (11 directions), medians of 3."""
+def run_costs(nominal, m) -> tuple[float, float, float]:
+    """Wall time [s] of one run of the record without and with sensitivities (11 directions), and
+    of 11 runs without them rolled together (run_batch: a refresh by differences), medians of 3."""
     problem = rrr4.build(nominal)
     data = DynamicData(problem, m, resolve_parameters(problem, list(staged.TRUTH), nominal.data), nominal)
     p = np.array([q.nominal for q in data.params])
     out = []
-    for sens in (False, True):
+    for sens in (False, True, "batch"):
         times = []
         for k in range(3):
             data._cache.clear()
             t = time.perf_counter()
-            data.run(p * (1 + 1e-9 * k), sens)
+            if sens == "batch":
+                data.run_batch([data.shifted(p, i, 1e-3 * (k + 1)) for i in range(len(p))])
+            else:
+                data.run(p * (1 + 1e-9 * k), sens)
             times.append(time.perf_counter() - t)
         out.append(float(np.median(times)))
-    return out[0], out[1]
+    return out[0], out[1], out[2]
 
 
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--t-end", type=float, default=1.0)
     ap.add_argument("--repeats", type=int, default=1)
-    ap.add_argument("--variants", default="differences,none",
-                    help="comma-separated: differences (the default fit), exact, none (the exact Jacobian at every "
+    ap.add_argument("--variants", default="differences,single",
+                    help="comma-separated: differences (the default fit), single (the same with the runs without "
+                         "sensitivities one at a time, not rolled together), exact, none (the exact Jacobian at every "
                          "accepted step: the fit before; about 7 min at 1 s)")
     args = ap.parse_args()
     print(f"load average before: {os.getloadavg()[0]:.2f}", flush=True)
     nominal, _, m, noise = staged.measured(args.t_end)
-    plain_run, sens_run = run_costs(nominal, m)
+    plain_run, sens_run, batch_run = run_costs(nominal, m)
     print(f"one run of {args.t_end:g} s: {plain_run:.2f} s, with 11 sensitivity directions {sens_run:.2f} s "
-          f"({sens_run / plain_run:.0f} times)", flush=True)
+          f"({sens_run / plain_run:.0f} times); 11 runs rolled together {batch_run:.2f} s "
+          f"({batch_run / plain_run:.1f} runs' time, {11 * plain_run / batch_run:.1f} times faster)", flush=True)
     results = {}
     for variant in args.variants.split(","):
-        reuse = None if variant == "none" else variant
+        reuse = {"none": None, "single": "differences"}.get(variant, variant)
         walls = []
         for _ in range(args.repeats):
-            res, wall, runs = one_fit(nominal, m, noise, reuse)
+            res, wall, runs = one_fit(nominal, m, noise, reuse, batched=variant != "single")
             walls.append(wall)
             print(f"  reuse {variant}: {wall:.1f} s (seated {res.fit['stages'][0]['wall_time_s']:.1f} s, dynamic "
                   f"{res.fit['stages'][1]['wall_time_s']:.1f} s), runs with sensitivities {runs[True]}, without "
-                  f"{runs[False]}, iterations {res.fit['iterations']}, converged {res.fit['converged']}, chi^2 "
-                  f"{res.fit['chi2']:.6f}, "
+                  f"{runs[False]} (batches of 11, refreshes: {runs['batches'].count(11)}; of 22: "
+                  f"{runs['batches'].count(22)}), iterations {res.fit['iterations']}, converged "
+                  f"{res.fit['converged']}, chi^2 {res.fit['chi2']:.6f}, "
                   f"sensitivity disagreement {res.fit['sensitivity_disagreement']:.3g}", flush=True)
         results[variant] = res, float(np.median(walls))
         print(f"identify, reuse {variant}: median {results[variant][1]:.1f} s of {args.repeats}", flush=True)

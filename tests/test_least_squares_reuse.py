@@ -102,3 +102,28 @@ def test_reuse_follows_rosenbrocks_valley_to_its_minimum(reuse):
     assert ok and calls[True] >= 1
     np.testing.assert_allclose(u, [1.0, 1.0], atol=1e-6)
     np.testing.assert_array_equal(J, fun(u, True)[1])
+
+
+@pytest.mark.parametrize("bounded", [False, True])
+def test_a_batch_of_residuals_gives_the_fit_of_single_calls(bounded):
+    """Refreshes by differences through `batch` (all points of a refresh in one call, as
+    DynamicData.residuals_batch rolls runs together): the same fit, bit for bit, as fun's
+    residuals one at a time, and every residual of a refresh asked through the batch (one call
+    of p points per refresh, none of them through fun)."""
+    upper = UPPER.copy()
+    if bounded:
+        upper[2] = 0.49  # active at the estimate: the differences there step backwards
+    single, batched = Decay(_noisy()), Decay(_noisy())
+    sizes = []
+
+    def batch(U):
+        sizes.append(len(U))
+        return [batched.residuals(v) for v in U]
+
+    u0, r0, J0, it0, ok0 = levenberg_marquardt(single, START, LOWER, upper, reuse="differences")
+    u, r, J, it, ok = levenberg_marquardt(batched, START, LOWER, upper, reuse="differences", batch=batch)
+    assert ok0 and ok and it == it0
+    for a, b in ((u, u0), (r, r0), (J, J0)):
+        np.testing.assert_array_equal(a, b)
+    assert sizes and set(sizes) == {3}
+    assert batched.calls[False] + 3 * len(sizes) == single.calls[False]

@@ -19,7 +19,9 @@ sensitivities are read off each frame's start. What is compiled (the frame, and 
 derivative in one direction, mapped over the directions: :func:`sensitivity_frame`) does not
 depend on the parameter count: once per scene structure, integrator setting and frame (cached
 on disk as any compiled stepping); a run without directions (Levenberg-Marquardt's trial
-steps and the check below) costs a simulation. Frames are rolled in chunks. An implicit
+steps and the check below) costs a simulation. Frames are rolled in chunks; independent runs
+without directions (a refresh's differences, the check's) together, the chunk mapped over them
+in threads (:meth:`DynamicData.run_batch`). An implicit
 method steps with full Newton there
 (a converged Newton step with exact Jacobians has the implicit function's derivative;
 simplified Newton's reused factors do not): the same solution to the Newton tolerance (on the
@@ -381,11 +383,54 @@ class DynamicData:
         self.runs += 1
         x, S = self.start(p, sensitivities)
         _, _, o, do = self.roll(x, S, 0, self.n_frames)
-        if not sensitivities:
-            do = None
+        return self._kept(p, o, do if sensitivities else None)
+
+    def run_batch(self, P) -> list[np.ndarray]:
+        """The outputs o (n_frames, n_out) of the runs without sensitivities at each row of P (k, np),
+        as :meth:`run` gives them one at a time (the same numbers): the rows not cached rolled together,
+        each chunk of frames one call of the frame mapped over them in threads (one per core)."""
+        P = np.atleast_2d(np.asarray(P, float))
+        keys = [tuple(p.tolist()) for p in P]
+        out = {key: self._cache[key][0] for key in keys if key in self._cache}
+        todo = list(dict.fromkeys(key for key in keys if key not in out))  # each point once, in order
+        if todo:
+            X = np.column_stack([self.initial(np.array(key)) for key in todo])
+            self.runs += len(todo)
+            for key, o in zip(todo, self.roll_batch(X), strict=True):
+                out[key] = self._kept(np.array(key), o, None)[0]
+        return [out[key] for key in keys]
+
+    def roll_batch(self, X: np.ndarray) -> list[np.ndarray]:
+        """The outputs o (n_frames, n_out) of the runs without sensitivities from the initial states
+        X (nx, k), one per column: :meth:`roll`'s chunks mapped over the columns (CasADi's thread map)."""
+        k, os_ = X.shape[1], []
+        for c in range(0, self.n_frames, CHUNK):
+            d = min(c + CHUNK, self.n_frames)
+            key = ("batch", k, d - c)
+            if key not in self._rolls:
+                self._rolls[key] = self._batch_roll(k, d - c)
+            X, o = self._rolls[key](X, self.u[c:d].T)
+            os_.append(np.array(o).T.reshape(k, d - c, -1))
+        return list(np.concatenate(os_, axis=1))
+
+    def _batch_roll(self, k: int, n: int) -> ca.Function:
+        """(X (nx, k), u (nu, n)) -> (X after n frames, o (n_out, k n)): n frames of k runs without
+        sensitivities, each run's n frames one mapaccum of the frame (as :meth:`roll`'s), the runs a
+        map in threads (one per core); only the last states leave (all of them cost a copy)."""
+        frame = self.frame(0)
+        nx, roll = frame.size1_in(0), frame.mapaccum("roll", n, 2)
+        threads = min(k, os.cpu_count() or 1)
+        mapped = roll.map(k, "thread", threads) if threads > 1 else roll.map(k)
+        X, u = ca.MX.sym("X", nx, k), ca.MX.sym("u", self.u.shape[1], n)
+        x_all, _, o, _ = mapped(X, ca.MX(nx, 0), u)
+        return ca.Function("roll_batch", [X, u], [x_all[:, [n * (a + 1) - 1 for a in range(k)]], o])
+
+    def _kept(self, p, o, do):
+        """(o, do) of the run at p, cached (after the check that they are finite)."""
         if not (np.all(np.isfinite(o)) and (do is None or np.all(np.isfinite(do)))):
             raise SimulationError(f"integrator.step: the run of {self.problem.name!r} is not finite with the "
                                   f"parameters {dict(zip([q.key for q in self.params], p.tolist(), strict=True))}")
+        key = tuple(np.asarray(p, float).tolist())
         self._cache.pop(key, None)
         if len(self._cache) >= 8:  # the oldest goes (the estimate's run with sensitivities is asked again after)
             self._cache.pop(next(iter(self._cache)))
@@ -418,6 +463,11 @@ class DynamicData:
         """As :meth:`rrr4.identify.seated.SeatedData.residuals`; the Jacobian from the run's
         forward sensitivities (none without `jacobian`)."""
         return self.residuals_of(*self.at_measured(*self.run(p, jacobian)), sigma, jacobian)
+
+    def residuals_batch(self, P, sigma: dict) -> list[np.ndarray]:
+        """The whitened residuals r at each row of P (k, np), as :meth:`residuals` without the
+        Jacobian gives them one at a time: the runs rolled together (:meth:`run_batch`)."""
+        return [self.residuals_of(*self.at_measured(o, None), sigma, False)["r"] for o in self.run_batch(P)]
 
     def residuals_of(self, base: dict, sens: dict, sigma: dict, jacobian: bool = True) -> dict:
         """The residuals of the predictions `base` {column: (N,)} with their sensitivities `sens`
@@ -471,16 +521,10 @@ class DynamicData:
         """The Jacobian of the whitened residuals in p by central differences of whole runs,
         `step` (scaled coordinate) either side: the check of the sensitivities."""
         p = np.asarray(p, float)
-        cols = []
-        for i in range(len(p)):
-            up = self.shifted(p, i, step)
-            q = self.params[i]
-            down = np.array(p)
-            down[i] = q.value(q.coordinate(p[i]) - step)
-            r_up = self.residuals(up, sigma, jacobian=False)["r"]
-            r_down = self.residuals(down, sigma, jacobian=False)["r"]
-            cols.append((r_up - r_down) / (up[i] - down[i]))
-        return np.column_stack(cols)
+        ups = [self.shifted(p, i, step) for i in range(len(p))]
+        downs = [self.shifted(p, i, -step) for i in range(len(p))]
+        r = self.residuals_batch(ups + downs, sigma)  # the 2 np runs rolled together
+        return np.column_stack([(r[i] - r[len(p) + i]) / (ups[i][i] - downs[i][i]) for i in range(len(p))])
 
     def check_sensitivities(self, p, sigma: dict, J: np.ndarray) -> float:
         """The relative disagreement |J - J_cd| / |J_cd| of the run's sensitivities J and central

@@ -191,16 +191,18 @@ def _measurements(problem: Problem, measurements, arm, noise) -> Measurements:
     return m
 
 
-def _fit(fun, u, lower, upper, sigma: dict, given: dict, first: dict, residuals, npar: int, reuse: str | None = None):
+def _fit(fun, u, lower, upper, sigma: dict, given: dict, first: dict, residuals, npar: int, reuse: str | None = None,
+         batch=None):
     """Levenberg-Marquardt from u, re-estimating the noise levels not `given` from the
     residuals (at most four rounds, until they settle within 1 %): (u, sigma, iterations,
     converged). fun(u, jacobian, sigma): the weighted residuals and their Jacobian at the noise
     levels sigma; residuals(u, sigma): the raw residuals by column; reuse: how a Jacobian that
-    costs many residuals is reused (see :func:`levenberg_marquardt`)."""
+    costs many residuals is reused (see :func:`levenberg_marquardt`); batch(U, sigma): the weighted
+    residuals at each row of U together (None: fun's one at a time)."""
     iterations, converged = 0, True
     for _ in range(4):
         u, _, _, it, ok = levenberg_marquardt(lambda v, jacobian, s=sigma: fun(v, jacobian, s), u, lower, upper,
-                                              reuse=reuse)
+                                              reuse=reuse, batch=batch and (lambda U, s=sigma: batch(U, s)))
         iterations, converged = iterations + it, ok
         if len(given) == len(sigma):
             break
@@ -210,7 +212,7 @@ def _fit(fun, u, lower, upper, sigma: dict, given: dict, first: dict, residuals,
         sigma = new
         if change < 0.01:
             u, _, _, it, ok = levenberg_marquardt(lambda v, jacobian, s=sigma: fun(v, jacobian, s), u, lower, upper,
-                                                  reuse=reuse)
+                                                  reuse=reuse, batch=batch and (lambda U, s=sigma: batch(U, s)))
             iterations, converged = iterations + it, ok
             break
     return u, sigma, iterations, converged
@@ -441,7 +443,7 @@ def _one_method(problem: Problem, nominal: Scene, m: Measurements, params: list[
     reuse = "differences" if method == "dynamic" and not start.size else None
     u, sigma, iterations, converged = _fit(fun, u, lower, upper, sigma, given, first,
                                            lambda u, sigma: data.residuals(values(u), sigma, jacobian=False), npar,
-                                           reuse)
+                                           reuse, reuse and (lambda U, s: data.residuals_batch([*map(values, U)], s)))
     w = values(u)
     res = data.residuals(w, sigma)
     if method == "dynamic":

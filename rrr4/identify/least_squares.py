@@ -37,15 +37,17 @@ DIFFERENCE_STEP = 1e-3
 
 
 def levenberg_marquardt(fun, u0, lower, upper, max_iter: int = 60, tol: float = 1e-8, rtol: float = 1e-10,
-                        reuse: str | None = None):
+                        reuse: str | None = None, batch=None):
     """Minimise 0.5 |r(u)|^2 with fun(u, jacobian) -> (r (M,), J (M, p) or None without
     `jacobian`) from u0 within [lower, upper]; the Jacobian is asked at every accepted step,
     or with `reuse` ('exact', 'differences': see :func:`_reusing`) carried along the steps and
-    refreshed only where it fails. Stops when a step moves u by less than tol or lowers the
-    cost by less than rtol of it. Returns (u, r, J, iterations, converged): J fun's exact
-    Jacobian at u; iterations the accepted steps."""
+    refreshed only where it fails; batch(U (k, p)) -> [r (M,) at each row], as fun's (default
+    fun one row at a time), gives the residuals of a refresh by differences together. Stops
+    when a step moves u by less than tol or lowers the cost by less than rtol of it. Returns
+    (u, r, J, iterations, converged): J fun's exact Jacobian at u; iterations the accepted steps."""
     if reuse is not None:
-        return _reusing(fun, u0, lower, upper, max_iter, tol, rtol, reuse)
+        batch = batch or (lambda U: [fun(v, False)[0] for v in U])
+        return _reusing(fun, u0, lower, upper, max_iter, tol, rtol, reuse, batch)
     u = np.clip(np.asarray(u0, float), lower, upper)
     r, J = fun(u, True)
     cost = 0.5 * r @ r
@@ -93,23 +95,20 @@ def _stationary(J, r, free) -> bool:
     return bool(np.linalg.norm((J.T @ r)[free]) <= 1e-6 * max(np.linalg.norm(J[:, free]) * np.linalg.norm(r), 1e-300))
 
 
-def _differences(fun, u, r, upper, h: float = DIFFERENCE_STEP) -> np.ndarray:
-    """The Jacobian of fun's residuals at u (r = fun's there) by forward differences, h in each
-    coordinate (backward at an upper bound)."""
-    cols = []
-    for i in range(u.size):
-        e = np.zeros(u.size)
-        e[i] = h if u[i] + h <= upper[i] else -h
-        cols.append((fun(u + e, False)[0] - r) / e[i])
-    return np.column_stack(cols)
+def _differences(batch, u, r, upper, h: float = DIFFERENCE_STEP) -> np.ndarray:
+    """The Jacobian of the residuals at u (r there) by forward differences, h in each coordinate
+    (backward at an upper bound); batch(U) -> the residuals at each row of U."""
+    steps = np.where(u + h <= upper, h, -h)
+    rows = batch(u + np.diag(steps))
+    return np.column_stack([(rows[i] - r) / steps[i] for i in range(u.size)])
 
 
-def _reusing(fun, u0, lower, upper, max_iter: int, tol: float, rtol: float, refresh: str):
+def _reusing(fun, u0, lower, upper, max_iter: int, tol: float, rtol: float, refresh: str, batch):
     """:func:`levenberg_marquardt` for a Jacobian that costs many residuals (a run with its
     sensitivities). Between refreshes the Jacobian is carried along the accepted steps by
     Broyden's rank-1 secant update (Madsen, Nielsen & Tingleff 2004, section 3.4); it is
     refreshed (`refresh` 'exact': fun's Jacobian; 'differences': forward differences of fun's
-    residuals, one per coordinate) at the start and where the linear model fails: a carried
+    residuals, one per coordinate, all in one call of `batch`) at the start and where the linear model fails: a carried
     Jacobian's step rejected, or its gain ratio rho (actual over predicted reduction of the
     cost) below :data:`RHO_POOR`. The damping follows rho (Nielsen 1999). Converged means what
     it means without reuse, with fun's exact Jacobian: the fit ends at u when the step of u's
@@ -121,7 +120,7 @@ def _reusing(fun, u0, lower, upper, max_iter: int, tol: float, rtol: float, refr
     r, J = fun(u, refresh == "exact")
     state = "exact"  # J is fun's at u, 'fresh' its differences at u, or 'carried'
     if refresh != "exact":
-        J, state = _differences(fun, u, r, upper), "fresh"
+        J, state = _differences(batch, u, r, upper), "fresh"
     cost, lam, nu, it = 0.5 * r @ r, 1e-3, 2.0, 0
     while it < max_iter:
         u_new, free = _lm_step(J, r, u, lower, upper, lam)
@@ -134,7 +133,7 @@ def _reusing(fun, u0, lower, upper, max_iter: int, tol: float, rtol: float, refr
         cost_new = 0.5 * r_new @ r_new
         if not (np.isfinite(cost_new) and cost_new <= cost):  # rejected: a fresh Jacobian, else more damping
             if state == "carried":
-                J, state = _refreshed(fun, u, r, upper, refresh)
+                J, state = _refreshed(fun, batch, u, r, upper, refresh)
                 continue
             lam, nu = lam * nu, 2 * nu
             if lam > 1e12:  # no step lowers the cost: converged if the exact gradient vanishes (to rounding)
@@ -152,7 +151,7 @@ def _reusing(fun, u0, lower, upper, max_iter: int, tol: float, rtol: float, refr
         if stop and state == "fresh":  # the stopping rule met with a refreshed Jacobian: fun's at the new point
             J, state = fun(u_new, True)[1], "exact"
         elif stop or (rho < RHO_POOR and state == "carried"):
-            J, state = _refreshed(fun, u_new, r_new, upper, refresh)
+            J, state = _refreshed(fun, batch, u_new, r_new, upper, refresh)
         else:
             J, state = J + np.outer(r_new - r - J @ s, s) / (s @ s), "carried"
         u, r, cost = u_new, r_new, cost_new
@@ -161,11 +160,11 @@ def _reusing(fun, u0, lower, upper, max_iter: int, tol: float, rtol: float, refr
     return u, r, J, max_iter, False
 
 
-def _refreshed(fun, u, r, upper, refresh: str):
+def _refreshed(fun, batch, u, r, upper, refresh: str):
     """(J at u, its state): fun's exact one, or its residuals' forward differences ('fresh')."""
     if refresh == "exact":
         return fun(u, True)[1], "exact"
-    return _differences(fun, u, r, upper), "fresh"
+    return _differences(batch, u, r, upper), "fresh"
 
 
 def covariance(J: np.ndarray, r: np.ndarray, scale: np.ndarray, dof: float | None = None,
