@@ -12,6 +12,14 @@ import yaml  # noqa: E402
 from rrr4 import load_scene  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def one_line(e: Exception, *words):
+    """`e`'s message is one line holding every one of `words`."""
+    msg = str(e)
+    assert "\n" not in msg, msg
+    for w in words:
+        assert w in msg, (w, msg)
 PAPER = ROOT / "problems" / "paper_circle.yaml"
 
 

@@ -21,7 +21,7 @@ from rrr4.identify.seated import FRICTION_EXPLAINED_MIN, seated_measurements
 from rrr4.studies.robustness import perturbed
 from rrr4.studies.study import arm_scene
 
-from .conftest import PAPER
+from .conftest import PAPER, one_line
 
 CLEARANCE, FRICTION, STIFFNESS = "joints.radial_clearance", "effects.friction.coefficient", "effects.contact.stiffness"
 LINK = "mechanism.chains[0].driving_link.length"
@@ -159,82 +159,75 @@ def test_the_cli_writes_an_identified_scene_that_checks_and_resimulates_the_run(
 # ---------------------------------------------------------------------- bad input, one line each
 
 
-def _one_line(e: Exception, *words):
-    msg = str(e)
-    assert "\n" not in msg
-    for w in words:
-        assert w in msg, (w, msg)
-
-
 def _csv(tmp_path, header: str, rows: list[str]):
     p = tmp_path / "m.csv"
     p.write_text(header + "\n" + "\n".join(rows) + "\n")
     return p
 
 
-def test_bad_measurement_files_end_in_one_line(problem, tmp_path):
+def test_bad_measurement_files_end_inone_line(problem, tmp_path):
     with pytest.raises(MeasurementError) as e:
         read_measurements(_csv(tmp_path, "t_s,foo", ["0,1", "0.1,2"]), problem)
-    _one_line(e.value, "no pose or effort column", "x_m")
+    one_line(e.value, "no pose or effort column", "x_m")
     with pytest.raises(MeasurementError) as e:
         read_measurements(_csv(tmp_path, "time,x_m", ["0,1", "0.1,2"]), problem)
-    _one_line(e.value, "no time column")
+    one_line(e.value, "no time column")
     with pytest.raises(MeasurementError) as e:
         read_measurements(_csv(tmp_path, "t_s,x_m", ["0,0", "0.2,0", "0.1,0"]), problem)
-    _one_line(e.value, "not increasing at row 3", "0.2", "0.1")
+    one_line(e.value, "not increasing at row 3", "0.2", "0.1")
     with pytest.raises(MeasurementError) as e:
         read_measurements(_csv(tmp_path, "t_s,x_m", ["0,0", "0.1,nan"]), problem)
-    _one_line(e.value, "column x_m is nan in row 2")
+    one_line(e.value, "column x_m is nan in row 2")
     with pytest.raises(MeasurementError) as e:
         read_measurements(_csv(tmp_path, "t_s,x_m", ["0,0", "0.1,abc"]), problem)
-    _one_line(e.value, "column x_m", "'abc'", "row 3")
+    one_line(e.value, "column x_m", "'abc'", "row 3")
     with pytest.raises(MeasurementError) as e:
         read_measurements(_csv(tmp_path, "t_s,a_x_m,b_x_m", ["0,0,0", "0.1,0,0"]), problem)
-    _one_line(e.value, "several arms", "a, b", "--arm")
+    one_line(e.value, "several arms", "a, b", "--arm")
     with pytest.raises(MeasurementError) as e:
         read_measurements(_csv(tmp_path, "t_s,a_x_m", ["0,0", "0.1,0"]), problem, arm="c")
-    _one_line(e.value, "arm", "'c'", "a")
+    one_line(e.value, "arm", "'c'", "a")
     with pytest.raises(MeasurementError) as e:
         read_measurements(tmp_path / "missing.csv", problem)
-    _one_line(e.value, "measurement file", "does not exist")
+    one_line(e.value, "measurement file", "does not exist")
     with pytest.raises(MeasurementError, match="millimetres"):
         read_measurements(_csv(tmp_path, "t_s,x_m,y_m", ["0,0,0", "0.1,-20.0,15.0"]), problem)
     read_measurements(_csv(tmp_path, "t_s,x_m,y_m", ["0,0,0", "0.1,-0.02,0.015"]), problem)
 
 
-def test_bad_identification_arguments_end_in_one_line(problem):
+def test_bad_identification_arguments_end_inone_line(problem):
     m = Measurements(np.linspace(0, 0.1, 11), {"x_m": np.zeros(11), "y_m": np.zeros(11)})
     with pytest.raises(SceneError) as e:
         identify(problem, m, ["joints.radial_clearence"], method="seated")
-    _one_line(e.value, "joints.radial_clearence", "joints.radial_clearance")
+    one_line(e.value, "joints.radial_clearence", "joints.radial_clearance")
     with pytest.raises(SceneError) as e:
         identify(problem, m, ["joints.per_joint.A1.radial_clearance"], method="seated")
-    _one_line(e.value, "A1", "B1")
+    one_line(e.value, "A1", "B1")
     with pytest.raises(SceneError) as e:
         identify(problem, m, ["mechanism.chains[7].base[0]"], method="seated")
-    _one_line(e.value, "chain 7", "0 to 3")
+    one_line(e.value, "chain 7", "0 to 3")
     with pytest.raises(SceneError) as e:
         identify(problem, m, {FRICTION: [0.5, 0.2]}, method="seated")
-    _one_line(e.value, FRICTION, "lower <= nominal <= upper")
+    one_line(e.value, FRICTION, "lower <= nominal <= upper")
     with pytest.raises(SceneError) as e:
         identify(problem, m, method="shooting")
-    _one_line(e.value, "method", "seated")
+    one_line(e.value, "method", "seated")
     with pytest.raises(MeasurementError) as e:
         identify(problem, Measurements(np.linspace(0, 2, 11), {"x_m": np.zeros(11)}), [CLEARANCE], method="seated")
-    _one_line(e.value, "2 s", "1 s")
+    one_line(e.value, "2 s", "1 s")
     with pytest.raises(MeasurementError) as e:
         identify(problem, m, noise={"z_m": 1e-6}, method="seated")
-    _one_line(e.value, "noise", "z_m", "x_m")
+    one_line(e.value, "noise", "z_m", "x_m")
     with pytest.raises(MeasurementError) as e:
         identify(problem, Measurements(np.linspace(0, 0.1, 11), {"tau_A1_Nm": np.ones(11)}), method="seated")
-    _one_line(e.value, "tau_A1_Nm alone", "at least 2")
+    one_line(e.value, "tau_A1_Nm alone", "at least 2")
     no_preload = rrr4.build(rrr4.load_scene(PAPER.parent / "no_preload_circle.yaml"))
     with pytest.raises(SceneError) as e:
         identify(no_preload, m, method="seated")
-    _one_line(e.value, "actuation.preload", "seated")
+    one_line(e.value, "actuation.preload", "seated")
 
 
-def test_the_cli_refuses_bad_input_in_one_line(tmp_path, capsys):
+def test_the_cli_refuses_bad_input_inone_line(tmp_path, capsys):
     p = _csv(tmp_path, "t_s,x_m", ["0,0", "0.2,0", "0.1,0"])
     assert main(["identify", str(PAPER), str(p), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()

@@ -15,20 +15,13 @@ from rrr4.errors import MeasurementError, SceneError
 from rrr4.identify import Measurements, identify, measurements_from_simulation, read_measurements, resolve_parameters
 from rrr4.identify.dynamic import DynamicData
 
-from .conftest import ROOT
+from .conftest import ROOT, one_line
 
 LOADED = ROOT / "problems" / "slider_crank_loaded.yaml"
 CLEARANCE, FRICTION = "joints.radial_clearance", "effects.friction.coefficient"
 PLANT = {"mechanism.joints[2].clearance.radial_clearance": 4.2e-4, FRICTION: 0.13}  # nominal 5e-4, 0.1
 TRUTH = np.array([4.2e-4, 0.13])
 COLUMNS = ("slider_x_m", "crank_drive_effort_Nm")  # what a slider-crank's owner measures
-
-
-def _one_line(e: Exception, *words):
-    msg = str(e)
-    assert "\n" not in msg
-    for w in words:
-        assert w in msg, (w, msg)
 
 
 @pytest.fixture(scope="module")
@@ -106,7 +99,7 @@ def test_a_rattling_driven_scene_is_refused_as_chaotic():
     m = Measurements(clean.t, {c: clean.columns[c] for c in COLUMNS})
     with pytest.raises(rrr4.SimulationError) as e:
         identify(nominal, m, [CLEARANCE])
-    _one_line(e.value, "too sensitive", "chaotic", "0.01 s", "journals stay loaded")
+    one_line(e.value, "too sensitive", "chaotic", "0.01 s", "journals stay loaded")
 
 
 def test_a_driven_scenes_columns_and_their_refusals(nominal, plant_run, tmp_path):
@@ -122,18 +115,18 @@ def test_a_driven_scenes_columns_and_their_refusals(nominal, plant_run, tmp_path
     wrong.write_csv(tmp_path / "wrong.csv")
     with pytest.raises(MeasurementError) as e:
         read_measurements(tmp_path / "wrong.csv", scene=nominal)
-    _one_line(e.value, "driven scene", "slider_x_m", "crank_drive_effort_Nm")
+    one_line(e.value, "driven scene", "slider_x_m", "crank_drive_effort_Nm")
     with pytest.raises(MeasurementError) as e:
         identify(nominal, wrong, [CLEARANCE], method="dynamic")
-    _one_line(e.value, "no column", "'dynamic'", "slider_x_m", "crank_drive_effort_Nm", "tau_crank_Nm")
+    one_line(e.value, "no column", "'dynamic'", "slider_x_m", "crank_drive_effort_Nm", "tau_crank_Nm")
     mm = Measurements(m.t, {"slider_x_m": 1e3 * m.columns["slider_x_m"]})
     mm.write_csv(tmp_path / "mm.csv")
     with pytest.raises(MeasurementError) as e:
         read_measurements(tmp_path / "mm.csv", scene=nominal)
-    _one_line(e.value, "slider_x_m", "millimetres")
+    one_line(e.value, "slider_x_m", "millimetres")
     with pytest.raises(SceneError) as e:
         identify(nominal, back, [CLEARANCE], method="seated")
-    _one_line(e.value, "driven scene needs method 'dynamic'")
+    one_line(e.value, "driven scene needs method 'dynamic'")
     with pytest.raises(SceneError) as e:  # multiple shooting ends in a wrong local minimum there (not built yet)
         identify(nominal, back, [CLEARANCE], method="dynamic", windows=2)
-    _one_line(e.value, "windows: 2", "driven scene", "windows=1")
+    one_line(e.value, "windows: 2", "driven scene", "windows=1")

@@ -20,7 +20,7 @@ from rrr4.identify.dynamic import CHAOS_LIMIT, DynamicData
 from rrr4.identify.multiple_shooting import WindowedData
 from rrr4.studies.robustness import perturbed
 
-from .conftest import PAPER
+from .conftest import PAPER, one_line
 
 CLEARANCE, FRICTION = "joints.radial_clearance", "effects.friction.coefficient"
 
@@ -38,13 +38,6 @@ def _measured(nominal, case: str, t_end: float, seed: int) -> tuple[Measurements
     rng = np.random.default_rng(seed)
     cols = {c: v + s * rng.standard_normal(v.size) for c, s in noise.items() for v in [clean.columns[c]]}
     return Measurements(clean.t, cols, {}, f"noisy run of {plant.name}"), noise
-
-
-def _one_line(e: Exception, *words):
-    msg = str(e)
-    assert "\n" not in msg
-    for w in words:
-        assert w in msg, (w, msg)
 
 
 @pytest.fixture(scope="module")
@@ -92,10 +85,10 @@ def test_a_rattling_run_has_exact_sensitivities_but_is_refused_as_chaotic():
     assert np.linalg.norm(J - J_cd) / np.linalg.norm(J_cd) < 0.02
     with pytest.raises(rrr4.SimulationError) as e:  # central differences of runs +-1 % (FD_STEP) disagree
         identify(nominal, m, [CLEARANCE], method="dynamic", noise=noise)
-    _one_line(e.value, "too sensitive", "chaotic", "'seated'", "0.05 s", f"allowed {100 * CHAOS_LIMIT:.0f} %")
+    one_line(e.value, "too sensitive", "chaotic", "'seated'", "0.05 s", f"allowed {100 * CHAOS_LIMIT:.0f} %")
 
 
-def test_what_has_no_exact_sensitivities_is_refused_in_one_line(paper, tmp_path):
+def test_what_has_no_exact_sensitivities_is_refused_inone_line(paper, tmp_path):
     m = Measurements(np.linspace(0, 0.01, 11), {"x_m": np.zeros(11), "y_m": np.zeros(11)})
     data = copy.deepcopy(paper.scene.data)
     data["integrator"]["tolerance"] = 1e-6
@@ -103,14 +96,14 @@ def test_what_has_no_exact_sensitivities_is_refused_in_one_line(paper, tmp_path)
     path.write_text(yaml.safe_dump(data))
     with pytest.raises(SceneError) as e:
         identify(rrr4.load_scene(path), m, [CLEARANCE], method="dynamic")
-    _one_line(e.value, "integrator.method", "'bathe'", "'dynamic'", "rk4")
+    one_line(e.value, "integrator.method", "'bathe'", "'dynamic'", "rk4")
     data = copy.deepcopy(paper.scene.data)
     data["actuation"]["mode"] = "prescribed"
     path = tmp_path / "prescribed.yaml"
     path.write_text(yaml.safe_dump(data))
     with pytest.raises(SceneError) as e:  # no controller's run to fit, and not a driven scene
         identify(rrr4.load_scene(path), m, [CLEARANCE], method="dynamic")
-    _one_line(e.value, "actuation.mode", "'prescribed'", "'dynamic'")
+    one_line(e.value, "actuation.mode", "'prescribed'", "'dynamic'")
 
 
 # ---------------------------------------------------------------------- windowed multiple shooting
@@ -151,15 +144,15 @@ def test_the_stacked_jacobians_state_columns_agree_with_finite_differences(no_pr
         assert errors[k, 1e-3] < min(1e-2, errors[k, 1e-2]) and errors[k, 1e-4] < 2e-3, errors
 
 
-def test_bad_window_options_are_refused_in_one_line(no_preload, paper, tmp_path, capsys):
+def test_bad_window_options_are_refused_inone_line(no_preload, paper, tmp_path, capsys):
     m, _ = _measured(no_preload, "clearance +20 %", 0.02, seed=1)
     for bad in (0, -2, 2.5, True, "3", 100):
         with pytest.raises(SceneError) as e:
             identify(no_preload, m, [CLEARANCE], method="dynamic", windows=bad)
-        _one_line(e.value, "windows", "not allowed", "from 1 to 10", "21 frames of 1 ms")
+        one_line(e.value, "windows", "not allowed", "from 1 to 10", "21 frames of 1 ms")
     with pytest.raises(SceneError) as e:
         identify(paper, m, [CLEARANCE], method="seated", windows=4)
-    _one_line(e.value, "windows", "'seated'", "'dynamic'")
+    one_line(e.value, "windows", "'seated'", "'dynamic'")
     csv = tmp_path / "m.csv"
     csv.write_text("t_s,x_m\n0,0\n0.01,0\n0.02,0\n")
     assert main(["identify", str(PAPER.parent / "no_preload_circle.yaml"), str(csv), "--method", "dynamic",
@@ -195,7 +188,7 @@ def test_a_rattling_window_is_refused_in_one_line_naming_it(no_preload):
     m, noise = _measured(no_preload, "clearance +20 %", 0.06, seed=7)
     with pytest.raises(rrr4.SimulationError) as e:
         identify(no_preload, m, [CLEARANCE], method="dynamic", noise=noise)
-    _one_line(e.value, "too sensitive", "windows=N")
+    one_line(e.value, "too sensitive", "windows=N")
     with pytest.raises(rrr4.SimulationError) as e:
         identify(no_preload, m, [CLEARANCE], method="dynamic", noise=noise, windows=6)
-    _one_line(e.value, "window 6 of 6 (51 to 61 ms)", "too sensitive", "windows=12", "--windows 12", "5.08 ms each")
+    one_line(e.value, "window 6 of 6 (51 to 61 ms)", "too sensitive", "windows=12", "--windows 12", "5.08 ms each")
