@@ -1,6 +1,7 @@
 """Helpers for CasADi Functions that every layer uses: evaluation on numpy arrays through the
 buffer interface, mapped evaluation a block at a time, fixing a Function's last input
-(``parameters`` or ``settings``) to numbers, the size of a Function's graph, and the one home
+(``parameters`` or ``settings``) to numbers, the size of a Function's graph, Functions built to
+be differentiated in many directions (:func:`one_direction_derivatives`), and the one home
 of solver quiet: :data:`QUIET` options and :func:`solver_output_captured`."""
 
 from __future__ import annotations
@@ -19,13 +20,35 @@ import numpy as np
 from .errors import SimulationError
 
 __all__ = ["evaluate", "mapped", "mapped_function", "nonzeros", "fix_last_input", "graph_size", "QUIET",
-           "solver_output_captured"]
+           "solver_output_captured", "one_direction_derivatives"]
 
 # Options of CasADi's oracle-based solvers (rootfinder, nlpsol, integrator): no warning line
 # per failed evaluation. A Newton iteration that meets NaN otherwise prints one line per
 # evaluation (about 30 000 for a floating sub-mechanism before its one error); the caller
 # checks the result and reports a failure once.
 QUIET = {"show_eval_warnings": False}
+
+
+_DIRECTIONS_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def one_direction_derivatives():
+    """The Functions built inside the block take forward derivatives one direction at a time
+    (CasADi's ``max_num_dir`` 1, read when a Function is made): where a graph that calls them is
+    differentiated in n directions (``Function.forward(n)``), each call becomes n calls of its
+    one-direction derivative, one copy in the generated C, instead of one derivative with n
+    directions unrolled, n copies. So a frame built of such Functions, its steps inlined, is
+    evaluated once and differentiated in n directions by code that hardly grows with n (see
+    :func:`rrr4.identify.dynamic.sensitivity_frame`). Functions built elsewhere while the block
+    runs get it too: keep it around building, not around user code."""
+    with _DIRECTIONS_LOCK:
+        before = ca.GlobalOptions.getMaxNumDir()
+        ca.GlobalOptions.setMaxNumDir(1)
+        try:
+            yield
+        finally:
+            ca.GlobalOptions.setMaxNumDir(before)
 
 
 @contextlib.contextmanager

@@ -124,11 +124,12 @@ def test_staged_recovers_the_perturbed_reference_plant_from_one_second(monkeypat
 
 
 def test_the_sensitivity_frames_generated_c_does_not_grow_with_its_directions():
-    """Issue 44: the frame with nine parameters and windows was 28 MB of C. The frames of 1 and
-    of 40 directions are built on the same step and one-direction derivative (built once per
-    problem structure) and their generated C is nearly the same size (measured 1.65 and 1.69 MB;
-    unrolled, 40 directions would be about 40 times one): the directions are a loop (map),
-    not copies."""
+    """Issue 44: the frame with nine parameters and windows was 28 MB of C (its forward
+    derivative unrolled: each direction a copy of the frame's derivative, about 0.8 MB). The
+    frames of 1 and of 40 directions share the step and system (built once per problem
+    structure); their derivatives call the one-direction derivatives of the frame's leaves once
+    per direction, so each direction adds a few kB of calls (measured 1.49 MB of C for 1
+    direction, 1.85 MB for 40: 9 kB, 0.6 %, per direction)."""
     import casadi as ca
 
     from rrr4.identify.dynamic import sensitivity_frame
@@ -144,4 +145,4 @@ def test_the_sensitivity_frames_generated_c_does_not_grow_with_its_directions():
     forty = sensitivity_frame(problem, 40, 1e-3, jit=False)
     assert one[1] is forty[1] and one[0].size2_in(1) == 1 and forty[0].size2_in(1) == 40
     small, large = c_size(one[0]), c_size(forty[0])
-    assert abs(large - small) < 0.05 * small, (small, large)
+    assert 0 <= large - small < 39 * 0.02 * small, (small, large)

@@ -72,9 +72,9 @@ GEOMETRY_KINDS = ("driving", "following", "base")  # through the equations' geom
 CHAOS_LIMIT = 0.25  # relative disagreement of the sensitivities and central differences beyond which shooting fails
 FD_STEP = 1e-2  # finite-difference step in each parameter's scaled coordinate (the check, and the seated initial state)
 CHUNK = 256  # frames per call from Python
-# sensitivity directions per call of the compiled derivative (see sensitivity_frame): its C grows with them
-# (reference scene: 1.3 MB for 1, 3.3 MB for 4, 28 MB for 39 unrolled), the work they share is one frame
-DIRECTIONS = 1
+# directions per call of the compiled derivative (see sensitivity_frame): n directions take a block of the
+# next multiple of BLOCK (one compile per such size), at most MAX_BLOCK (more: several blocks)
+BLOCK, MAX_BLOCK = 4, 64
 
 
 def sensitivity_frame(problem: Problem, n_directions: int, interval: float, jit: bool | None = None,
@@ -87,35 +87,43 @@ def sensitivity_frame(problem: Problem, n_directions: int, interval: float, jit:
     spacing). inputs: the equations' inputs ('geometry': masses, inertias and joint points are
     state too, for link lengths and base positions).
 
-    What is compiled (with `jit`, default as rrr4.simulate) does not depend on the direction
-    count: the frame with its outputs ('sensitivity_step') and the frame's forward derivative in
-    :data:`DIRECTIONS` directions ('sensitivity_directions'), once per problem structure and
-    frame (and cached on disk); the frame with n directions calls the second on ceil(n /
-    DIRECTIONS) blocks of directions (a CasADi map: a loop, not n copies of the derivative in
-    the generated C; in threads, one per core)."""
+    What is compiled (with `jit`, default as rrr4.simulate): the frame with its outputs
+    ('sensitivity_step'), once per problem structure and frame, and the frame's forward
+    derivative in a block of d directions ('sensitivity_directions', d the next multiple of
+    :data:`BLOCK` at or above n, at most :data:`MAX_BLOCK`; more directions map it over
+    blocks), once per d (cached on disk as any compiled stepping). The derivative is that of
+    :meth:`~rrr4.integrators.base.FixedStepIntegrator.derivative_frame_function`: the frame
+    evaluated once per call and its leaves' one-direction derivatives called d times, so its C
+    hardly grows with d (reference scene: 0.94 MB for 1 direction, 1.02 MB for 12) and no
+    direction recomputes the frame's Newton iterations; an implicit step's stages differentiated
+    as implicit functions."""
     jit = default_jit() if jit is None else bool(jit)
     scene = problem.scene
     held = scene.actuation.mode == "torque" and scene.actuation.control_rate is not None
     dt = 1.0 / scene.actuation.control_rate if held else \
         scene.integrator.step * max(int(round(interval / scene.integrator.step)), 1)
     parts = problem.memo(("identify_sensitivity", dt, jit, inputs), lambda: _build(problem, dt, jit, inputs))
+    d = min(BLOCK * -(-n_directions // BLOCK), MAX_BLOCK)
+    block = problem.memo(("identify_sensitivity_directions", d, dt, jit, inputs),
+                         lambda: _directions(problem, parts, d, jit, inputs)) if d else None
     frame = problem.memo(("identify_sensitivity_frame", n_directions, dt, jit, inputs),
-                         lambda: _with_directions(parts[0], parts[1], n_directions))
-    return (frame, *parts[2:])
+                         lambda: _with_directions(parts[0], block, n_directions))
+    return (frame, *parts[1:])
 
 
-def _with_directions(step: ca.Function, block: ca.Function, nd: int) -> ca.Function:
-    """The frame with nd directions from the compiled step and its block of DIRECTIONS directions
-    (zero directions pad the last block)."""
+def _with_directions(step: ca.Function, block: ca.Function | None, nd: int) -> ca.Function:
+    """The frame with nd directions from the compiled step and its derivative in blocks of d
+    directions (zero directions pad the last block)."""
     nx, nu = step.size1_in(0), step.size1_in(1)
     x, u, S = ca.MX.sym("x", nx), ca.MX.sym("u", nu), ca.MX.sym("S", nx, nd)
     x1, o, do_x = step(x, u)
     if nd:
-        blocks = -(-nd // DIRECTIONS)
-        padded = ca.horzcat(S, ca.MX.zeros(nx, blocks * DIRECTIONS - nd))
-        threads = min(blocks, os.cpu_count() or 1)  # the directions are independent: one per core
-        mapped = block.map(blocks, "thread", threads) if threads > 1 else block.map(blocks)
-        S1 = mapped(x, u, x1, padded, ca.MX.zeros(nu, blocks * DIRECTIONS))[:, :nd]
+        d = block.size2_in(3)
+        blocks = -(-nd // d)
+        padded = ca.horzcat(S, ca.MX.zeros(nx, blocks * d - nd))
+        threads = min(blocks, os.cpu_count() or 1)  # the blocks are independent: one per core
+        mapped = block if blocks == 1 else block.map(blocks, "thread", threads) if threads > 1 else block.map(blocks)
+        S1 = mapped(x, u, x1, padded, ca.MX.zeros(nu, blocks * d))[:, :nd]
     else:
         S1 = ca.MX(nx, 0)
     return ca.Function("sensitivity_frame", [x, S, u], [x1, S1, o, do_x @ S], ["x", "S", "u"],
@@ -150,13 +158,24 @@ def _build(problem: Problem, dt: float, jit: bool, inputs: str):
     o = out(xs[:1 + system.ny + system.nz], us)  # an implicit method's memory follows [t, y, z]
     do = ca.Function("outputs", [xs, us], [o, ca.jacobian(o, xs)])
     step = ca.Function("sensitivity_step", [x, u], [x1, *do(x, u)], ["x", "u"], ["x_next", "o", "do_dx"])
-    forward = unit.forward(DIRECTIONS)
-    dx, du, x_out = ca.MX.sym("dx", nx, DIRECTIONS), ca.MX.sym("du", nu, DIRECTIONS), ca.MX.sym("x_next", nx)
-    block = ca.Function("sensitivity_directions", [x, u, x_out, dx, du], [forward(x, u, x_out, dx, du)],
-                        ["x", "u", "x_next", "dx", "du"], ["dx_next"])
     if jit:
-        step, block = compiled(step, system.c_sources), compiled(block, system.c_sources)
-    return step, block, system, loop, eqs, tree, method, dt
+        step = compiled(step, system.c_sources)
+    return step, system, loop, eqs, tree, method, dt
+
+
+def _directions(problem: Problem, parts, d: int, jit: bool, inputs: str) -> ca.Function:
+    """'sensitivity_directions' (x, u, x_next, dx (nx, d), du (nu, d)) -> dx_next: the frame's
+    forward derivative in d directions (see :func:`sensitivity_frame`)."""
+    step, system, loop, eqs, tree, method, dt = parts
+    spf = max(int(round(dt / problem.scene.integrator.step)), 1)
+    frame = problem.memo(("identify_derivative_frame", dt, inputs), lambda: method.derivative_frame_function(
+        system_of(problem, eqs, loop, None, tree, inputs, derivatives=True), dt / spf, spf))
+    nx, nu = step.size1_in(0), step.size1_in(1)
+    x, u, x_out = ca.MX.sym("x", nx), ca.MX.sym("u", nu), ca.MX.sym("x_next", nx)
+    dx, du = ca.MX.sym("dx", nx, d), ca.MX.sym("du", nu, d)
+    block = ca.Function("sensitivity_directions", [x, u, x_out, dx, du], [frame.forward(d)(x, u, x_out, dx, du)],
+                        ["x", "u", "x_next", "dx", "du"], ["dx_next"])
+    return compiled(block, system.c_sources) if jit else block
 
 
 def _outputs(problem: Problem, eqs, loop, system, tree: bool) -> ca.Function:

@@ -40,7 +40,7 @@ import numpy as np
 
 from ..errors import Rrr4Error
 from ..files import stop_requested
-from ..functions import evaluate
+from ..functions import evaluate, one_direction_derivatives
 
 BACKGROUND = "background"  # jit: compile the stepping in a process of its own, step in the VM until it is done
 CALLS = 20  # calls from Python that a run's stepping is split into (progress-bar updates)
@@ -271,9 +271,10 @@ class FixedStepIntegrator(Integrator):
         z1 = system.update(t + h, y1, z, u)
         return ca.Function("step", [x, u], ca.cse([ca.vertcat(t + h, y1, z1)]), ["x", "u"], ["x_next"])
 
-    def refined_step_function(self, system: System, h: float) -> ca.Function:
+    def refined_step_function(self, system: System, h: float, inline: bool = False) -> ca.Function:
         """'step' (x, u -> x_next) that re-takes the step as `refine` sub-steps of h/refine
-        when the event part of the discrete state (x[1 + ny : 1 + ny + events]) changes over it."""
+        when the event part of the discrete state (x[1 + ny : 1 + ny + events]) changes over it
+        (inline: the step's graph inlined in it, an MX step's, see :meth:`derivative_frame_function`)."""
         step = self.step_function(system, h)
         if self.refine == 1 or system.events == 0:
             return step
@@ -283,21 +284,38 @@ class FixedStepIntegrator(Integrator):
         keep = ca.Function("coarse", [x, u, x1], [x1])
         redo = ca.Function("refined", [x, u, x1], [fine(x, ca.repmat(u, 1, k))[:, -1]])
         choose = ca.Function.if_else("refine_if_event", redo, keep)
-        x1 = step(x, u)
+        x1 = _called(step, inline)(x, u)
         event = ca.norm_inf(x1[1 + ny:1 + ny + ne] - x[1 + ny:1 + ny + ne]) > 0
         return ca.Function("step", [x, u], [choose(event, x, u, x1)], ["x", "u"], ["x_next"])
 
     def frame_function(self, system: System, h: float, steps_per_frame: int) -> ca.Function:
         """MX Function 'frame': x, u -> x after `steps_per_frame` steps (mapaccum)."""
-        step = self.refined_step_function(system, h)
+        return self._frame(system, self.refined_step_function(system, h), steps_per_frame, inline=False)
+
+    def derivative_frame_function(self, system: System, h: float, steps_per_frame: int) -> ca.Function:
+        """'frame' as :meth:`frame_function` (the same x_next), built to be differentiated in
+        many directions (``Function.forward(n)``, rrr4.identify's sensitivities): `system` from
+        ``system_of(..., derivatives=True)``, the step's Functions built under
+        :func:`rrr4.functions.one_direction_derivatives`, and an MX step (an implicit method's)
+        inlined in the frame. Its forward derivative in n directions then evaluates each step
+        once and calls the one-direction derivatives of the step's leaves (right-hand side,
+        contact update, an implicit stage's last update) n times: code that hardly grows with n,
+        and no step recomputed per direction. A step re-taken in sub-steps (``refine``) is
+        differentiated one direction at a time (sub-steps recomputed per direction: rare)."""
+        with one_direction_derivatives():
+            step = self.refined_step_function(system, h, inline=True)
+        return self._frame(system, step, steps_per_frame, inline=True)
+
+    def _frame(self, system: System, step: ca.Function, steps_per_frame: int, inline: bool) -> ca.Function:
+        call = _called(step, inline)
         x, u, x_k = ca.MX.sym("x", step.size1_in(0)), ca.MX.sym("u", system.nu_frame), ca.MX.sym("x", step.size1_in(0))
         ny, nz = system.ny, system.nz
         held = system.held(x[1:1 + ny], x[1 + ny:1 + ny + nz], u)
         if steps_per_frame == 1:  # one step per frame (a control period): no fold, one copy less
-            return ca.Function("frame", [x, u], [step(x, held)], ["x", "u"], ["x_next"])
+            return ca.Function("frame", [x, u], [call(x, held)], ["x", "u"], ["x_next"])
         u_held = ca.MX.sym("u", system.nu)
         # fold: only the frame's last state is stored (moving states costs as much as computing them)
-        roll = ca.Function("held_step", [x_k, u_held], [step(x_k, u_held)], ["x", "u"], ["x_next"]).fold(
+        roll = ca.Function("held_step", [x_k, u_held], [call(x_k, u_held)], ["x", "u"], ["x_next"]).fold(
             steps_per_frame)
         x1 = roll(x, ca.repmat(held, 1, steps_per_frame))
         return ca.Function("frame", [x, u], [x1], ["x", "u"], ["x_next"])
@@ -407,3 +425,11 @@ class FixedStepIntegrator(Integrator):
         for k in [k for k in system.frames if isinstance(k, tuple) and len(k) == 3 and k[0] == key]:
             del system.frames[k]
         return unit
+
+
+def _called(f: ca.Function, inline: bool):
+    """f's call on MX arguments (its first output), with an MX Function's graph inlined when
+    `inline` (an SX Function cannot be inlined in MX: called)."""
+    if inline and f.is_a("MXFunction"):
+        return lambda *args: f.call(list(args), True)[0]
+    return lambda *args: f(*args)

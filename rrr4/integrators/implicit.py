@@ -122,9 +122,10 @@ class _Newton:
         one = ca.Function("newton_simplified", [v, w, f_in, pars],
                           ca.cse([v1, p, _norm(dv), 1 + ca.norm_inf(v1)]),
                           ["v", "p", "factors", "pars"], ["v_next", "p_next", "step", "scale"])
-        self.factor_switch = _skippable("newton_factor_switch", ca.Function(
-            "newton_factor", [v, f_in, pars], ca.cse([factors]), ["v", "factors", "pars"], ["factors_next"]),
-            lambda v, f, _: (f,))
+        self.factor = ca.Function("newton_factor", [v, f_in, pars], ca.cse([factors]), ["v", "factors", "pars"],
+                                  ["factors_next"])
+        self.factor_switch = _skippable("newton_factor_switch", self.factor, lambda v, f, _: (f,))
+        self.update = one
         self.simplified = self._simplified(one, nq, ne, tol)
         self.full_switch = self._full(full, nq, ne, max_newton)
 
@@ -227,6 +228,14 @@ class ImplicitIntegrator(FixedStepIntegrator):
     def from_settings(cls, settings, jit: bool = False):
         return cls(jit=jit, **cls.newton_settings(settings))
 
+    # the stages' derivative (Function.forward): through the Newton iterations (False), or the
+    # implicit function's (True): one more update at the converged stage, with G's factors there
+    # held constant (no_grad), has the derivative dv = -G^-1 (dres/dpars) dpars of the implicit
+    # function (exact where the stage converged; no second derivatives of the acceleration, one
+    # solve instead of one per iteration). The quadratures' rates p are taken before that update
+    # (their derivative misses dp/dv dv: nothing reads them back, and no output does)
+    implicit_derivative = False
+
     # ---- what a method implements
     matrices = 1  # distinct (c_q, c_v) among the stages of one step
 
@@ -310,6 +319,8 @@ class ImplicitIntegrator(FixedStepIntegrator):
 
         def full_newton(pars, v_guess, p_guess, skip):
             vk, pk, done, iters = newton.full_switch(skip, v_guess, p_guess, pars)
+            if self.implicit_derivative:  # no derivative through the iterations (nor the counters): see stage
+                vk, pk, done, iters = (ca.no_grad(e) for e in (vk, pk, done, iters))
             count["newton_iterations"] += iters
             count["jacobians"] += iters
             count["newton_failures"] += 1 - done
@@ -347,6 +358,9 @@ class ImplicitIntegrator(FixedStepIntegrator):
                 vk, pk, converged = simplified_newton(pars, v_guess, c_q, c_v)
             else:
                 vk, pk, converged = full_newton(pars, v_guess, ca.MX.zeros(ne), ca.MX(0))
+            if self.implicit_derivative:  # one more update, with G factorised at the solution held constant
+                factors = ca.no_grad(newton.factor(vk, ca.MX.zeros(newton.n_factors), ca.no_grad(pars)))
+                vk, pk = newton.update(vk, ca.MX.zeros(ne), factors, pars)[:2]
             qk = r_q + c_q * vk
             yk = ca.vertcat(qk, vk, r_e + c_e * pk)
             return yk, newton.rate(converged, ts, yk, z, u, vk, r_v, c_v, pk)
@@ -377,6 +391,17 @@ class ImplicitIntegrator(FixedStepIntegrator):
         counters = 1 + system.ny + system.nz + self.memory_size(nq)
         return adaptive_frame(self, system, h, steps_per_frame, counters, len(COUNTERS),
                               counters + COUNTERS.index("newton_failures"))
+
+    def derivative_frame_function(self, system: System, h: float, steps_per_frame: int) -> ca.Function:
+        """As :meth:`FixedStepIntegrator.derivative_frame_function`, the stages differentiated as
+        implicit functions (:attr:`implicit_derivative`: not through the Newton iterations, which
+        the frame evaluates once)."""
+        if self.newton != "full" or self.tolerance is not None:
+            raise Rrr4Error("integrator.newton: a frame differentiated as implicit functions needs full Newton and "
+                            f"fixed steps (got newton {self.newton!r}, tolerance {self.tolerance!r})")
+        method = copy.copy(self)
+        method.implicit_derivative = True
+        return FixedStepIntegrator.derivative_frame_function(method, system, h, steps_per_frame)
 
     def initial_extra(self, system: System, x0, u0) -> np.ndarray:
         """The entries after [t, y, z] at the start of a run: memory, zero counters, renew on."""

@@ -27,6 +27,7 @@ from ..control import (
 )
 from ..dynamics.builder import Equations
 from ..errors import SceneError
+from ..functions import one_direction_derivatives
 from ..integrators import System
 from ..mechanism import Model
 from ..problem import Problem
@@ -83,7 +84,7 @@ def measured(model: Model, q, qd, eqs: Equations | None = None, parameters=None)
 
 
 def system_of(problem: Problem, eqs: Equations, loop: Loop, refs: ca.Function | None, tree: bool = False,
-              inputs: str = "contact") -> System:
+              inputs: str = "contact", derivatives: bool = False) -> System:
     """The ODE y = [q, qd, W_in, D_damping, D_friction, wear] (with `tree`, the tree coordinates
     p, pd instead of q, qd: see :mod:`rrr4.mechanism.tree`; wear: the node depths [m] worn since
     the start, per profile of ``eqs.worn``, none without wear) with discrete z = [delta_dot0,
@@ -97,10 +98,17 @@ def system_of(problem: Problem, eqs: Equations, loop: Loop, refs: ca.Function | 
     cached on the Problem of the equations' structure key (``inputs``: 'contact' -> the plant's,
     'geometry' -> the geometry's), keyed by the equations' options, the loop (its kind, what its
     controller is built from, the path a pointwise controller follows), the references' path
-    and the coordinates."""
+    and the coordinates. derivatives: the system's Functions take forward derivatives one
+    direction at a time (:func:`rrr4.functions.one_direction_derivatives`), for a frame
+    differentiated in many directions (:meth:`FixedStepIntegrator.derivative_frame_function
+    <rrr4.integrators.base.FixedStepIntegrator.derivative_frame_function>`); a system of its own."""
     path = loop.path if loop.kind == "exact" and eqs.mode == "torque" else None
-    key = ("system", eqs.v_min, eqs.baumgarte, loop.kind, loop.key, path, problem.path_key if refs else None, tree)
+    key = ("system", eqs.v_min, eqs.baumgarte, loop.kind, loop.key, path, problem.path_key if refs else None, tree,
+           derivatives)
     structure = problem.structure("geometry" if inputs == "geometry" else "plant")
+    if derivatives:
+        with one_direction_derivatives():
+            return structure.memo(key, lambda: _build_system(eqs, loop, refs, tree))
     return structure.memo(key, lambda: _build_system(eqs, loop, refs, tree))
 
 
