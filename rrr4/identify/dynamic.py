@@ -16,16 +16,17 @@ bearing radius and, with ``stiffness: auto``, the stiffness that follows from it
 measured outputs (task pose, actuator angles, the controller's efforts; a driven scene's
 bodies' poses and drivers' efforts) and their
 sensitivities are read off each frame's start. What is compiled (the frame, and its
-derivative in one direction, mapped over the directions: :func:`sensitivity_frame`) does not
-depend on the parameter count: once per scene structure, integrator setting and frame (cached
-on disk as any compiled stepping); a run without directions (Levenberg-Marquardt's trial
-steps and the check below) costs a simulation. Frames are rolled in chunks; independent runs
-without directions (a refresh's differences, the check's) together, the chunk mapped over them
-in threads (:meth:`DynamicData.run_batch`). An implicit
-method steps with full Newton there
-(a converged Newton step with exact Jacobians has the implicit function's derivative;
-simplified Newton's reused factors do not): the same solution to the Newton tolerance (on the
-reference scene 3e-12 m and 2e-7 N m from the simulation's). The jumps of a contact's onset
+derivative in a block of directions: :func:`sensitivity_frame`) is built once per scene
+structure, integrator setting and frame (and block size; cached on disk as any compiled
+stepping); a run with n directions costs about 1 + n / 3 runs without (its derivative
+evaluates each step once, not once per direction), a run without directions
+(Levenberg-Marquardt's trial steps and the check below) a simulation. Frames are rolled in
+chunks; independent runs without directions (a refresh's differences, the check's) together,
+the chunk mapped over them in threads (:meth:`DynamicData.run_batch`). An implicit method
+steps with the scene's Newton variant at a tolerance of at most :data:`NEWTON_TOL` (so that
+a run is smooth in its parameters far below the noise), and its stages are differentiated as
+implicit functions (:attr:`rrr4.integrators.implicit.ImplicitIntegrator.implicit_derivative`:
+exact at the converged stage, for simplified Newton too). The jumps of a contact's onset
 (the onset velocity the contact law captures at the step where contact starts) are not in
 the sensitivities.
 
@@ -72,6 +73,10 @@ GEOMETRY_KINDS = ("driving", "following", "base")  # through the equations' geom
 CHAOS_LIMIT = 0.25  # relative disagreement of the sensitivities and central differences beyond which shooting fails
 FD_STEP = 1e-2  # finite-difference step in each parameter's scaled coordinate (the check, and the seated initial state)
 CHUNK = 256  # frames per call from Python
+# an implicit method's Newton tolerance in the runs: simplified Newton stopped at the scene's 1e-7 leaves
+# errors that jump with the iteration count (central differences of runs 1e-3 of a scale apart then
+# disagree with the sensitivities by 1 to 4 %, 89 % on the stiffness); at 1e-12 by 1e-7 to 5e-4, as full Newton
+NEWTON_TOL = 1e-12
 # directions per call of the compiled derivative (see sensitivity_frame): n directions take a block of the
 # next multiple of BLOCK (one compile per such size), at most MAX_BLOCK (more: several blocks)
 BLOCK, MAX_BLOCK = 4, 64
@@ -139,13 +144,13 @@ def _build(problem: Problem, dt: float, jit: bool, inputs: str):
                          "the scene's controller, torque, or of a driven scene's drivers)")
     loop = loop_of(problem, eqs, "python", "exact", None)  # a tabulated controller's references: frame inputs
     method = METHODS[scene.integrator.method].from_settings(scene.integrator, jit=False)
-    if isinstance(method, ImplicitIntegrator):
-        method.newton = "full"
+    if isinstance(method, ImplicitIntegrator):  # a run smooth in its parameters to far below the noise
+        method.newton_tol = min(method.newton_tol, NEWTON_TOL)
     if not isinstance(method, FixedStepIntegrator) or getattr(method, "tolerance", None) is not None:
         raise SceneError(f"integrator.method: {scene.integrator.method!r} is not allowed with method 'dynamic' (its "
-                         "sensitivities are the forward derivatives of an explicit fixed-step frame: the iterations "
-                         "of an implicit method's simplified Newton have none that are exact, an adaptive method "
-                         "no fixed frame; model the run with rk4 at a step that keeps it stable, e.g. 1e-05 s)")
+                         "sensitivities are the forward derivatives of a fixed-step frame: an adaptive method has "
+                         "no fixed frame; model the run with bathe at a fixed step, or rk4 at a step that keeps it "
+                         "stable, e.g. 1e-05 s)")
     tree = in_tree(problem, eqs)
     system = system_of(problem, eqs, loop, None, tree, inputs)
     spf = max(int(round(dt / scene.integrator.step)), 1)

@@ -229,11 +229,13 @@ class ImplicitIntegrator(FixedStepIntegrator):
         return cls(jit=jit, **cls.newton_settings(settings))
 
     # the stages' derivative (Function.forward): through the Newton iterations (False), or the
-    # implicit function's (True): one more update at the converged stage, with G's factors there
-    # held constant (no_grad), has the derivative dv = -G^-1 (dres/dpars) dpars of the implicit
-    # function (exact where the stage converged; no second derivatives of the acceleration, one
-    # solve instead of one per iteration). The quadratures' rates p are taken before that update
-    # (their derivative misses dp/dv dv: nothing reads them back, and no output does)
+    # implicit function's (True): the iterations and their bookkeeping (counters, simplified
+    # Newton's factors) held constant (no_grad), then one more update at the converged stage with
+    # G factorised there, held constant too, whose derivative is the implicit function's,
+    # dv = -G^-1 (dres/dpars) dpars: exact where the stage converged, for full and simplified
+    # Newton alike (whose reused factors have no exact derivative of their own); no second
+    # derivatives of the acceleration, one solve. The quadratures' rates p are taken before that
+    # update (their derivative misses dp/dv dv: nothing reads them back, and no output does)
     implicit_derivative = False
 
     # ---- what a method implements
@@ -319,8 +321,6 @@ class ImplicitIntegrator(FixedStepIntegrator):
 
         def full_newton(pars, v_guess, p_guess, skip):
             vk, pk, done, iters = newton.full_switch(skip, v_guess, p_guess, pars)
-            if self.implicit_derivative:  # no derivative through the iterations (nor the counters): see stage
-                vk, pk, done, iters = (ca.no_grad(e) for e in (vk, pk, done, iters))
             count["newton_iterations"] += iters
             count["jacobians"] += iters
             count["newton_failures"] += 1 - done
@@ -359,6 +359,7 @@ class ImplicitIntegrator(FixedStepIntegrator):
             else:
                 vk, pk, converged = full_newton(pars, v_guess, ca.MX.zeros(ne), ca.MX(0))
             if self.implicit_derivative:  # one more update, with G factorised at the solution held constant
+                vk, pk, converged = ca.no_grad(vk), ca.no_grad(pk), ca.no_grad(converged)
                 factors = ca.no_grad(newton.factor(vk, ca.MX.zeros(newton.n_factors), ca.no_grad(pars)))
                 vk, pk = newton.update(vk, ca.MX.zeros(ne), factors, pars)[:2]
             qk = r_q + c_q * vk
@@ -370,7 +371,8 @@ class ImplicitIntegrator(FixedStepIntegrator):
         ne = system.events
         contact_changed = ca.norm_inf(z1[:ne] - z[:ne]) > 0 if ne else ca.MX(0)
         renew1 = ca.fmax(flags["renew_next"], contact_changed)
-        x1 = ca.vertcat(t + h, y1, z1, mem1, *count.values(), renew1, *slots)
+        kept = [*count.values(), renew1, *slots]  # the iterations' bookkeeping: no derivative through it
+        x1 = ca.vertcat(t + h, y1, z1, mem1, *(map(ca.no_grad, kept) if self.implicit_derivative else kept))
         if not error:
             return ca.Function("step", [x, u, *h_in], [x1], ["x", "u", *(["h"] if h_in else [])], ["x_next"])
         estimate = ca.MX(0)
@@ -396,9 +398,9 @@ class ImplicitIntegrator(FixedStepIntegrator):
         """As :meth:`FixedStepIntegrator.derivative_frame_function`, the stages differentiated as
         implicit functions (:attr:`implicit_derivative`: not through the Newton iterations, which
         the frame evaluates once)."""
-        if self.newton != "full" or self.tolerance is not None:
-            raise Rrr4Error("integrator.newton: a frame differentiated as implicit functions needs full Newton and "
-                            f"fixed steps (got newton {self.newton!r}, tolerance {self.tolerance!r})")
+        if self.tolerance is not None:
+            raise Rrr4Error(f"integrator.tolerance: {self.tolerance!r} is not allowed in a frame differentiated as "
+                            "implicit functions (fixed steps only)")
         method = copy.copy(self)
         method.implicit_derivative = True
         return FixedStepIntegrator.derivative_frame_function(method, system, h, steps_per_frame)
