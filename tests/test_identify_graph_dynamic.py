@@ -64,28 +64,33 @@ def test_the_graph_frame_reproduces_the_simulation_and_its_sensitivities_agree_w
 
 
 @pytest.mark.slow
-def test_staged_separates_each_chains_b_and_c_clearances_on_the_five_bar(nominal):
+@pytest.mark.parametrize("seed", [1, 3])
+def test_staged_separates_each_chains_b_and_c_clearances_on_the_five_bar(nominal, seed, monkeypatch):
     """0.3 s of the plant (every clearance different, friction 0.13), noisy, stepped by Bathe
     at 1e-4 s (with the scene's RK4 at 1e-5 s the fit reaches a candidate whose sensitivities
     overflow, refused in one line): the seated stage sees the chains' sums, the dynamic stage separates
-    B and C. Measured over seeds 1 to 3: B3 and the friction within 1.5 standard errors, each
-    chain's sum B + C within 0.3 um, B1 3.7 to 8.2 um high and C1 as much low (2 to 4.2 of their
-    standard errors), B2 and C2 within 7.3 um (up to 3 standard errors): along a chain's B - C
-    difference the cost is nearly flat, and the fit stops short of its minimum (seed 1: started
-    at the truth it ends at B1 82.6 um, chi^2 lower by 0.7). 60 to 105 s compiled."""
+    B and C. Every clearance within 3 standard errors and 5 um, each chain's sum B + C within
+    0.5 um, B3 and the friction within 3 standard errors. A chain's B - C difference is seen
+    through the friction's slip reversals, nonlinearly on ~1 um (its standard error ~2 um): the
+    cost along it is wavy, and Levenberg-Marquardt alone stops in a shallow local minimum (seed
+    3: B1 +8.0 um, 3.8 standard errors; lowest_nearby moves it to +4.8 um, 2.4, the minimum
+    reached from the truth). Measured: seed 1 within 1.4 standard errors, seed 3 within 2.4;
+    30 to 50 s each, compiled (as a user runs it; 290 to 370 s each in CasADi's virtual machine)."""
+    monkeypatch.setenv("RRR4_JIT", "1")
     bathe = nominal.with_values({"integrator.method": "bathe", "integrator.step": 1e-4})
     sim = rrr4.simulate(_plant(bathe, list(TRUTH), 0.13), t_end=0.3, model=bathe, output_rate=1000)
-    m, noise = _noisy(sim, seed=1)
+    m, noise = _noisy(sim, seed=seed)
     keys = [f"joints.per_joint.{j}.radial_clearance" for j in TRUTH] + ["effects.friction.coefficient"]
     res = identify(bathe, m, keys, noise=noise)
     assert [st["method"] for st in res.fit["stages"]] == ["seated", "dynamic"]
     assert "skipped" not in res.fit["stages"][0]
     est = dict(zip(TRUTH, res.estimate[:5], strict=True))
+    se = dict(zip(TRUTH, res.standard_error[:5], strict=True))
     for j in ("B1", "B2"):  # the chains' sums: what the seated stage sees
         c = "C" + j[1]
-        assert abs(est[j] + est[c] - TRUTH[j] - TRUTH[c]) < 1e-6, (j, est)
-    for j, truth in TRUTH.items():  # each apart: 80 to 130 um from 100 um each, none left at its start
-        assert abs(est[j] - truth) < 10e-6, (j, est)
+        assert abs(est[j] + est[c] - TRUTH[j] - TRUTH[c]) < 0.5e-6, (j, est)
+    for j, truth in TRUTH.items():  # each apart: 80 to 130 um from 100 um each
+        assert abs(est[j] - truth) < min(3 * se[j], 5e-6), (j, est, se)
     z = (res.estimate[[2, 5]] - [TRUTH["B3"], 0.13]) / res.standard_error[[2, 5]]
     assert np.all(np.abs(z) < 3), (res.estimate, res.standard_error)
     assert 0.5 < res.fit["reduced_chi2"] < 2.0 and res.fit["sensitivity_disagreement"] < 0.05

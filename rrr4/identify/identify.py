@@ -17,7 +17,7 @@ from ..problem import Problem
 from ..scene import Scene
 from ..scene.vocabulary import IDENTIFICATION_DEFAULT, IDENTIFICATION_METHODS
 from .dynamic import DynamicData
-from .least_squares import Z95, covariance, identifiability, levenberg_marquardt, profile_interval
+from .least_squares import Z95, covariance, identifiability, levenberg_marquardt, lowest_nearby, profile_interval
 from .measurements import Measurements, driven_scene, measurements_from_simulation, read_measurements
 from .multiple_shooting import WindowedData, check_windows, first_frame
 from .parameters import Parameter, identified_scene, resolve_parameters
@@ -197,12 +197,24 @@ def _fit(fun, u, lower, upper, sigma: dict, given: dict, first: dict, residuals,
     residuals (at most four rounds, until they settle within 1 %): (u, sigma, iterations,
     converged). fun(u, jacobian, sigma): the weighted residuals and their Jacobian at the noise
     levels sigma; residuals(u, sigma): the raw residuals by column; reuse: how a Jacobian that
-    costs many residuals is reused (see :func:`levenberg_marquardt`); batch(U, sigma): the weighted
-    residuals at each row of U together (None: fun's one at a time)."""
+    costs many residuals is reused (see :func:`levenberg_marquardt`), and then a shallow local
+    minimum left for a lower one within the standard errors (:func:`lowest_nearby`); batch(U,
+    sigma): the weighted residuals at each row of U together (None: fun's one at a time)."""
     iterations, converged = 0, True
+
+    def fit(u, s):
+        b = batch and (lambda U: batch(U, s))
+        lm = lambda v: levenberg_marquardt(lambda w, jacobian: fun(w, jacobian, s), v, lower, upper,  # noqa: E731
+                                           reuse=reuse, batch=b)
+        u, r, J, it, ok = lm(u)
+        if reuse:
+            u, _, _, more, kept, _ = lowest_nearby(lm, b or (lambda U: [fun(v, False, s)[0] for v in U]), u, r, J,
+                                                   lower, upper)
+            it, ok = it + more, ok if kept is None else kept
+        return u, it, ok
+
     for _ in range(4):
-        u, _, _, it, ok = levenberg_marquardt(lambda v, jacobian, s=sigma: fun(v, jacobian, s), u, lower, upper,
-                                              reuse=reuse, batch=batch and (lambda U, s=sigma: batch(U, s)))
+        u, it, ok = fit(u, sigma)
         iterations, converged = iterations + it, ok
         if len(given) == len(sigma):
             break
@@ -211,8 +223,7 @@ def _fit(fun, u, lower, upper, sigma: dict, given: dict, first: dict, residuals,
         change = max(abs(new[c] / sigma[c] - 1) for c in sigma)
         sigma = new
         if change < 0.01:
-            u, _, _, it, ok = levenberg_marquardt(lambda v, jacobian, s=sigma: fun(v, jacobian, s), u, lower, upper,
-                                                  reuse=reuse, batch=batch and (lambda U, s=sigma: batch(U, s)))
+            u, it, ok = fit(u, sigma)
             iterations, converged = iterations + it, ok
             break
     return u, sigma, iterations, converged

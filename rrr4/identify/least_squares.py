@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["levenberg_marquardt", "covariance", "identifiability", "profile_interval", "COLLINEARITY_LIMIT", "Z95",
-           "BANDWIDTH_FRACTION"]
+__all__ = ["levenberg_marquardt", "lowest_nearby", "covariance", "identifiability", "profile_interval",
+           "COLLINEARITY_LIMIT", "Z95", "BANDWIDTH_FRACTION", "NEARBY_STEPS", "NEARBY_QUADRATIC"]
 
 Z95 = 1.959963984540054  # two-sided 95 % quantile of the normal distribution
 # the collinearity index above which a combination is not identifiable (Brun et al. 2001: 10-15 is critical)
@@ -34,6 +34,12 @@ RHO_POOR = 0.25
 # the forward-difference step in the scaled coordinates of Levenberg-Marquardt's differenced Jacobian (reuse
 # 'differences'): a thousandth of a parameter's scale
 DIFFERENCE_STEP = 1e-3
+# where :func:`lowest_nearby` looks for a lower cost around a converged fit: these many standard errors along each
+# principal axis of its covariance where the cost is not quadratic, both ways
+NEARBY_STEPS = (0.25, 0.5, 1.0, 1.5, 2.0, 3.0)
+# an axis along which chi^2 at one standard error is s^2 above the minimum to this fraction is quadratic: probed there
+# only
+NEARBY_QUADRATIC = 0.1
 
 
 def levenberg_marquardt(fun, u0, lower, upper, max_iter: int = 60, tol: float = 1e-8, rtol: float = 1e-10,
@@ -165,6 +171,50 @@ def _refreshed(fun, batch, u, r, upper, refresh: str):
     if refresh == "exact":
         return fun(u, True)[1], "exact"
     return _differences(batch, u, r, upper), "fresh"
+
+
+def lowest_nearby(fit, batch, u, r, J, lower, upper, rounds: int = 4):
+    """A converged fit (u, r, J: fun's residuals and exact Jacobian there) moved on to a lower
+    minimum within its own standard errors, where the cost along a poorly determined combination
+    is wavy (a response that is not linear on the scale of its standard error: the five-bar's
+    B - C difference of a chain) and the fit stopped in a shallow local minimum. Probes chi^2 at
+    u +- s_k e_k for each principal axis e_k of (J^T J)^-1 in the free coordinates, s_k its
+    standard error (s^2 = chi^2 / (M - p)), and along an axis where chi^2 there is not s^2 above
+    u's (to :data:`NEARBY_QUADRATIC`) at u +- a s_k e_k for each a in :data:`NEARBY_STEPS` too:
+    batch(U) -> [r at each row], once or twice. Where the lowest probe is below u's chi^2,
+    fit(v) -> (u, r, J, iterations, converged) from it, kept if it ends lower, again (at most
+    `rounds` fits). Returns (u, r, J, iterations of the fits, converged: the kept fit's, None
+    where none was kept, fits)."""
+    iterations, converged, fits = 0, None, 0
+    free = lower < upper
+    while fits < rounds:
+        lam, V = np.linalg.eigh(J[:, free].T @ J[:, free])
+        s2 = float(r @ r) / max(r.size - u.size, 1)
+        axes = np.zeros((int(np.sum(lam > 0)), u.size))
+        axes[:, free] = (V[:, lam > 0] * np.sqrt(s2 / lam[lam > 0])).T
+        probes, costs = _probes(batch, u, axes, (1.0,), lower, upper)
+        rise = (costs - float(r @ r)).reshape(-1, 2) / s2
+        wavy = np.any(np.abs(rise - 1.0) > NEARBY_QUADRATIC, axis=1)
+        if wavy.any():
+            more, more_costs = _probes(batch, u, axes[wavy], [a for a in NEARBY_STEPS if a != 1.0], lower, upper)
+            probes, costs = np.r_[probes, more], np.r_[costs, more_costs]
+        if not costs.size or not np.min(costs) < float(r @ r):
+            break
+        u_new, r_new, J_new, it, ok = fit(probes[int(np.argmin(costs))])
+        iterations, fits = iterations + it, fits + 1
+        if not float(r_new @ r_new) < float(r @ r):
+            break
+        u, r, J, converged = u_new, r_new, J_new, ok
+    return u, r, J, iterations, converged, fits
+
+
+def _probes(batch, u, axes, steps, lower, upper):
+    """(U, chi^2 at each row): u -+ a times each axis (rows of `axes`) for a in steps, within the
+    bounds, in one call of batch (a residual not finite: chi^2 inf)."""
+    U = np.array([np.clip(u + sign * a * axis, lower, upper) for axis in axes for a in steps for sign in (-1.0, 1.0)])
+    if not len(U):
+        return np.zeros((0, u.size)), np.zeros(0)
+    return U, np.array([float(q @ q) if np.all(np.isfinite(q)) else np.inf for q in batch(U)])
 
 
 def covariance(J: np.ndarray, r: np.ndarray, scale: np.ndarray, dof: float | None = None,
