@@ -48,7 +48,9 @@ def _coverage(t_end: float, seeds: range):
         u_true = np.array([q.coordinate(v) for q, v in zip(res.parameters, truth, strict=True)])
         se_u = res.standard_error / np.array([q.derivative(v) for q, v in zip(res.parameters, u, strict=True)])
         z.append((u - u_true) / se_u)
-        print(f"seed {seed}: errors {np.round(z[-1], 2)} standard errors, inside {inside[-1]}, {walls[-1]:.1f} s")
+        print(f"seed {seed}: errors {np.round(z[-1], 2)} standard errors (clearance {res.standard_error[0]:.3g} m, "
+              f"friction {res.standard_error[1]:.3g}, stiffness {se_u[2]:.3g} in log), inside {inside[-1]}, "
+              f"{walls[-1]:.1f} s")
     return np.array(inside), np.array(z), np.array(walls)
 
 
@@ -59,7 +61,7 @@ def test_95_percent_dynamic_intervals_cover_the_truth_per_parameter_stiffness_in
     # interval misses 4 or more with probability 0.1 %), and the errors' sum of squares within
     # chi^2's 0.1 and 99.9 % points (10 degrees of freedom: standard errors too small by 1.7
     # times or too large by 2.6 times fail it)
-    monkeypatch.setenv("RRR4_JIT", "1")  # compiled, as a user runs it: 5 times the virtual machine's speed
+    monkeypatch.setenv("RRR4_JIT", "1")  # compiled, as a user runs it: a fit 6 times as fast as in the virtual machine
     seeds = 10
     inside, z, _ = _coverage(0.1, range(1, seeds + 1))
     misses = seeds - inside.sum(axis=0)
@@ -71,20 +73,22 @@ def test_95_percent_dynamic_intervals_cover_the_truth_per_parameter_stiffness_in
 
 
 @pytest.mark.slow
-def test_95_percent_dynamic_intervals_cover_the_truth_per_parameter_stiffness_included_50_seeds(monkeypatch):
-    # 1 s (ten revolutions): the stiffness determined (+-14 % in its log; on 0.1 and 0.2 s it
-    # is not, and some seeds' fits end in a spurious minimum near 100 times the nominal
-    # stiffness, docs/identification.md). A 95 % interval passes unless the seeds show, at
-    # ALPHA, a coverage outside 90 to 99 %: too many misses for 90 % (binomial), or errors
-    # whose spread is too large for 90 % (1.96 / 1.645 standard errors) or too small for 99 %
-    # (1.96 / 2.576) (chi^2); and no bias the seeds show (t test at ALPHA)
+def test_95_percent_dynamic_intervals_cover_the_truth_per_parameter_stiffness_included_100_seeds(monkeypatch):
+    # 1 s (ten revolutions): the stiffness determined (standard error about 0.14 in log K, its
+    # interval within a factor 2; on 0.1 and 0.2 s it is not, and 3 seeds of 50 end in a
+    # spurious minimum near 100 times the plant's stiffness, docs/identification.md). The
+    # intervals pass unless the seeds show, at ALPHA, a coverage outside 90 to 99 %: too many
+    # misses for 90 % (binomial), or errors whose spread is too large for 90 % (1.96 / 1.645
+    # standard errors) or too small for 99 % (1.96 / 2.576) (chi^2); and no bias the seeds
+    # show (t test at ALPHA). With -s it prints every seed and the coverage per parameter.
     monkeypatch.setenv("RRR4_JIT", "1")
-    n = 50
+    n = 100
     inside, z, walls = _coverage(1.0, range(1, n + 1))
     misses = n - inside.sum(axis=0)
     report = {k: (1 - m / n, float(np.mean(zz)), float(np.std(zz))) for k, m, zz in zip(KEYS, misses, z.T, strict=True)}
     print(f"coverage, mean and spread of the errors [se]: {report}; wall time median {np.median(walls):.1f} s")
-    assert binom.sf(10, n, 0.05) < 1e-3  # a correct 95 % interval passes the binomial rule
+    fail = int(np.argmax(binom.sf(np.arange(n + 1) - 1, n, 0.10) < ALPHA))  # the fewest misses that fail (19)
+    assert binom.sf(fail - 1, n, 0.05) < 1e-5  # a correct 95 % interval does not
     assert np.all(binom.sf(misses - 1, n, 0.10) >= ALPHA), report
     ss = np.sum(z ** 2, axis=0)
     assert np.all(chi2.sf(ss / (Z95 / Z90) ** 2, n) >= ALPHA), report
