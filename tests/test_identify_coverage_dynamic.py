@@ -39,7 +39,7 @@ def _coverage(t_end: float, seeds: range):
         res = identify(nominal, m, KEYS, noise=noise)
         assert not res.at_bound, (seed, res.estimate, res.at_bound)
         walls.append(res.fit["wall_time_s"])
-        if not res.fit["converged"]:  # what identify returns is judged; the count is printed
+        if not res.fit["converged"]:  # what identify returns is judged; it is said
             print(f"seed {seed}: not converged in {res.fit['iterations']} iterations, at {res.estimate}")
         lo, hi = res.interval.T
         assert np.all(lo <= res.estimate) and np.all(res.estimate <= hi)
@@ -55,12 +55,12 @@ def _coverage(t_end: float, seeds: range):
 
 
 def test_95_percent_dynamic_intervals_cover_the_truth_per_parameter_stiffness_included_fast(monkeypatch):
-    # 10 seeds of one revolution (0.1 s; the stiffness poorly determined there, +-30 to 55 % in
-    # its log). Per parameter (the seeds are independent, the parameters of one seed are not: the
-    # clearance and the stiffness correlate 0.98): at most 3 misses of 10 (a correct 95 %
-    # interval misses 4 or more with probability 0.1 %), and the errors' sum of squares within
-    # chi^2's 0.1 and 99.9 % points (10 degrees of freedom: standard errors too small by 1.7
-    # times or too large by 2.6 times fail it)
+    # 10 seeds of one revolution (0.1 s; the stiffness poorly determined there, standard error
+    # 0.28 to 0.74 in log K). Per parameter (the seeds are independent, the parameters of one
+    # seed are not: the clearance and the stiffness correlate 0.98): at most 3 misses of 10 (a
+    # correct 95 % interval misses 4 or more with probability 0.1 %), and the errors' sum of
+    # squares within chi^2's 0.1 and 99.9 % points (10 degrees of freedom: standard errors too
+    # small by 1.7 times or too large by 2.6 times fail it)
     monkeypatch.setenv("RRR4_JIT", "1")  # compiled, as a user runs it: a fit 6 times as fast as in the virtual machine
     seeds = 10
     inside, z, _ = _coverage(0.1, range(1, seeds + 1))
