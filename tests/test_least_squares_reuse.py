@@ -127,3 +127,22 @@ def test_a_batch_of_residuals_gives_the_fit_of_single_calls(bounded):
         np.testing.assert_array_equal(a, b)
     assert sizes and set(sizes) == {3}
     assert batched.calls[False] + 3 * len(sizes) == single.calls[False]
+
+
+@pytest.mark.parametrize("reuse", [None, "differences"])
+def test_a_minimum_at_a_kink_is_converged_where_the_remaining_step_is_a_tenth_of_a_standard_error(reuse):
+    """chi^2 = sum (u - y_i)^2 + (1 + e |u - ybar|)^2: a V-shaped minimum at u = ybar, where every
+    step raises the cost and the gradient is e, not zero; started there, the fit stays there.
+    With e = 0.01 the exact Jacobian's Gauss-Newton step is 1e-3 of a standard error (0.1 of
+    one is the limit): converged; with e = 5 it is 0.45 of one: the same minimum, reported not
+    converged (the linear model behind the intervals fails there)."""
+    y = np.random.default_rng(3).standard_normal(100)
+    for e, expected in ((0.01, True), (5.0, False)):
+        def fun(u, jacobian, e=e):
+            d = u[0] - y.mean()
+            r = np.r_[u[0] - y, 1.0 + e * abs(d)]
+            return r, (np.r_[np.ones(y.size), e * (1.0 if d >= 0 else -1.0)][:, None] if jacobian else None)
+
+        u, r, J, it, converged = levenberg_marquardt(fun, np.array([y.mean()]), np.array([-5.0]), np.array([5.0]),
+                                                     reuse=reuse)
+        assert converged is expected and abs(u[0] - y.mean()) < 1e-3, (e, u, it, converged)

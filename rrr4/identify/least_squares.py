@@ -34,6 +34,9 @@ RHO_POOR = 0.25
 # the forward-difference step in the scaled coordinates of Levenberg-Marquardt's differenced Jacobian (reuse
 # 'differences'): a thousandth of a parameter's scale
 DIFFERENCE_STEP = 1e-3
+# a fit whose steps all fail is converged where the exact Jacobian's Gauss-Newton step is shorter than this many
+# standard errors (see _stationary)
+STATIONARY_SE = 0.1
 # where :func:`lowest_nearby` looks for a lower cost around a converged fit: these many standard errors along each
 # principal axis of its covariance where the cost is not quadratic, both ways
 NEARBY_STEPS = (0.5, 1.0, 2.0)
@@ -101,8 +104,17 @@ def _lm_step(J, r, u, lower, upper, lam):
 
 
 def _stationary(J, r, free) -> bool:
-    """Whether the gradient J^T r in the free coordinates vanishes (to rounding)."""
-    return bool(np.linalg.norm((J.T @ r)[free]) <= 1e-6 * max(np.linalg.norm(J[:, free]) * np.linalg.norm(r), 1e-300))
+    """Whether u is a minimum no step could move by a meaningful amount: the gradient J^T r in
+    the free coordinates vanishes (to rounding), or the Gauss-Newton step it gives is shorter
+    than :data:`STATIONARY_SE` of a standard error in the covariance's metric (its predicted
+    decrease of chi^2, g^T (J^T J)^-1 g, below STATIONARY_SE^2 s^2: at a kink of the cost, where
+    the Jacobian's model fails and no step lowers the cost, the estimate is then as good as
+    any point a smooth minimiser would reach)."""
+    g, Jf = (J.T @ r)[free], J[:, free]
+    if np.linalg.norm(g) <= 1e-6 * max(np.linalg.norm(Jf) * np.linalg.norm(r), 1e-300):
+        return True
+    s2 = float(r @ r) / max(r.size - int(np.sum(free)), 1)
+    return bool(g @ np.linalg.lstsq(Jf.T @ Jf, g, rcond=None)[0] <= STATIONARY_SE ** 2 * s2)
 
 
 def _differences(batch, u, r, upper, h: float = DIFFERENCE_STEP) -> np.ndarray:
