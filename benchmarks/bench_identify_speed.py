@@ -19,12 +19,12 @@ estimates' differences between the variants in their standard errors (zero for '
 batch gives the same numbers). Load average before and after: the threads gain only where a
 second core is free.
 
-Measured at 1 s, --repeats 2 (2 cores shared with other jobs): 11 runs rolled together 2.07 s
-against 0.28 s for one (both cores free), 2.80 s against 0.31 s (one core taken); identify 90.3
-s against 107.8 s one at a time (ratio 1.2, load average 1.8 before, 1.6 after) and 96.0 s
-against 152.2 s (1.6, load 0.8 before, 2.7 after: flattered by the load that grew), 43
-iterations, 3 runs with sensitivities and 331 without, 20 refreshes; the same estimates to the
-last digit. Still over a minute: see the "Speed" paragraph of docs/identification.md.
+Measured at 1 s, --repeats 2 (2 cores shared with other jobs, load average 1.0 before, 1.4
+after): one run 0.26 s, with the sensitivities to the 11 parameters 3.77 s, 11 runs rolled
+together 2.62 s; identify 53.4 s (median of 54.4 and 52.5) against 57.2 s one at a time, 15
+iterations, 3 runs with sensitivities and 223 without, 8 refreshes; the same estimates to the
+last digit. Before this round's sensitivities and refresh rule: 90.3 s, 43 iterations, 331 runs
+without sensitivities, 20 refreshes (see the "Speed" paragraph of docs/identification.md).
 """
 
 from __future__ import annotations
