@@ -162,7 +162,7 @@ def test_bad_window_options_are_refused_inone_line(no_preload, paper, tmp_path, 
     assert not (tmp_path / "o").exists()
 
 
-@pytest.mark.slow  # about 30 s; the first run on a machine compiles the frame with 39 directions (about 10 min)
+@pytest.mark.slow  # about 30 s; the first run on a machine compiles the derivative in 40 directions (about 30 s)
 def test_windows_reproduce_single_shooting_where_both_work(paper):
     """The preloaded start-up (0 to 30 ms): three windows of about 10 ms (76 start states as nuisance
     unknowns) give the clearance single shooting gives, with the same standard error (the
