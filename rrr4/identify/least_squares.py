@@ -211,7 +211,8 @@ def lowest_nearby(fit, batch, u, r, J, lower, upper, rounds: int = 4):
     ends lower, again (at most `rounds` fits; after the last one kept, the returned point is probed
     once more at one standard error). Returns (u, r, J, iterations of the fits, converged: the kept
     fit's, None where none was kept, fits, rises): rises {'axes': (k, n) the unit e_k, 'rise' (k, 2):
-    chi^2 at the returned u -+ s_k e_k over its linear model's rise there} (see :func:`secant`)."""
+    chi^2 at the returned u -+ s_k e_k over its linear model's rise there, 'far' (k, 2): the same at
+    the largest of NEARBY_STEPS where probed, nan where not} (see :func:`secant`)."""
     iterations, converged, fits = 0, None, 0
     free = lower < upper
     rises = None
@@ -222,13 +223,15 @@ def lowest_nearby(fit, batch, u, r, J, lower, upper, rounds: int = 4):
         unit[:, free] = V[:, lam > 0].T
         axes = unit * np.sqrt(s2 / lam[lam > 0])[:, None]
         probes, costs = _probes(batch, u, axes, (1.0,), lower, upper)
-        rises = {"axes": unit, "rise": _secant_ratios(J, r, u, probes, costs)}
+        rises = {"axes": unit, "rise": _secant_ratios(J, r, u, probes, costs), "far": np.full((len(unit), 2), np.nan)}
         if fits >= rounds:
             break
         rise = (costs - float(r @ r)).reshape(-1, 2) / s2
         wavy = np.any(np.abs(rise - 1.0) > NEARBY_QUADRATIC, axis=1)
         if wavy.any():
-            more, more_costs = _probes(batch, u, axes[wavy], [a for a in NEARBY_STEPS if a != 1.0], lower, upper)
+            steps = [a for a in NEARBY_STEPS if a != 1.0]
+            more, more_costs = _probes(batch, u, axes[wavy], steps, lower, upper)
+            rises["far"][wavy] = _secant_ratios(J, r, u, more, more_costs).reshape(-1, len(steps), 2)[:, -1]
             probes, costs = np.r_[probes, more], np.r_[costs, more_costs]
         if not costs.size or not np.min(costs) < float(r @ r) - NEARBY_GAIN * s2:
             break
@@ -253,23 +256,26 @@ def _secant_ratios(J, r, u, probes, costs):
 
 def secant(rises: dict | None, floor: float = SECANT_FLOOR) -> tuple[np.ndarray | None, dict]:
     """The secant correction of the linearised covariance from :func:`lowest_nearby`'s probes:
-    along each principal axis e_k, rho_k the smaller of the two rises at -+ one standard error
-    (in units of the linear model's); where rho_k < 1 - :data:`NEARBY_QUADRATIC` (chi^2 flatter
-    than its linear model) the axis's variance is divided by max(rho_k, `floor`), never narrowed:
+    along each principal axis e_k, rho_k the smallest rise of chi^2 (in units of its linear
+    model's for the same step) at -+ one standard error, and at -+ two where lowest_nearby probed
+    there (an axis not quadratic at one): the chord nearest the 95 % crossing (1.96 standard
+    errors). Where rho_k < 1 - :data:`NEARBY_QUADRATIC` (chi^2 flatter than its linear model) the
+    axis's variance is divided by max(rho_k, `floor`), never narrowed:
     Sigma' = T Sigma T with T = I + sum_k (sqrt(w_k) - 1) e_k e_k^T, w_k = 1 / max(rho_k, floor)
     (T = V W^1/2 V^T: it commutes with J^T J, so the axes stay the principal axes and only their
-    variances change). Returns (T, or None where no axis is widened; the report: 'rise' (k, 2),
-    'widened' the axes' indices, 'variance_factor' (k,) w_k, 'at_floor' the axes whose rise is
-    below the floor: chi^2 flat along them within `floor` s^2 at one standard error, their
-    widening a lower bound)."""
+    variances change). Returns (T, or None where no axis is widened; the report: 'rise', 'rise_far'
+    (k, 2), 'secant' (k,) rho_k, 'widened' the axes' indices, 'variance_factor' (k,) w_k, 'at_floor'
+    the axes whose rho_k is below the floor: chi^2 along them flat within `floor` of its linear
+    model, their widening a lower bound)."""
     if rises is None or not len(rises["rise"]):
         return None, {}
-    rise = rises["rise"]
-    rho = np.min(np.where(np.isnan(rise), np.inf, rise), axis=1)
+    both = np.c_[rises["rise"], rises["far"]]
+    rho = np.min(np.where(np.isnan(both), np.inf, both), axis=1)
     rho[np.isinf(rho) & (rho > 0)] = 1.0  # no step on either side (bounds) or no finite run: no information
     widened = rho < 1.0 - NEARBY_QUADRATIC
     w = np.where(widened, 1.0 / np.maximum(rho, floor), 1.0)
-    report = {"rise": rise.tolist(), "axes": rises["axes"].tolist(), "widened": np.flatnonzero(widened).tolist(),
+    report = {"rise": rises["rise"].tolist(), "rise_far": np.where(np.isnan(rises["far"]), None, rises["far"]).tolist(),
+              "secant": rho.tolist(), "axes": rises["axes"].tolist(), "widened": np.flatnonzero(widened).tolist(),
               "variance_factor": w.tolist(), "at_floor": np.flatnonzero(widened & (rho < floor)).tolist(),
               "floor": floor}
     if not widened.any():
