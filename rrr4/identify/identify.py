@@ -58,10 +58,12 @@ class Identification:
     found in the coordinate each parameter is fitted in (log for a stiffness: asymmetric), from
     the profile likelihood where the linearisation is poor (``fit['intervals']``), widened by
     a model error the residuals' autocorrelation shows (``fit['model_error_inflation']``, method
-    'seated'); covariance, correlation (p, p); at_bound: keys whose estimate sits on a bound
-    (their interval means little); noise {column: std} and noise_estimated {column: True if
-    estimated from the residuals}; fit: reduced chi^2, RMS residual per column, iterations,
-    convergence, wall time; verdict: the identifiability verdict (:func:`_verdict`); t (N,), measured,
+    'seated') and, method 'dynamic', along the principal axes where chi^2 rises more slowly than
+    its linear model (the secant, ``fit['secant']``); covariance, correlation (p, p); at_bound:
+    keys whose estimate sits on a bound (their interval means little); noise {column: std} and
+    noise_estimated {column: True if estimated from the residuals}; fit: reduced chi^2, RMS
+    residual per column, iterations, convergence, wall time; verdict: the identifiability
+    verdict (:func:`_verdict`); t (N,), measured,
     prediction, residual: {column: (N,)}; explained: {column: (N,)} what the model explains
     (the pose's offset from the path, the friction efforts off the preload direction; the
     measured counterpart is explained + residual); scene: the nominal scene; identified: the scene
