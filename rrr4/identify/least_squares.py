@@ -274,7 +274,10 @@ def secant(rises: dict | None, floor: float = SECANT_FLOOR) -> tuple[np.ndarray 
     rho[np.isinf(rho) & (rho > 0)] = 1.0  # no step on either side (bounds) or no finite run: no information
     widened = rho < 1.0 - NEARBY_QUADRATIC
     w = np.where(widened, 1.0 / np.maximum(rho, floor), 1.0)
-    report = {"rise": rises["rise"].tolist(), "rise_far": np.where(np.isnan(rises["far"]), None, rises["far"]).tolist(),
+    def listed(a):  # for JSON: a side not probed (or a run not finite) is None
+        return np.where(np.isfinite(a), a, None).tolist()
+
+    report = {"rise": listed(rises["rise"]), "rise_far": listed(rises["far"]),
               "secant": rho.tolist(), "axes": rises["axes"].tolist(), "widened": np.flatnonzero(widened).tolist(),
               "variance_factor": w.tolist(), "at_floor": np.flatnonzero(widened & (rho < floor)).tolist(),
               "floor": floor}
