@@ -56,7 +56,7 @@ def test_a_local_minimum_well_above_the_global_one_is_left_for_it():
     se = covariance(J, r, np.ones(2))["standard_error"][0]
     s2 = r @ r / (r.size - 2)
     assert ok and r @ r > chi2_ref + 2 * NEARBY_GAIN * s2 and abs(u[0] - a_ref) < 2 * se, (u, r @ r, chi2_ref, se)
-    u, r, J, _, converged, fits = lowest_nearby(_fit(f), f.batch, u, r, J, LOWER, UPPER)
+    u, r, J, _, converged, fits, _ = lowest_nearby(_fit(f), f.batch, u, r, J, LOWER, UPPER)
     assert converged and fits >= 1
     assert abs(u[0] - a_ref) < 2e-4 and abs(r @ r - chi2_ref) < 1e-4, (u, a_ref, r @ r, chi2_ref)
     np.testing.assert_array_equal(J, f(u, True)[1])
@@ -71,7 +71,7 @@ def test_a_local_minimum_within_the_gain_of_the_global_one_is_kept():
     u, r, J, _, ok = _fit(f)(np.array([0.5, 0.3]))
     assert ok and chi2_ref + 0.05 < r @ r < chi2_ref + NEARBY_GAIN * r @ r / (r.size - 2), (r @ r, chi2_ref)
     out = lowest_nearby(_fit(f), f.batch, u, r, J, LOWER, UPPER)
-    assert out[3:] == (0, None, 0)
+    assert out[3:6] == (0, None, 0)
     np.testing.assert_array_equal(out[0], u)
 
 
@@ -88,7 +88,7 @@ def test_on_a_quadratic_cost_the_estimate_is_left_alone_after_one_batch_of_probe
 
     u, r, J, _, ok = _fit(f)(np.array([0.5, 0.3]))
     out = lowest_nearby(_fit(f), batch, u, r, J, LOWER, UPPER)
-    assert ok and out[3:] == (0, None, 0)
+    assert ok and out[3:6] == (0, None, 0)
     for a, b in zip(out[:3], (u, r, J), strict=True):
         np.testing.assert_array_equal(a, b)
     assert sizes == [2 * 2]

@@ -17,7 +17,15 @@ from ..problem import Problem
 from ..scene import Scene
 from ..scene.vocabulary import IDENTIFICATION_DEFAULT, IDENTIFICATION_METHODS
 from .dynamic import DynamicData
-from .least_squares import Z95, covariance, identifiability, levenberg_marquardt, lowest_nearby, profile_interval
+from .least_squares import (
+    Z95,
+    covariance,
+    identifiability,
+    levenberg_marquardt,
+    lowest_nearby,
+    profile_interval,
+    secant,
+)
 from .measurements import Measurements, driven_scene, measurements_from_simulation, read_measurements
 from .multiple_shooting import WindowedData, check_windows, first_frame
 from .parameters import Parameter, identified_scene, resolve_parameters
@@ -50,10 +58,12 @@ class Identification:
     found in the coordinate each parameter is fitted in (log for a stiffness: asymmetric), from
     the profile likelihood where the linearisation is poor (``fit['intervals']``), widened by
     a model error the residuals' autocorrelation shows (``fit['model_error_inflation']``, method
-    'seated'); covariance, correlation (p, p); at_bound: keys whose estimate sits on a bound
-    (their interval means little); noise {column: std} and noise_estimated {column: True if
-    estimated from the residuals}; fit: reduced chi^2, RMS residual per column, iterations,
-    convergence, wall time; verdict: the identifiability verdict (:func:`_verdict`); t (N,), measured,
+    'seated') and, method 'dynamic', along the principal axes where chi^2 rises more slowly than
+    its linear model (the secant, ``fit['secant']``); covariance, correlation (p, p); at_bound:
+    keys whose estimate sits on a bound (their interval means little); noise {column: std} and
+    noise_estimated {column: True if estimated from the residuals}; fit: reduced chi^2, RMS
+    residual per column, iterations, convergence, wall time; verdict: the identifiability
+    verdict (:func:`_verdict`); t (N,), measured,
     prediction, residual: {column: (N,)}; explained: {column: (N,)} what the model explains
     (the pose's offset from the path, the friction efforts off the preload direction; the
     measured counterpart is explained + residual); scene: the nominal scene; identified: the scene
@@ -117,6 +127,9 @@ class Identification:
         lines.append(f"{f['samples']} instants, reduced chi^2 {f['reduced_chi2']:.3g}, RMS residuals: {rms}; "
                      f"{f['iterations']} iterations in {f['wall_time_s']:.2f} s")
         lines += [f"stage {k + 1}, {st['said']}" for k, st in enumerate(self.fit.get("stages", []))]
+        if n := len(self.fit.get("secant", {}).get("widened", [])):
+            lines.append(f"intervals widened along {n} ax{'is' if n == 1 else 'es'} where chi^2 rises more slowly than "
+                         "its linear model (secant)")
         lines.append(verdict_text(self.verdict))
         return "\n".join(lines)
 
@@ -199,8 +212,10 @@ def _fit(fun, u, lower, upper, sigma: dict, given: dict, first: dict, residuals,
     levels sigma; residuals(u, sigma): the raw residuals by column; reuse: how a Jacobian that
     costs many residuals is reused (see :func:`levenberg_marquardt`), and then a shallow local
     minimum left for a lower one within the standard errors (:func:`lowest_nearby`); batch(U,
-    sigma): the weighted residuals at each row of U together (None: fun's one at a time)."""
-    iterations, converged = 0, True
+    sigma): the weighted residuals at each row of U together (None: fun's one at a time).
+    rises: lowest_nearby's probes of chi^2 at the last fit's estimate (see :func:`secant`), None
+    without `reuse`."""
+    iterations, converged, rises = 0, True, [None]
 
     def fit(u, s):
         b = batch and (lambda U: batch(U, s))
@@ -208,8 +223,8 @@ def _fit(fun, u, lower, upper, sigma: dict, given: dict, first: dict, residuals,
                                            reuse=reuse, batch=b)
         u, r, J, it, ok = lm(u)
         if reuse:
-            u, _, _, more, kept, _ = lowest_nearby(lm, b or (lambda U: [fun(v, False, s)[0] for v in U]), u, r, J,
-                                                   lower, upper)
+            u, _, _, more, kept, _, rises[0] = lowest_nearby(lm, b or (lambda U: [fun(v, False, s)[0] for v in U]),
+                                                             u, r, J, lower, upper)
             it, ok = it + more, ok if kept is None else kept
         return u, it, ok
 
@@ -226,7 +241,7 @@ def _fit(fun, u, lower, upper, sigma: dict, given: dict, first: dict, residuals,
             u, it, ok = fit(u, sigma)
             iterations, converged = iterations + it, ok
             break
-    return u, sigma, iterations, converged
+    return u, sigma, iterations, converged, rises[0]
 
 
 def _verdict(J, params, relative_se, interval=None) -> dict:
@@ -452,9 +467,9 @@ def _one_method(problem: Problem, nominal: Scene, m: Measurements, params: list[
         chaos_nominal = data.check_sensitivities(values(u), sigma, data.residuals(values(u), sigma)["J"])
     # single shooting's Jacobian is a run with sensitivities (about 40 without): reused, refreshed by differences
     reuse = "differences" if method == "dynamic" and not start.size else None
-    u, sigma, iterations, converged = _fit(fun, u, lower, upper, sigma, given, first,
-                                           lambda u, sigma: data.residuals(values(u), sigma, jacobian=False), npar,
-                                           reuse, reuse and (lambda U, s: data.residuals_batch([*map(values, U)], s)))
+    u, sigma, iterations, converged, rises = _fit(
+        fun, u, lower, upper, sigma, given, first, lambda u, sigma: data.residuals(values(u), sigma, jacobian=False),
+        npar, reuse, reuse and (lambda U, s: data.residuals_batch([*map(values, U)], s)))
     w = values(u)
     res = data.residuals(w, sigma)
     if method == "dynamic":
@@ -463,9 +478,11 @@ def _one_method(problem: Problem, nominal: Scene, m: Measurements, params: list[
     r, J = res["r"], res["J"] * derivative(u)
     if start.size:  # the start states are nuisance unknowns: the parameters' columns with theirs projected out
         J = J[:, :npar] - J[:, npar:] @ np.linalg.lstsq(J[:, npar:], J[:, :npar], rcond=None)[0]
+    widen, widening = secant(rises)  # where chi^2 rises more slowly than its linear model: wider
+    dof, series = sum(float(np.sum(v)) for v in res["expected"].values()), len(m) if method == "seated" else None
     try:
-        cov = covariance(J, r, scale, dof=sum(float(np.sum(v)) for v in res["expected"].values()),
-                         series=len(m) if method == "seated" else None)
+        cov = covariance(J, r, scale, dof, series, widen)
+        linear = cov if widen is None else covariance(J, r, scale, dof, series)
     except np.linalg.LinAlgError as e:  # e.g. residuals of measurements in the wrong units overflow
         raise MeasurementError(f"{m.source or 'measurements'}: the fit's covariance cannot be computed ({e}); are "
                                "the columns in SI units (m, rad, N m)?") from None
@@ -505,7 +522,8 @@ def _one_method(problem: Problem, nominal: Scene, m: Measurements, params: list[
                                         if method == "dynamic" else {}),
            **(_continuity(data, res["defect"]) if start.size else {}),
            "columns": data.columns(), "intervals": dict(zip([q.key for q in params], how, strict=True)),
-           "model_error_inflation": [float(v) for v in cov["inflation"]]}
+           "model_error_inflation": [float(v) for v in cov["inflation"]],
+           **({"secant": {**widening, "standard_error_linear": linear["standard_error"].tolist()}} if rises else {})}
     return Identification(
         method, tuple(params), p, se, interval, cov["covariance"],
         cov["correlation"], at_bound, sigma, {c: c not in given for c in sigma}, fit, verdict, m.t,

@@ -20,7 +20,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["levenberg_marquardt", "lowest_nearby", "covariance", "identifiability", "profile_interval",
-           "COLLINEARITY_LIMIT", "Z95", "BANDWIDTH_FRACTION", "NEARBY_STEPS", "NEARBY_QUADRATIC", "NEARBY_GAIN"]
+           "COLLINEARITY_LIMIT", "Z95", "BANDWIDTH_FRACTION", "NEARBY_STEPS", "NEARBY_QUADRATIC", "NEARBY_GAIN",
+           "secant", "SECANT_FLOOR"]
 
 Z95 = 1.959963984540054  # two-sided 95 % quantile of the normal distribution
 # the collinearity index above which a combination is not identifiable (Brun et al. 2001: 10-15 is critical)
@@ -47,6 +48,12 @@ NEARBY_QUADRATIC = 0.25
 # that (a point whose chi^2 is within 0.5 of the lowest lies well inside its 1-dof 68 % region) is as good an
 # estimate, and a refit costs a whole fit (on the reference plant's 1 s record: 62 s for 0.13 of chi^2)
 NEARBY_GAIN = 0.5
+# the smallest secant ratio (chi^2's rise at one standard error over its linear model's) :func:`secant` widens by:
+# a variance at most 20 times the linear one (4.5 times the standard error). Below it chi^2 is flat to 0.05 s^2 at one
+# standard error, and a single probe's quadratic extrapolation to the 95 % crossing (9 linear standard errors out)
+# says nothing more: the widening is a lower bound there (reported as 'at_floor'), and such an interval spans
+# enough for the verdict to call a positive parameter poorly determined
+SECANT_FLOOR = 0.05
 
 
 def levenberg_marquardt(fun, u0, lower, upper, max_iter: int = 60, tol: float = 1e-8, rtol: float = 1e-10,
@@ -201,20 +208,30 @@ def lowest_nearby(fit, batch, u, r, J, lower, upper, rounds: int = 4):
     u's (to :data:`NEARBY_QUADRATIC`) at u +- a s_k e_k for each a in :data:`NEARBY_STEPS` too:
     batch(U) -> [r at each row], once or twice. Where the lowest probe is below u's chi^2 by
     more than :data:`NEARBY_GAIN` s^2, fit(v) -> (u, r, J, iterations, converged) from it, kept if it
-    ends lower, again (at most `rounds` fits). Returns (u, r, J, iterations of the fits, converged:
-    the kept fit's, None where none was kept, fits)."""
+    ends lower, again (at most `rounds` fits; after the last one kept, the returned point is probed
+    once more at one standard error). Returns (u, r, J, iterations of the fits, converged: the kept
+    fit's, None where none was kept, fits, rises): rises {'axes': (k, n) the unit e_k, 'rise' (k, 2):
+    chi^2 at the returned u -+ s_k e_k over its linear model's rise there, 'far' (k, 2): the same at
+    the largest of NEARBY_STEPS where probed, nan where not} (see :func:`secant`)."""
     iterations, converged, fits = 0, None, 0
     free = lower < upper
-    while fits < rounds:
+    rises = None
+    while True:
         lam, V = np.linalg.eigh(J[:, free].T @ J[:, free])
         s2 = float(r @ r) / max(r.size - u.size, 1)
-        axes = np.zeros((int(np.sum(lam > 0)), u.size))
-        axes[:, free] = (V[:, lam > 0] * np.sqrt(s2 / lam[lam > 0])).T
+        unit = np.zeros((int(np.sum(lam > 0)), u.size))
+        unit[:, free] = V[:, lam > 0].T
+        axes = unit * np.sqrt(s2 / lam[lam > 0])[:, None]
         probes, costs = _probes(batch, u, axes, (1.0,), lower, upper)
+        rises = {"axes": unit, "rise": _secant_ratios(J, r, u, probes, costs), "far": np.full((len(unit), 2), np.nan)}
+        if fits >= rounds:
+            break
         rise = (costs - float(r @ r)).reshape(-1, 2) / s2
         wavy = np.any(np.abs(rise - 1.0) > NEARBY_QUADRATIC, axis=1)
         if wavy.any():
-            more, more_costs = _probes(batch, u, axes[wavy], [a for a in NEARBY_STEPS if a != 1.0], lower, upper)
+            steps = [a for a in NEARBY_STEPS if a != 1.0]
+            more, more_costs = _probes(batch, u, axes[wavy], steps, lower, upper)
+            rises["far"][wavy] = _secant_ratios(J, r, u, more, more_costs).reshape(-1, len(steps), 2)[:, -1]
             probes, costs = np.r_[probes, more], np.r_[costs, more_costs]
         if not costs.size or not np.min(costs) < float(r @ r) - NEARBY_GAIN * s2:
             break
@@ -223,7 +240,51 @@ def lowest_nearby(fit, batch, u, r, J, lower, upper, rounds: int = 4):
         if not float(r_new @ r_new) < float(r @ r):
             break
         u, r, J, converged = u_new, r_new, J_new, ok
-    return u, r, J, iterations, converged, fits
+    return u, r, J, iterations, converged, fits, rises
+
+
+def _secant_ratios(J, r, u, probes, costs):
+    """(k, 2): each probe's rise of chi^2 over the rise its linear model predicts for the same step
+    (|J d|^2, d the probe's step from u, clipped to the bounds: 1 for a quadratic cost, nan for
+    a step a bound cut to nothing)."""
+    d = probes - u
+    predicted = np.sum((d @ J.T) ** 2, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = np.where(predicted > 0, (costs - float(r @ r)) / predicted, np.nan)
+    return ratio.reshape(-1, 2)
+
+
+def secant(rises: dict | None, floor: float = SECANT_FLOOR) -> tuple[np.ndarray | None, dict]:
+    """The secant correction of the linearised covariance from :func:`lowest_nearby`'s probes:
+    along each principal axis e_k, rho_k the smallest rise of chi^2 (in units of its linear
+    model's for the same step) at -+ one standard error, and at -+ two where lowest_nearby probed
+    there (an axis not quadratic at one): the chord nearest the 95 % crossing (1.96 standard
+    errors). Where rho_k < 1 - :data:`NEARBY_QUADRATIC` (chi^2 flatter than its linear model) the
+    axis's variance is divided by max(rho_k, `floor`), never narrowed:
+    Sigma' = T Sigma T with T = I + sum_k (sqrt(w_k) - 1) e_k e_k^T, w_k = 1 / max(rho_k, floor)
+    (T = V W^1/2 V^T: it commutes with J^T J, so the axes stay the principal axes and only their
+    variances change). Returns (T, or None where no axis is widened; the report: 'rise', 'rise_far'
+    (k, 2), 'secant' (k,) rho_k, 'widened' the axes' indices, 'variance_factor' (k,) w_k, 'at_floor'
+    the axes whose rho_k is below the floor: chi^2 along them flat within `floor` of its linear
+    model, their widening a lower bound)."""
+    if rises is None or not len(rises["rise"]):
+        return None, {}
+    both = np.c_[rises["rise"], rises["far"]]
+    rho = np.min(np.where(np.isnan(both), np.inf, both), axis=1)
+    rho[np.isinf(rho) & (rho > 0)] = 1.0  # no step on either side (bounds) or no finite run: no information
+    widened = rho < 1.0 - NEARBY_QUADRATIC
+    w = np.where(widened, 1.0 / np.maximum(rho, floor), 1.0)
+    def listed(a):  # for JSON: a side not probed (or a run not finite) is None
+        return np.where(np.isfinite(a), a, None).tolist()
+
+    report = {"rise": listed(rises["rise"]), "rise_far": listed(rises["far"]),
+              "secant": rho.tolist(), "axes": rises["axes"].tolist(), "widened": np.flatnonzero(widened).tolist(),
+              "variance_factor": w.tolist(), "at_floor": np.flatnonzero(widened & (rho < floor)).tolist(),
+              "floor": floor}
+    if not widened.any():
+        return None, report
+    E = rises["axes"]
+    return np.eye(E.shape[1]) + (E.T * (np.sqrt(w) - 1.0)) @ E, report
 
 
 def _probes(batch, u, axes, steps, lower, upper):
@@ -236,7 +297,7 @@ def _probes(batch, u, axes, steps, lower, upper):
 
 
 def covariance(J: np.ndarray, r: np.ndarray, scale: np.ndarray, dof: float | None = None,
-               series: int | None = None) -> dict:
+               series: int | None = None, widen: np.ndarray | None = None) -> dict:
     """Covariance, standard errors and correlation of the parameters p (dp/du = scale)
     from the whitened residuals r (M,) and their Jacobian J (M, p) in u: s^2 (J^T J)^-1
     with s^2 = chi^2 / (dof - p) (dof: the residuals' degrees of freedom, default M). A
@@ -249,7 +310,11 @@ def covariance(J: np.ndarray, r: np.ndarray, scale: np.ndarray, dof: float | Non
     parameter's variance is the larger of the two: white noise leaves them equal (to the
     sandwich's scatter, ~13 % on the standard error at 1000 instants); a model error, residuals
     that are smooth in time, widens the sandwich. 'inflation' (p,): the standard errors over
-    those of s^2 (J^T J)^-1 (1 without `series`)."""
+    those of s^2 (J^T J)^-1 (1 without `series`).
+
+    widen (p, p): T of :func:`secant` (in u): both covariances rescaled congruently, T C T, before
+    they are compared: the sandwich's inflation is then that of the model error over the widened
+    linear covariance, and the secant widening and the model error's multiply."""
     M, npar = J.shape
     chi2 = float(r @ r)
     s2 = chi2 / max((M if dof is None else dof) - npar, 1)
@@ -261,7 +326,8 @@ def covariance(J: np.ndarray, r: np.ndarray, scale: np.ndarray, dof: float | Non
     except np.linalg.LinAlgError:
         inv = np.linalg.pinv(A)
         inv[np.diag_indices(npar)] = np.inf
-    cov = s2 * inv
+    widen = widen if widen is not None and np.all(np.isfinite(inv)) else None
+    cov = s2 * inv if widen is None else widen @ (s2 * inv) @ widen.T
     inflation = np.ones(npar)
     if series and M % series == 0 and np.all(np.isfinite(np.diag(inv))):
         scores = (J * r[:, None]).reshape(M // series, series, npar).sum(axis=0)
@@ -270,8 +336,9 @@ def covariance(J: np.ndarray, r: np.ndarray, scale: np.ndarray, dof: float | Non
             g = scores[lag:].T @ scores[:-lag]
             meat += (1.0 - lag / (BANDWIDTH_FRACTION * series + 1.0)) * (g + g.T)
         sandwich = inv @ meat @ inv * M / max((M if dof is None else dof) - npar, 1)
+        sandwich = sandwich if widen is None else widen @ sandwich @ widen.T
         inflation = np.sqrt(np.maximum(np.diag(sandwich) / np.diag(cov), 1.0))
-        cov = cov * np.outer(inflation, inflation)  # the correlations stay those of s^2 (J^T J)^-1
+        cov = cov * np.outer(inflation, inflation)  # the correlations stay those of s^2 T (J^T J)^-1 T
     cov = cov * np.outer(scale, scale)
     se = np.sqrt(np.diag(cov))
     with np.errstate(invalid="ignore", divide="ignore"):
