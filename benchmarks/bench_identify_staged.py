@@ -3,6 +3,7 @@ time, the compensated controller with the identified model, and the figures of
 docs/identification.md.
 
     .venv/bin/python benchmarks/bench_identify_staged.py [--t-end 1.0] [--windows 1] [--figures docs/figures]
+    .venv/bin/python benchmarks/bench_identify_staged.py --seeds 1:13 [--t-end 1.0]
 
 The plant: problems/paper_circle.yaml with every clearance changed (70 to 130 um), friction
 0.15, contact stiffness 1e10 N/m^1.5 and the second chain's driving link 150 um longer (the
@@ -13,7 +14,11 @@ parameter's error in standard errors, the wall time of identify (the simulation 
 not counted; compiled stepping, the sensitivity frames found in the on-disk cache after the
 first run), and the compensated controller's platform error on the plant with the identified,
 the nominal and the true model. With --figures it writes identification_staged_fit.png and
-identification_staged_intervals.png there. Load average before and after.
+identification_staged_intervals.png there. With --seeds A:B it fits the record of each noise
+seed from A to B-1 instead (no compensated runs, no figures) and prints, per parameter, how
+many 95 % intervals hold the truth and the RMS of the errors in standard errors (the
+stiffness's in log K, the coordinate it is fitted in): coverage by simulation on the plant
+itself. Load average before and after.
 """
 
 from __future__ import annotations
@@ -126,14 +131,46 @@ def figures(res, out: Path) -> list[Path]:
     return [fit_png, int_png]
 
 
+def coverage(a: int, b: int, t_end: float, windows: int) -> None:
+    """Per parameter: the 95 % intervals that hold the truth over the seeds a..b-1, and the RMS
+    of the errors in standard errors (log K for the stiffness)."""
+    keys, truth = list(TRUTH), np.array(list(TRUTH.values()))
+    log = np.array(["stiffness" in k for k in keys])
+    inside, z, walls = [], [], []
+    for seed in range(a, b):
+        nominal, _, m, noise = measured(t_end, seed)
+        wall = time.perf_counter()
+        res = identify(nominal, m, keys, noise=noise, windows=windows)
+        walls.append(time.perf_counter() - wall)
+        lo, hi = res.interval.T
+        inside.append((lo <= truth) & (truth <= hi))
+        est, tru = np.where(log, np.log(res.estimate), res.estimate), np.where(log, np.log(truth), truth)
+        se = np.where(log, (np.log(hi) - np.log(lo)) / (2 * 1.959963984540054), res.standard_error)
+        z.append((est - tru) / se)
+        outside = [k for k, i in zip(keys, inside[-1], strict=True) if not i]
+        print(f"seed {seed}: {walls[-1]:.1f} s, converged {res.fit['converged']}, errors in standard errors "
+              + " ".join(f"{v:+.2f}" for v in z[-1]) + f", outside: {outside}", flush=True)
+    inside, z = np.array(inside), np.array(z)
+    print(f"{len(z)} seeds, identify median {np.median(walls):.1f} s")
+    print(f"{'parameter':45s} {'inside':>8s} {'RMS z':>7s} {'mean z':>7s}")
+    for j, k in enumerate(keys):
+        print(f"{k:45s} {int(inside[:, j].sum()):3d}/{len(z):<4d} {np.sqrt(np.mean(z[:, j] ** 2)):7.2f} "
+              f"{np.mean(z[:, j]):+7.2f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--t-end", type=float, default=1.0)
     ap.add_argument("--windows", type=int, default=1)
     ap.add_argument("--figures", type=Path)
     ap.add_argument("--no-control", action="store_true", help="skip the compensated runs")
+    ap.add_argument("--seeds", help="A:B: coverage over the noise seeds A..B-1 (no compensated runs, no figures)")
     args = ap.parse_args()
     print(f"load average before: {os.getloadavg()[0]:.2f}", flush=True)
+    if args.seeds:
+        coverage(*(int(v) for v in args.seeds.split(":")), args.t_end, args.windows)
+        print(f"load average after: {os.getloadavg()[0]:.2f}")
+        return
     nominal, plant, m, noise = measured(args.t_end)
     wall = time.perf_counter()
     res = identify(nominal, m, list(TRUTH), noise=noise, windows=args.windows)
