@@ -18,8 +18,9 @@ bodies' poses and drivers' efforts) and their
 sensitivities are read off each frame's start. What is compiled (the frame, and its
 derivative in a block of directions: :func:`sensitivity_frame`) is built once per scene
 structure, integrator setting and frame (and block size; cached on disk as any compiled
-stepping); a run with n directions costs about 1 + n / 3 runs without (its derivative
-evaluates each step once, not once per direction), a run without directions
+stepping); a run with n directions costs about 1 + 1.2 n runs without (its derivative
+evaluates each step once, not once per direction: 14 runs for 11 on the reference scene, 47
+before), a run without directions
 (Levenberg-Marquardt's trial steps and the check below) a simulation. Frames are rolled in
 chunks; independent runs without directions (a refresh's differences, the check's) together,
 the chunk mapped over them in threads (:meth:`DynamicData.run_batch`). An implicit method
@@ -99,7 +100,7 @@ def sensitivity_frame(problem: Problem, n_directions: int, interval: float, jit:
     blocks), once per d (cached on disk as any compiled stepping). The derivative is that of
     :meth:`~rrr4.integrators.base.FixedStepIntegrator.derivative_frame_function`: the frame
     evaluated once per call and its leaves' one-direction derivatives called d times, so its C
-    hardly grows with d (reference scene: 0.94 MB for 1 direction, 1.02 MB for 12) and no
+    hardly grows with d (reference scene: 0.97 MB for 4 directions, 1.03 MB for 12) and no
     direction recomputes the frame's Newton iterations; an implicit step's stages differentiated
     as implicit functions."""
     jit = default_jit() if jit is None else bool(jit)
